@@ -1,0 +1,39 @@
+// Dense depth of the reference frame by plane sweep (step 5 of the method).
+#pragma once
+
+#include <opencv2/core.hpp>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "core/camera/camera_model.h"
+#include "core/camera/pose.h"
+#include "core/io/burst.h"
+
+namespace dfsm {
+
+struct DenseOptions {
+  int planes = 128;
+  // Fraction of the sparse inverse-depth range added on both sides of the sweep.
+  double inverse_depth_margin = 0.2;
+};
+
+struct DenseDepth {
+  cv::Mat depth;       // CV_32FC1 on the reference frame's captured (distorted) grid; 0 = none
+  cv::Mat confidence;  // CV_32FC1 in [0, 1] on the same grid
+  double min_inverse_depth = 0.0;  // the swept range
+  double max_inverse_depth = 0.0;
+  int planes = 0;
+  double valid_fraction = 0.0;  // share of pixels with depth > 0
+  std::vector<std::pair<std::string, double>> timings_ms;  // sub-stages, in order
+};
+
+// `poses` are X_i = R_i X_ref + T_i for every frame of `burst` (reference
+// included); `sparse_inverse_depths` are the inverse depths (same scale as T)
+// of the sparse tracks, used to choose the swept range.
+DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
+                             const std::vector<Pose>& poses,
+                             const std::vector<double>& sparse_inverse_depths,
+                             const DenseOptions& options = {});
+
+}  // namespace dfsm

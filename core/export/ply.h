@@ -1,0 +1,19 @@
+// Binary little-endian PLY point clouds with optional per-point colour.
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <filesystem>
+#include <vector>
+
+namespace dfsm {
+
+struct ColoredPoint {
+  Eigen::Vector3f position;
+  uint8_t r = 255, g = 255, b = 255;
+};
+
+// Writes atomically; throws std::runtime_error naming the path on failure.
+void WritePly(const std::filesystem::path& path, const std::vector<ColoredPoint>& points);
+
+}  // namespace dfsm

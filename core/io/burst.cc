@@ -1,0 +1,224 @@
+#include "core/io/burst.h"
+
+#include <algorithm>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <system_error>
+
+#include "core/io/file_util.h"
+
+namespace dfsm {
+namespace fs = std::filesystem;
+
+namespace {
+
+int RequirePositiveInt(const nlohmann::json& j, const char* key, const std::string& origin) {
+  if (!j.contains(key)) throw BurstError(origin + ": required field '" + key + "' is missing");
+  if (!j[key].is_number_integer() || j[key].get<int64_t>() <= 0 || j[key].get<int64_t>() > 65535)
+    throw BurstError(origin + ": '" + key + "' must be a positive integer (got " + j[key].dump() +
+                     ")");
+  return j[key].get<int>();
+}
+
+int64_t OptionalInt(const nlohmann::json& j, const char* key, int64_t fallback,
+                    const std::string& where) {
+  if (!j.contains(key)) return fallback;
+  if (!j[key].is_number_integer())
+    throw BurstError(where + ": '" + key + "' must be an integer (got " + j[key].dump() + ")");
+  return j[key].get<int64_t>();
+}
+
+}  // namespace
+
+BurstManifest ParseBurstManifest(const std::string& text, const std::string& origin) {
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(text);
+  } catch (const nlohmann::json::parse_error& e) {
+    throw BurstError(origin + ": not valid JSON (" + e.what() + ")");
+  }
+  if (!j.is_object()) throw BurstError(origin + ": the manifest must be a JSON object");
+  if (!j.contains("format")) throw BurstError(origin + ": required field 'format' is missing");
+  if (j["format"] != kBurstFormat)
+    throw BurstError(origin + ": format is " + j["format"].dump() + ", expected \"" +
+                     kBurstFormat + "\"");
+
+  BurstManifest manifest;
+  manifest.width = RequirePositiveInt(j, "width", origin);
+  manifest.height = RequirePositiveInt(j, "height", origin);
+  if (j.contains("pixel_format")) {
+    if (!j["pixel_format"].is_string() ||
+        (j["pixel_format"] != "gray8" && j["pixel_format"] != "bgr8"))
+      throw BurstError(origin + ": pixel_format " + j["pixel_format"].dump() +
+                       " is not \"gray8\" or \"bgr8\"");
+    manifest.pixel_format = j["pixel_format"].get<std::string>();
+  }
+  if (!j.contains("frames")) throw BurstError(origin + ": required field 'frames' is missing");
+  if (!j["frames"].is_array()) throw BurstError(origin + ": 'frames' must be an array");
+  const auto& frames = j["frames"];
+  if (frames.size() < 3)
+    throw BurstError(origin + ": a burst needs at least 3 frames, the manifest lists " +
+                     std::to_string(frames.size()));
+  for (size_t i = 0; i < frames.size(); ++i) {
+    const std::string where = origin + ": frames[" + std::to_string(i) + "]";
+    const auto& frame = frames[i];
+    if (!frame.is_object() || !frame.contains("file") || !frame["file"].is_string() ||
+        frame["file"].get<std::string>().empty())
+      throw BurstError(where + ": required field 'file' is missing or not a non-empty string");
+    BurstFrameInfo info;
+    info.file = frame["file"].get<std::string>();
+    info.timestamp_ns = OptionalInt(frame, "timestamp_ns", 0, where);
+    info.sequence = OptionalInt(frame, "sequence", static_cast<int64_t>(i), where);
+    manifest.frames.push_back(std::move(info));
+  }
+  const int64_t reference = OptionalInt(j, "reference", 0, origin);
+  if (reference < 0 || reference >= static_cast<int64_t>(frames.size()))
+    throw BurstError(origin + ": reference " + std::to_string(reference) +
+                     " is not an index into the " + std::to_string(frames.size()) + " frames");
+  manifest.reference = static_cast<int>(reference);
+  if (j.contains("source")) manifest.source = j["source"];
+  return manifest;
+}
+
+BurstManifest ReadBurstManifest(const fs::path& burst_dir) {
+  const fs::path path = burst_dir / "manifest.json";
+  std::error_code ec;
+  if (!fs::is_directory(burst_dir, ec))
+    throw BurstError(burst_dir.string() + ": not a directory");
+  if (!fs::is_regular_file(path, ec)) throw BurstError(path.string() + ": missing");
+  std::string text;
+  try {
+    text = ReadFileToString(path);
+  } catch (const std::runtime_error& e) {
+    throw BurstError(e.what());
+  }
+  return ParseBurstManifest(text, path.string());
+}
+
+nlohmann::json ToJson(const BurstManifest& manifest) {
+  nlohmann::json frames = nlohmann::json::array();
+  for (const auto& frame : manifest.frames)
+    frames.push_back(
+        {{"file", frame.file}, {"timestamp_ns", frame.timestamp_ns}, {"sequence", frame.sequence}});
+  nlohmann::json j = {{"format", kBurstFormat},
+                      {"width", manifest.width},
+                      {"height", manifest.height},
+                      {"pixel_format", manifest.pixel_format},
+                      {"reference", manifest.reference},
+                      {"frames", frames}};
+  if (!manifest.source.is_null()) j["source"] = manifest.source;
+  return j;
+}
+
+cv::Mat ToGray8(const cv::Mat& frame) {
+  cv::Mat eight;
+  if (frame.depth() == CV_8U) {
+    eight = frame;
+  } else if (frame.depth() == CV_16U) {
+    frame.convertTo(eight, CV_8U, 1.0 / 257.0);
+  } else {
+    frame.convertTo(eight, CV_8U);
+  }
+  cv::Mat gray;
+  switch (eight.channels()) {
+    case 1: gray = eight; break;
+    case 3: cv::cvtColor(eight, gray, cv::COLOR_BGR2GRAY); break;
+    case 4: cv::cvtColor(eight, gray, cv::COLOR_BGRA2GRAY); break;
+    default: throw BurstError("unsupported channel count " + std::to_string(eight.channels()));
+  }
+  return gray;
+}
+
+Burst ReadBurst(const fs::path& burst_dir, const ReadBurstOptions& options) {
+  Burst burst;
+  burst.manifest = ReadBurstManifest(burst_dir);
+  BurstManifest& manifest = burst.manifest;
+
+  if (options.max_frames > 0 && options.max_frames < static_cast<int>(manifest.frames.size())) {
+    if (options.max_frames < 3)
+      throw BurstError("--frames " + std::to_string(options.max_frames) +
+                       ": a burst needs at least 3 frames");
+    const int count = options.max_frames;
+    const int first = std::max(0, manifest.reference - count + 1);
+    manifest.frames = std::vector<BurstFrameInfo>(manifest.frames.begin() + first,
+                                                  manifest.frames.begin() + first + count);
+    manifest.reference -= first;
+  }
+
+  std::error_code ec;
+  const fs::path root = fs::weakly_canonical(burst_dir, ec);
+  for (size_t i = 0; i < manifest.frames.size(); ++i) {
+    const std::string& file = manifest.frames[i].file;
+    const std::string where = (burst_dir / "manifest.json").string() + ": frames[" +
+                              std::to_string(i) + "] '" + file + "'";
+    const fs::path relative(file);
+    const fs::path path = burst_dir / relative;
+    // Reject both lexical escapes ("../x", "/etc/x") and symlinks that lead out.
+    if (relative.is_absolute() || !IsLexicallyInside(burst_dir, path) ||
+        !IsLexicallyInside(root, fs::weakly_canonical(path, ec)))
+      throw BurstError(where + ": path lies outside the burst directory");
+    if (!fs::is_regular_file(path, ec)) throw BurstError(where + ": file is missing");
+    const cv::Mat frame = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
+    if (frame.empty()) throw BurstError(where + ": unreadable or not an image");
+    if (frame.cols != manifest.width || frame.rows != manifest.height)
+      throw BurstError(where + ": frame is " + std::to_string(frame.cols) + "x" +
+                       std::to_string(frame.rows) + ", the manifest says " +
+                       std::to_string(manifest.width) + "x" + std::to_string(manifest.height));
+    if (frame.channels() != 1 && frame.channels() != 3 && frame.channels() != 4)
+      throw BurstError(where + ": " + std::to_string(frame.channels()) +
+                       " channels; expected gray or BGR");
+    burst.gray.push_back(ToGray8(frame));
+    if (static_cast<int>(i) == manifest.reference) {
+      if (frame.channels() == 1) {
+        burst.reference_color = burst.gray.back();
+      } else {
+        cv::Mat eight;
+        frame.depth() == CV_16U ? frame.convertTo(eight, CV_8U, 1.0 / 257.0) : void(eight = frame);
+        if (eight.channels() == 4) cv::cvtColor(eight, eight, cv::COLOR_BGRA2BGR);
+        burst.reference_color = eight;
+      }
+    }
+  }
+  return burst;
+}
+
+void WriteBurst(const fs::path& burst_dir, BurstManifest manifest,
+                const std::vector<cv::Mat>& frames) {
+  if (frames.size() < 3) throw BurstError("WriteBurst: a burst needs at least 3 frames");
+  if (!manifest.frames.empty() && manifest.frames.size() != frames.size())
+    throw BurstError("WriteBurst: manifest lists " + std::to_string(manifest.frames.size()) +
+                     " frames but " + std::to_string(frames.size()) + " were given");
+  manifest.frames.resize(frames.size());
+  std::error_code ec;
+  fs::create_directories(burst_dir / "frames", ec);
+  if (ec) throw BurstError(burst_dir.string() + ": cannot create directory: " + ec.message());
+  manifest.width = frames[0].cols;
+  manifest.height = frames[0].rows;
+  manifest.pixel_format = frames[0].channels() == 1 ? "gray8" : "bgr8";
+  for (size_t i = 0; i < frames.size(); ++i) {
+    if (frames[i].cols != manifest.width || frames[i].rows != manifest.height)
+      throw BurstError("WriteBurst: frame " + std::to_string(i) + " differs in size");
+    BurstFrameInfo& info = manifest.frames[i];
+    if (info.file.empty()) {
+      char name[32];
+      std::snprintf(name, sizeof(name), "frames/%06zu.png", i);
+      info.file = name;
+      if (info.sequence == 0 && i > 0) info.sequence = static_cast<int64_t>(i);
+    }
+    std::vector<unsigned char> png;
+    if (!cv::imencode(".png", frames[i], png))
+      throw BurstError("WriteBurst: cannot encode frame " + std::to_string(i) + " as PNG");
+    try {
+      WriteFileAtomically(burst_dir / info.file, png);
+    } catch (const std::runtime_error& e) {
+      throw BurstError(e.what());
+    }
+  }
+  try {
+    WriteFileAtomically(burst_dir / "manifest.json", ToJson(manifest).dump(2) + "\n");
+  } catch (const std::runtime_error& e) {
+    throw BurstError(e.what());
+  }
+}
+
+}  // namespace dfsm

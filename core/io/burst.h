@@ -1,0 +1,76 @@
+// Reading and writing bursts in the dfsm-burst/1 format (CONTRACT.md section 2).
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace dfsm {
+
+inline constexpr const char* kBurstFormat = "dfsm-burst/1";
+
+// Thrown for every malformed burst; the message names the problem and the file.
+class BurstError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+struct BurstFrameInfo {
+  std::string file;  // relative to the burst directory
+  int64_t timestamp_ns = 0;
+  int64_t sequence = 0;
+};
+
+struct BurstManifest {
+  int width = 0;
+  int height = 0;
+  std::string pixel_format = "gray8";  // "gray8" | "bgr8"
+  int reference = 0;
+  std::vector<BurstFrameInfo> frames;
+  nlohmann::json source;  // optional provenance, written back as given
+};
+
+// A burst in memory. `gray` holds every frame as 8-bit single channel (what the
+// pipeline works on); `reference_color` keeps the reference frame's colour for
+// previews and coloured point clouds (BGR8, or the gray frame when there is none).
+struct Burst {
+  BurstManifest manifest;
+  std::vector<cv::Mat> gray;
+  cv::Mat reference_color;
+
+  int reference() const { return manifest.reference; }
+  int width() const { return manifest.width; }
+  int height() const { return manifest.height; }
+  int size() const { return static_cast<int>(gray.size()); }
+};
+
+// Parses and validates manifest.json (not the frames). Throws BurstError.
+BurstManifest ParseBurstManifest(const std::string& text, const std::string& origin);
+BurstManifest ReadBurstManifest(const std::filesystem::path& burst_dir);
+nlohmann::json ToJson(const BurstManifest& manifest);
+
+struct ReadBurstOptions {
+  // Keep at most this many frames (0: all): a contiguous window in capture order
+  // that contains the reference frame. The reference index is remapped.
+  int max_frames = 0;
+};
+
+// Reads a burst directory: validates the manifest, checks that every frame lies
+// inside the directory, decodes it and checks its size. Throws BurstError.
+Burst ReadBurst(const std::filesystem::path& burst_dir, const ReadBurstOptions& options = {});
+
+// Converts a decoded frame (8/16-bit, 1/3/4 channels) to 8-bit gray.
+cv::Mat ToGray8(const cv::Mat& frame);
+
+// Writes `frames` as PNG (lossless, so a replay is bit-exact) under
+// burst_dir/frames/ and the manifest last, each through a temporary file and a
+// rename, so a reader never sees a half-written burst. manifest.frames[].file is
+// filled in when empty. Throws BurstError on an I/O failure.
+void WriteBurst(const std::filesystem::path& burst_dir, BurstManifest manifest,
+                const std::vector<cv::Mat>& frames);
+
+}  // namespace dfsm

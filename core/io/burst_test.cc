@@ -1,0 +1,150 @@
+#include "core/io/burst.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <fstream>
+#include <opencv2/imgcodecs.hpp>
+
+#include "core/io/file_util.h"
+
+namespace dfsm {
+namespace {
+namespace fs = std::filesystem;
+
+class BurstTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           ("dfsm_burst_test_" + std::to_string(::getpid()) + "_" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    std::vector<cv::Mat> frames;
+    cv::RNG rng(7);
+    for (int i = 0; i < 4; ++i) {
+      cv::Mat frame(24, 32, CV_8UC3);
+      rng.fill(frame, cv::RNG::UNIFORM, 0, 256);
+      frames.push_back(frame);
+    }
+    frames_ = frames;
+    BurstManifest manifest;
+    manifest.reference = 1;
+    manifest.source = {{"kind", "test"}};
+    WriteBurst(dir_, manifest, frames);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  void RewriteManifest(const std::function<void(nlohmann::json&)>& edit) {
+    nlohmann::json j = nlohmann::json::parse(ReadFileToString(dir_ / "manifest.json"));
+    edit(j);
+    WriteFileAtomically(dir_ / "manifest.json", j.dump());
+  }
+
+  // Reads the burst and returns the error message, failing the test if it succeeds.
+  std::string ReadError() {
+    try {
+      ReadBurst(dir_);
+    } catch (const BurstError& e) {
+      return e.what();
+    }
+    ADD_FAILURE() << "ReadBurst accepted a bad burst";
+    return "";
+  }
+
+  fs::path dir_;
+  std::vector<cv::Mat> frames_;
+};
+
+TEST_F(BurstTest, RoundTripIsBitExact) {
+  const Burst burst = ReadBurst(dir_);
+  EXPECT_EQ(burst.width(), 32);
+  EXPECT_EQ(burst.height(), 24);
+  EXPECT_EQ(burst.reference(), 1);
+  EXPECT_EQ(burst.manifest.pixel_format, "bgr8");
+  EXPECT_EQ(burst.manifest.source["kind"], "test");
+  ASSERT_EQ(burst.size(), 4);
+  EXPECT_EQ(cv::norm(burst.reference_color, frames_[1], cv::NORM_INF), 0.0);
+  for (int i = 0; i < 4; ++i)
+    EXPECT_EQ(cv::norm(burst.gray[i], ToGray8(frames_[i]), cv::NORM_INF), 0.0);
+}
+
+TEST_F(BurstTest, MaxFramesKeepsAWindowWithTheReference) {
+  ReadBurstOptions options;
+  options.max_frames = 3;
+  const Burst burst = ReadBurst(dir_, options);
+  EXPECT_EQ(burst.size(), 3);
+  EXPECT_EQ(burst.reference(), 1);
+  EXPECT_EQ(cv::norm(burst.gray[1], ToGray8(frames_[1]), cv::NORM_INF), 0.0);
+}
+
+TEST_F(BurstTest, RejectsNonJson) {
+  WriteFileAtomically(dir_ / "manifest.json", std::string("{not json"));
+  EXPECT_NE(ReadError().find("not valid JSON"), std::string::npos);
+}
+
+TEST_F(BurstTest, RejectsAnotherFormat) {
+  RewriteManifest([](nlohmann::json& j) { j["format"] = "dfsm-burst/9"; });
+  EXPECT_NE(ReadError().find("dfsm-burst/9"), std::string::npos);
+}
+
+TEST_F(BurstTest, RejectsFewerThanThreeFrames) {
+  RewriteManifest([](nlohmann::json& j) {
+    j["frames"].erase(2);
+    j["frames"].erase(2);
+  });
+  EXPECT_NE(ReadError().find("at least 3 frames"), std::string::npos);
+}
+
+TEST_F(BurstTest, RejectsAMissingFrame) {
+  fs::remove(dir_ / "frames/000002.png");
+  const std::string error = ReadError();
+  EXPECT_NE(error.find("000002.png"), std::string::npos) << error;
+  EXPECT_NE(error.find("missing"), std::string::npos) << error;
+}
+
+TEST_F(BurstTest, RejectsAnUnreadableFrame) {
+  WriteFileAtomically(dir_ / "frames/000003.png", std::string("garbage"));
+  EXPECT_NE(ReadError().find("unreadable"), std::string::npos);
+}
+
+TEST_F(BurstTest, RejectsAFrameOfAnotherSize) {
+  cv::imwrite((dir_ / "frames/000000.png").string(), cv::Mat(10, 10, CV_8UC1, cv::Scalar(3)));
+  EXPECT_NE(ReadError().find("10x10"), std::string::npos);
+}
+
+TEST_F(BurstTest, RejectsPathsOutsideTheBurst) {
+  for (const std::string path : {"../escape.png", "/etc/passwd", "frames/../../x.png"}) {
+    RewriteManifest([&](nlohmann::json& j) { j["frames"][0]["file"] = path; });
+    EXPECT_NE(ReadError().find("outside the burst directory"), std::string::npos) << path;
+  }
+}
+
+TEST_F(BurstTest, RejectsASymlinkLeadingOut) {
+  const fs::path outside = dir_.string() + "_outside.png";
+  fs::copy_file(dir_ / "frames/000000.png", outside, fs::copy_options::overwrite_existing);
+  fs::create_symlink(outside, dir_ / "frames/link.png");
+  RewriteManifest([](nlohmann::json& j) { j["frames"][0]["file"] = "frames/link.png"; });
+  EXPECT_NE(ReadError().find("outside the burst directory"), std::string::npos);
+  fs::remove(outside);
+}
+
+TEST_F(BurstTest, RejectsABadReferenceAndMissingFields) {
+  RewriteManifest([](nlohmann::json& j) { j["reference"] = 9; });
+  EXPECT_NE(ReadError().find("reference 9"), std::string::npos);
+  RewriteManifest([](nlohmann::json& j) {
+    j["reference"] = 0;
+    j.erase("width");
+  });
+  EXPECT_NE(ReadError().find("'width'"), std::string::npos);
+}
+
+TEST_F(BurstTest, SixteenBitFramesAreScaledToEightBit) {
+  cv::Mat sixteen(24, 32, CV_16UC1, cv::Scalar(257 * 100));
+  cv::imwrite((dir_ / "frames/000000.png").string(), sixteen);
+  const Burst burst = ReadBurst(dir_);
+  EXPECT_EQ(burst.gray[0].type(), CV_8UC1);
+  EXPECT_EQ(burst.gray[0].at<uchar>(5, 5), 100);
+}
+
+}  // namespace
+}  // namespace dfsm

@@ -1,0 +1,15 @@
+// float32 depth maps as TIFF (CONTRACT.md: depth.tiff, depth_gt.tiff). TIFF,
+// not EXR: OpenCV 4.6 disables its EXR codec at run time by default.
+#pragma once
+
+#include <filesystem>
+#include <opencv2/core.hpp>
+
+namespace dfsm {
+
+// Writes a CV_32FC1 map atomically. Throws std::runtime_error naming the path.
+void WriteDepthTiff(const std::filesystem::path& path, const cv::Mat& depth);
+// Reads a single-channel float32 TIFF. Throws std::runtime_error naming the path.
+cv::Mat ReadDepthTiff(const std::filesystem::path& path);
+
+}  // namespace dfsm

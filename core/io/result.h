@@ -1,0 +1,53 @@
+// The dfsm-result/1 summary, result.json (CONTRACT.md section 3).
+#pragma once
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "core/camera/camera_model.h"
+#include "core/camera/pose.h"
+
+namespace dfsm {
+
+inline constexpr const char* kResultFormat = "dfsm-result/1";
+
+struct BundleAdjustmentSummary {
+  std::string init = "rank1";  // "rank1" | "naive"
+  int iterations = 0;
+  bool converged = false;
+  double initial_cost = 0.0;
+  double final_cost = 0.0;
+  double rms_reprojection_px = 0.0;
+  std::string termination;  // Ceres' own words, for people
+};
+
+struct DepthSummary {
+  std::string file = "depth.tiff";
+  double valid_fraction = 0.0;
+  int planes = 0;
+  double min_inverse_depth = 0.0;
+  double max_inverse_depth = 0.0;
+};
+
+struct Result {
+  bool ok = false;
+  std::string error;  // when !ok
+  CameraModel calibration;
+  std::vector<Pose> poses;
+  BundleAdjustmentSummary bundle_adjustment;
+  int features = 0;         // tracks used by the sparse stage
+  int features_detected = 0;  // corners before tracking and outlier rejection
+  std::optional<DepthSummary> depth;
+  std::vector<std::pair<std::string, double>> timings_ms;  // stage -> ms, in pipeline order
+  nlohmann::json extra = nlohmann::json::object();  // further fields, merged at the top level
+};
+
+nlohmann::json ToJson(const Result& result);
+// Writes OUT/result.json atomically, creating OUT when needed.
+void WriteResultJson(const std::filesystem::path& out_dir, const Result& result);
+
+}  // namespace dfsm

@@ -1,0 +1,16 @@
+// Subcommands of the `dfsm` tool. Each lives in its own <name>_command.cc and
+// returns the process exit status (0 ok, 1 processing failed, 2 usage error).
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace dfsm::tools {
+
+using Args = std::vector<std::string>;
+
+int RunProcessCommand(const Args& args);
+int RunSynthCommand(const Args& args);
+int RunEvaluateCommand(const Args& args);
+
+}  // namespace dfsm::tools
