@@ -1,0 +1,142 @@
+#include "core/sparse/bundle_adjustment.h"
+
+#include <ceres/ceres.h>
+#include <ceres/rotation.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+
+#include "core/sparse/undistorted_reprojection_error.h"
+
+namespace dfsm {
+namespace {
+
+std::array<double, 6> ToParameters(const Pose& pose) {
+  std::array<double, 6> parameters;
+  const Eigen::Matrix<double, 3, 3, Eigen::RowMajor> R = pose.R;
+  ceres::RotationMatrixToAngleAxis(ceres::RowMajorAdapter3x3(R.data()), parameters.data());
+  for (int k = 0; k < 3; ++k) parameters[3 + k] = pose.T(k);
+  return parameters;
+}
+
+Pose FromParameters(const std::array<double, 6>& parameters) {
+  Pose pose;
+  Eigen::Matrix<double, 3, 3, Eigen::RowMajor> R;
+  ceres::AngleAxisToRotationMatrix(parameters.data(), ceres::RowMajorAdapter3x3(R.data()));
+  pose.R = R;
+  pose.T << parameters[3], parameters[4], parameters[5];
+  return pose;
+}
+
+// The track whose inverse depth is held constant to fix the scale gauge: the
+// used track closest to the median inverse depth.
+int ScaleAnchor(const std::vector<double>& inverse_depths, const std::vector<bool>& use) {
+  std::vector<double> used;
+  for (size_t j = 0; j < inverse_depths.size(); ++j)
+    if (use[j]) used.push_back(inverse_depths[j]);
+  std::nth_element(used.begin(), used.begin() + used.size() / 2, used.end());
+  const double median = used[used.size() / 2];
+  int anchor = -1;
+  for (size_t j = 0; j < inverse_depths.size(); ++j)
+    if (use[j] && (anchor < 0 || std::abs(inverse_depths[j] - median) <
+                                     std::abs(inverse_depths[anchor] - median)))
+      anchor = static_cast<int>(j);
+  return anchor;
+}
+
+}  // namespace
+
+BundleAdjustmentSummary RunBundleAdjustment(const FeatureTracks& tracks,
+                                            const std::vector<bool>& use, SparseState* state,
+                                            const BundleAdjustmentOptions& options) {
+  const int n = tracks.num_frames();
+  const int m = tracks.num_tracks();
+  double intrinsics[3] = {state->camera.f, state->camera.k1, state->camera.k2};
+  std::vector<std::array<double, 6>> poses(n);
+  for (int i = 0; i < n; ++i) poses[i] = ToParameters(state->poses[i]);
+  std::vector<double>& inverse_depths = state->inverse_depths;
+
+  ceres::Problem::Options problem_options;
+  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem problem(problem_options);
+  ceres::HuberLoss huber(options.huber_px);
+  auto* ordering = new ceres::ParameterBlockOrdering;
+  int residual_blocks = 0;
+  for (int j = 0; j < m; ++j) {
+    if (!use[j]) continue;
+    for (int i = 0; i < n; ++i) {
+      if (i == tracks.reference) continue;
+      problem.AddResidualBlock(
+          UndistortedReprojectionError::Create(tracks.pixels[tracks.reference].col(j),
+                                               tracks.pixels[i].col(j), state->camera.cx,
+                                               state->camera.cy),
+          &huber, intrinsics, poses[i].data(), &inverse_depths[j]);
+      ++residual_blocks;
+    }
+    // Inverse depths first: Schur eliminates them, leaving a small dense
+    // system over the poses and intrinsics.
+    ordering->AddElementToGroup(&inverse_depths[j], 0);
+  }
+  for (int i = 0; i < n; ++i)
+    if (i != tracks.reference) ordering->AddElementToGroup(poses[i].data(), 1);
+  ordering->AddElementToGroup(intrinsics, 1);
+  problem.SetParameterBlockConstant(&inverse_depths[ScaleAnchor(inverse_depths, use)]);
+  if (!options.refine_distortion)
+    problem.SetManifold(intrinsics, new ceres::SubsetManifold(3, {1, 2}));
+
+  ceres::Solver::Options solver_options;
+  solver_options.linear_solver_type = ceres::DENSE_SCHUR;
+  solver_options.linear_solver_ordering.reset(ordering);
+  solver_options.max_num_iterations = options.max_iterations;
+  solver_options.function_tolerance = options.function_tolerance;
+  solver_options.num_threads = options.num_threads;
+  solver_options.logging_type = ceres::SILENT;
+  ceres::Solver::Summary summary;
+  ceres::Solve(solver_options, &problem, &summary);
+
+  state->camera.f = intrinsics[0];
+  state->camera.k1 = intrinsics[1];
+  state->camera.k2 = intrinsics[2];
+  for (int i = 0; i < n; ++i)
+    state->poses[i] = i == tracks.reference ? Pose{} : FromParameters(poses[i]);
+
+  BundleAdjustmentSummary result;
+  result.iterations = summary.num_successful_steps + summary.num_unsuccessful_steps;
+  result.converged = summary.termination_type == ceres::CONVERGENCE;
+  result.initial_cost = summary.initial_cost;
+  result.final_cost = summary.final_cost;
+  result.termination = ceres::TerminationTypeToString(summary.termination_type) +
+                       std::string(": ") + summary.message;
+  double sum = 0.0;
+  int count = 0;
+  const std::vector<double> errors = TrackReprojectionErrors(tracks, *state);
+  for (int j = 0; j < m; ++j)
+    if (use[j]) sum += errors[j] * errors[j], ++count;
+  result.rms_reprojection_px = count > 0 ? std::sqrt(sum / count) : 0.0;
+  return result;
+}
+
+std::vector<double> TrackReprojectionErrors(const FeatureTracks& tracks, const SparseState& state) {
+  const int n = tracks.num_frames();
+  std::vector<double> errors(tracks.num_tracks(), 0.0);
+  const double intrinsics[3] = {state.camera.f, state.camera.k1, state.camera.k2};
+  std::vector<std::array<double, 6>> poses(n);
+  for (int i = 0; i < n; ++i) poses[i] = ToParameters(state.poses[i]);
+  for (int j = 0; j < tracks.num_tracks(); ++j) {
+    double sum = 0.0;
+    for (int i = 0; i < n; ++i) {
+      if (i == tracks.reference) continue;
+      const UndistortedReprojectionError error(tracks.pixels[tracks.reference].col(j),
+                                               tracks.pixels[i].col(j), state.camera.cx,
+                                               state.camera.cy);
+      double residual[2];
+      error(intrinsics, poses[i].data(), &state.inverse_depths[j], residual);
+      sum += residual[0] * residual[0] + residual[1] * residual[1];
+    }
+    errors[j] = n > 1 ? std::sqrt(sum / (n - 1)) : 0.0;
+  }
+  return errors;
+}
+
+}  // namespace dfsm

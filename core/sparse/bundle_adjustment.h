@@ -1,0 +1,39 @@
+// Step 4 of the method: self-calibrating bundle adjustment (Ceres, Huber loss)
+// refining f, k1, k2, every pose and every inverse depth.
+#pragma once
+
+#include <vector>
+
+#include "core/camera/camera_model.h"
+#include "core/camera/pose.h"
+#include "core/io/result.h"
+#include "core/sparse/feature_tracks.h"
+
+namespace dfsm {
+
+struct BundleAdjustmentOptions {
+  int max_iterations = 100;
+  double huber_px = 1.0;
+  // Ceres' relative cost decrease under which it declares CONVERGENCE.
+  double function_tolerance = 1e-6;
+  int num_threads = 1;
+  bool refine_distortion = true;
+};
+
+// The state the adjustment refines; the principal point stays at its value.
+struct SparseState {
+  CameraModel camera;
+  std::vector<Pose> poses;             // per frame; the reference stays R = I, T = 0
+  std::vector<double> inverse_depths;  // per track
+};
+
+// Refines `state` in place over the tracks whose `use` flag is set. Returns the
+// summary that result.json reports (init is left for the caller to fill in).
+BundleAdjustmentSummary RunBundleAdjustment(const FeatureTracks& tracks,
+                                            const std::vector<bool>& use, SparseState* state,
+                                            const BundleAdjustmentOptions& options = {});
+
+// Per-track RMS reprojection error (pixels, undistorted domain) of `state`.
+std::vector<double> TrackReprojectionErrors(const FeatureTracks& tracks, const SparseState& state);
+
+}  // namespace dfsm

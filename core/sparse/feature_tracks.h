@@ -1,0 +1,24 @@
+// Feature tracks of a burst: each track is one reference-frame corner followed
+// through every frame. Invariant: every track has a position in every frame.
+#pragma once
+
+#include <Eigen/Core>
+#include <vector>
+
+namespace dfsm {
+
+struct FeatureTracks {
+  int reference = 0;
+  // pixels[frame].col(track): captured (distorted) pixel position of the track.
+  std::vector<Eigen::Matrix2Xd> pixels;
+
+  int num_frames() const { return static_cast<int>(pixels.size()); }
+  int num_tracks() const { return pixels.empty() ? 0 : static_cast<int>(pixels[0].cols()); }
+
+  // Keeps the tracks whose flag is true, in order.
+  FeatureTracks Select(const std::vector<bool>& keep) const;
+  // Median over tracks of the largest displacement from the reference position.
+  double MedianMaxDisplacement() const;
+};
+
+}  // namespace dfsm

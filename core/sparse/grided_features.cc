@@ -1,0 +1,111 @@
+#include "core/sparse/grided_features.h"
+
+#include <algorithm>
+#include <cmath>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/video/tracking.hpp>
+
+namespace dfsm {
+
+int GridCellSize(const GridedFeatureOptions& options, int width, int height) {
+  if (options.cell_px > 0) return options.cell_px;
+  return std::max(8, static_cast<int>(std::lround(80.0 * std::min(width, height) / 1080.0)));
+}
+
+std::vector<cv::Point2f> DetectGridedCorners(const cv::Mat& gray, int cell_px, double min_quality,
+                                             int border_px) {
+  cv::Mat response;
+  cv::cornerMinEigenVal(gray, response, /*blockSize=*/3, /*ksize=*/3);
+  double strongest = 0.0;
+  cv::minMaxLoc(response, nullptr, &strongest);
+  const float threshold = static_cast<float>(min_quality * strongest);
+
+  std::vector<cv::Point2f> corners;
+  for (int y0 = 0; y0 < gray.rows; y0 += cell_px) {
+    for (int x0 = 0; x0 < gray.cols; x0 += cell_px) {
+      // Corners near the border cannot be tracked with a full KLT window.
+      const cv::Rect cell = cv::Rect(x0, y0, cell_px, cell_px) &
+                            cv::Rect(border_px, border_px, gray.cols - 2 * border_px,
+                                     gray.rows - 2 * border_px);
+      if (cell.area() <= 0) continue;
+      double best = 0.0;
+      cv::Point location;
+      cv::minMaxLoc(response(cell), nullptr, &best, nullptr, &location);
+      if (best <= threshold || best <= 0.0) continue;
+      corners.emplace_back(static_cast<float>(cell.x + location.x),
+                           static_cast<float>(cell.y + location.y));
+    }
+  }
+  return corners;
+}
+
+FeatureTracks TrackGridedFeatures(const std::vector<cv::Mat>& frames, int reference,
+                                  const GridedFeatureOptions& options, GridedFeatureStats* stats) {
+  CV_Assert(!frames.empty() && reference >= 0 && reference < static_cast<int>(frames.size()));
+  const cv::Mat& ref = frames[reference];
+  const int cell = GridCellSize(options, ref.cols, ref.rows);
+  const std::vector<cv::Point2f> corners =
+      DetectGridedCorners(ref, cell, options.min_quality, options.klt_window / 2 + 1);
+
+  const cv::Size window(options.klt_window, options.klt_window);
+  const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 30, 0.01);
+  std::vector<cv::Mat> ref_pyramid;
+  cv::buildOpticalFlowPyramid(ref, ref_pyramid, window, options.klt_levels, true);
+
+  const int n = static_cast<int>(frames.size());
+  const int m = static_cast<int>(corners.size());
+  std::vector<std::vector<cv::Point2f>> positions(n);
+  std::vector<std::vector<uchar>> valid(n, std::vector<uchar>(m, 0));
+  positions[reference] = corners;
+  std::fill(valid[reference].begin(), valid[reference].end(), 1);
+
+  // Frames are tracked directly from the reference (no drift accumulates), in
+  // parallel; each frame's search starts at zero flow, which the pyramid
+  // handles for the few-pixel motions of a small-motion burst.
+  cv::parallel_for_(cv::Range(0, n), [&](const cv::Range& range) {
+    for (int i = range.start; i < range.end; ++i) {
+      if (i == reference) continue;
+      std::vector<cv::Mat> pyramid;
+      cv::buildOpticalFlowPyramid(frames[i], pyramid, window, options.klt_levels, true);
+      std::vector<cv::Point2f> forward = corners, backward = corners;
+      std::vector<uchar> status_forward, status_backward;
+      std::vector<float> error;
+      if (m == 0) continue;
+      cv::calcOpticalFlowPyrLK(ref_pyramid, pyramid, corners, forward, status_forward, error,
+                               window, options.klt_levels, criteria);
+      cv::calcOpticalFlowPyrLK(pyramid, ref_pyramid, forward, backward, status_backward, error,
+                               window, options.klt_levels, criteria,
+                               cv::OPTFLOW_USE_INITIAL_FLOW);
+      const double max_fb2 = options.max_forward_backward_px * options.max_forward_backward_px;
+      for (int j = 0; j < m; ++j) {
+        const cv::Point2f d = backward[j] - corners[j];
+        const bool inside = forward[j].x >= 0 && forward[j].y >= 0 &&
+                            forward[j].x <= frames[i].cols - 1 && forward[j].y <= frames[i].rows - 1;
+        valid[i][j] = status_forward[j] && status_backward[j] && inside &&
+                      d.dot(d) <= max_fb2;
+      }
+      positions[i] = std::move(forward);
+    }
+  });
+
+  std::vector<int> kept;
+  for (int j = 0; j < m; ++j) {
+    bool all = true;
+    for (int i = 0; i < n && all; ++i) all = valid[i][j] != 0;
+    if (all) kept.push_back(j);
+  }
+  FeatureTracks tracks;
+  tracks.reference = reference;
+  tracks.pixels.assign(n, Eigen::Matrix2Xd(2, kept.size()));
+  for (int i = 0; i < n; ++i)
+    for (size_t k = 0; k < kept.size(); ++k)
+      tracks.pixels[i].col(k) << positions[i][kept[k]].x, positions[i][kept[k]].y;
+  if (stats) {
+    stats->cells = ((ref.cols + cell - 1) / cell) * ((ref.rows + cell - 1) / cell);
+    stats->corners = m;
+    stats->tracks = static_cast<int>(kept.size());
+  }
+  return tracks;
+}
+
+}  // namespace dfsm

@@ -1,0 +1,82 @@
+#include "core/sparse/grided_features.h"
+
+#include <gtest/gtest.h>
+
+#include <opencv2/imgproc.hpp>
+#include <set>
+
+namespace dfsm {
+namespace {
+
+cv::Mat Texture(int width, int height, uint64_t seed) {
+  cv::Mat noise(height / 4, width / 4, CV_8UC1);
+  cv::RNG(seed).fill(noise, cv::RNG::UNIFORM, 0, 256);
+  cv::Mat texture;
+  cv::resize(noise, texture, cv::Size(width, height), 0, 0, cv::INTER_CUBIC);
+  cv::GaussianBlur(texture, texture, cv::Size(0, 0), 1.0);
+  return texture;
+}
+
+cv::Mat Shift(const cv::Mat& image, double dx, double dy) {
+  const cv::Mat M = (cv::Mat_<double>(2, 3) << 1, 0, dx, 0, 1, dy);
+  cv::Mat shifted;
+  cv::warpAffine(image, shifted, M, image.size(), cv::INTER_CUBIC, cv::BORDER_REFLECT);
+  return shifted;
+}
+
+TEST(GridedFeatures, CellSizeScalesWithResolution) {
+  GridedFeatureOptions options;
+  EXPECT_EQ(GridCellSize(options, 1920, 1080), 80);
+  EXPECT_EQ(GridCellSize(options, 640, 480), 36);
+  options.cell_px = 50;
+  EXPECT_EQ(GridCellSize(options, 640, 480), 50);
+}
+
+TEST(GridedFeatures, OneCornerPerCell) {
+  const cv::Mat image = Texture(640, 480, 1);
+  const auto corners = DetectGridedCorners(image, 40, 0.01, 11);
+  EXPECT_GT(corners.size(), 150u);
+  std::set<std::pair<int, int>> cells;
+  for (const auto& corner : corners)
+    EXPECT_TRUE(cells.insert({static_cast<int>(corner.x) / 40, static_cast<int>(corner.y) / 40}).second);
+}
+
+TEST(GridedFeatures, TracksSubpixelShiftsInEveryFrame) {
+  const cv::Mat reference = Texture(640, 480, 2);
+  std::vector<cv::Mat> frames = {reference};
+  std::vector<cv::Point2d> shifts = {{0, 0}};
+  for (int i = 1; i < 6; ++i) {
+    shifts.emplace_back(0.7 * i, -0.45 * i);
+    frames.push_back(Shift(reference, shifts.back().x, shifts.back().y));
+  }
+  GridedFeatureStats stats;
+  const FeatureTracks tracks = TrackGridedFeatures(frames, 0, {}, &stats);
+  EXPECT_GT(stats.tracks, 0.9 * stats.corners);
+  EXPECT_EQ(tracks.num_frames(), 6);
+  EXPECT_EQ(tracks.num_tracks(), stats.tracks);
+  for (int i = 1; i < 6; ++i) {
+    double error = 0.0;
+    for (int j = 0; j < tracks.num_tracks(); ++j) {
+      const Eigen::Vector2d d = tracks.pixels[i].col(j) - tracks.pixels[0].col(j);
+      error += (d - Eigen::Vector2d(shifts[i].x, shifts[i].y)).norm();
+    }
+    EXPECT_LT(error / tracks.num_tracks(), 0.08) << "frame " << i;
+  }
+}
+
+TEST(GridedFeatures, ForwardBackwardCheckDropsUntrackablePoints) {
+  const cv::Mat reference = Texture(320, 240, 3);
+  cv::Mat occluded = Shift(reference, 1.0, 0.0);
+  // Replace the right half with unrelated texture: those tracks must go.
+  Texture(320, 240, 99).colRange(160, 320).copyTo(occluded.colRange(160, 320));
+  const FeatureTracks tracks = TrackGridedFeatures({reference, occluded, occluded}, 0, {});
+  int right = 0;
+  for (int j = 0; j < tracks.num_tracks(); ++j)
+    if (tracks.pixels[0](0, j) > 175) ++right;
+  EXPECT_GT(tracks.num_tracks(), 10);
+  // KLT can lock onto a chance match in the new texture; nearly all must go.
+  EXPECT_LE(right, 4);
+}
+
+}  // namespace
+}  // namespace dfsm

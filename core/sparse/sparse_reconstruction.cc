@@ -1,0 +1,152 @@
+#include "core/sparse/sparse_reconstruction.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <random>
+#include <sstream>
+
+namespace dfsm {
+namespace {
+
+class StageTimer {
+ public:
+  explicit StageTimer(std::vector<std::pair<std::string, double>>* timings)
+      : timings_(timings), start_(std::chrono::steady_clock::now()) {}
+  void Lap(const std::string& stage) {
+    const auto now = std::chrono::steady_clock::now();
+    timings_->emplace_back(stage, std::chrono::duration<double, std::milli>(now - start_).count());
+    start_ = now;
+  }
+
+ private:
+  std::vector<std::pair<std::string, double>>* timings_;
+  std::chrono::steady_clock::time_point start_;
+};
+
+std::string Format(double value, int precision = 2) {
+  std::ostringstream out;
+  out.setf(std::ios::fixed);
+  out.precision(precision);
+  out << value;
+  return out.str();
+}
+
+double RobustSigma(std::vector<double> values) {
+  std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
+  return 1.4826 * values[values.size() / 2];
+}
+
+}  // namespace
+
+InitMode ParseInitMode(const std::string& name) {
+  if (name == "rank1") return InitMode::kRankOne;
+  if (name == "naive") return InitMode::kNaive;
+  throw std::invalid_argument("init must be \"rank1\" or \"naive\", not \"" + name + "\"");
+}
+
+const char* InitModeName(InitMode mode) { return mode == InitMode::kRankOne ? "rank1" : "naive"; }
+
+std::vector<double> SparseReconstruction::InlierInverseDepths() const {
+  std::vector<double> inverse_depths;
+  for (size_t j = 0; j < inliers.size(); ++j)
+    if (inliers[j]) inverse_depths.push_back(state.inverse_depths[j]);
+  return inverse_depths;
+}
+
+SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int reference,
+                                       const SparseOptions& options) {
+  if (frames.size() < 3)
+    throw ReconstructionError("a burst needs at least 3 frames, got " +
+                              std::to_string(frames.size()));
+  SparseReconstruction sparse;
+  StageTimer timer(&sparse.timings_ms);
+  const int width = frames[reference].cols, height = frames[reference].rows;
+
+  sparse.tracks =
+      TrackGridedFeatures(frames, reference, options.features, &sparse.feature_stats);
+  timer.Lap("features");
+  const int tracked = sparse.tracks.num_tracks();
+  if (tracked < options.min_tracks)
+    throw ReconstructionError(
+        "too few tracks: " + std::to_string(tracked) + " of " +
+        std::to_string(sparse.feature_stats.corners) + " corners (in " +
+        std::to_string(sparse.feature_stats.cells) + " cells) survived tracking, need " +
+        std::to_string(options.min_tracks) +
+        (sparse.feature_stats.corners < options.min_tracks ? " (too little texture)"
+                                                           : " (motion too large or blur)"));
+  const double parallax = sparse.tracks.MedianMaxDisplacement();
+  if (parallax < options.min_parallax_px)
+    throw ReconstructionError("insufficient parallax: median track motion " +
+                              Format(parallax) + " px (need " +
+                              Format(options.min_parallax_px) + " px)");
+
+  const CameraModel initial = CameraModel::Initial(width, height);
+  SparseState& state = sparse.state;
+  state.camera = initial;
+  std::vector<bool> use(tracked, true);
+  if (options.init == InitMode::kRankOne) {
+    const std::vector<Eigen::Matrix3d> rotations =
+        EstimateRotations(sparse.tracks, initial, options.rotation_solver);
+    timer.Lap("rotation");
+    sparse.rank_one = RankOneInit(sparse.tracks, initial, rotations, options.rank_one);
+    timer.Lap("rank1");
+    if (!sparse.rank_one.ok)
+      throw ReconstructionError("rank-1 initialization failed: fewer than 3 consistent tracks");
+    state.poses = sparse.rank_one.poses;
+    state.inverse_depths = sparse.rank_one.inverse_depths;
+    use = sparse.rank_one.inliers;
+  } else {
+    // The reference code's start: no motion, random inverse depths.
+    state.poses.assign(frames.size(), Pose{});
+    std::mt19937_64 random(options.naive_seed);
+    std::uniform_real_distribution<double> uniform(0.01, 1.0);
+    state.inverse_depths.resize(tracked);
+    for (double& w : state.inverse_depths) w = uniform(random);
+    timer.Lap("rotation");
+    timer.Lap("rank1");
+  }
+  if (std::count(use.begin(), use.end(), true) < options.min_tracks)
+    throw ReconstructionError("too few consistent tracks after outlier rejection: " +
+                              std::to_string(std::count(use.begin(), use.end(), true)));
+
+  sparse.bundle_adjustment =
+      RunBundleAdjustment(sparse.tracks, use, &state, options.bundle_adjustment);
+  // One round of outlier rejection on the adjusted model, then a short re-run
+  // from the adjusted state.
+  {
+    const std::vector<double> errors = TrackReprojectionErrors(sparse.tracks, state);
+    std::vector<double> used_errors;
+    for (int j = 0; j < tracked; ++j)
+      if (use[j]) used_errors.push_back(errors[j]);
+    const double threshold = std::max(options.outlier_px, 4.0 * RobustSigma(used_errors));
+    std::vector<bool> kept(tracked);
+    for (int j = 0; j < tracked; ++j)
+      kept[j] = use[j] && errors[j] <= threshold && state.inverse_depths[j] > 0.0;
+    if (kept != use && std::count(kept.begin(), kept.end(), true) >= options.min_tracks) {
+      use = kept;
+      const BundleAdjustmentSummary first = sparse.bundle_adjustment;
+      sparse.bundle_adjustment =
+          RunBundleAdjustment(sparse.tracks, use, &state, options.bundle_adjustment);
+      sparse.bundle_adjustment.iterations += first.iterations;
+      sparse.bundle_adjustment.initial_cost = first.initial_cost;
+    }
+  }
+  sparse.bundle_adjustment.init = InitModeName(options.init);
+  sparse.inliers = use;
+  timer.Lap("bundle_adjustment");
+
+  // A global scale is free: report depths with median inverse depth 1.
+  std::vector<double> inverse_depths = sparse.InlierInverseDepths();
+  std::nth_element(inverse_depths.begin(), inverse_depths.begin() + inverse_depths.size() / 2,
+                   inverse_depths.end());
+  const double median = inverse_depths[inverse_depths.size() / 2];
+  if (!(median > 0.0) || !std::isfinite(state.camera.f) || state.camera.f <= 0.0)
+    throw ReconstructionError("bundle adjustment diverged (median inverse depth " +
+                              Format(median, 6) + ", f " + Format(state.camera.f) + ")");
+  for (double& w : state.inverse_depths) w /= median;
+  for (Pose& pose : state.poses) pose.T *= median;
+  return sparse;
+}
+
+}  // namespace dfsm
