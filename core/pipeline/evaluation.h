@@ -1,0 +1,43 @@
+// Scores a reconstruction against the ground truth of a synthetic burst, with
+// the metrics of Ha et al. and of the project's acceptance targets.
+#pragma once
+
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+#include <vector>
+
+#include "core/io/ground_truth.h"
+
+namespace dfsm {
+
+struct SparseEvaluation {
+  double focal_error_percent = 0.0;
+  double distortion_error_px = 0.0;  // MeanDistortionError(estimate, truth)
+  double mean_rotation_error_deg = 0.0;
+  double max_rotation_error_deg = 0.0;
+  double mean_translation_direction_error_deg = 0.0;
+};
+
+SparseEvaluation EvaluateSparse(const CameraModel& camera, const std::vector<Pose>& poses,
+                                const GroundTruth& truth);
+
+struct DepthEvaluation {
+  double scale = 0.0;               // truth ≈ scale * estimate (median ratio)
+  double abs_rel = 0.0;             // mean |s d - d*| / d* over valid, textured pixels
+  double within_5_percent = 0.0;    // share with max(s d / d*, d* / s d) < 1.05
+  double coverage = 0.0;            // share of textured pixels with an estimate
+  int evaluated_pixels = 0;
+};
+
+// Textured pixels: local (7x7) standard deviation of the reference above
+// `min_texture_std` grey levels; only they are scored (a flat wall has no depth
+// to recover from photo-consistency).
+cv::Mat TexturedMask(const cv::Mat& reference_gray, double min_texture_std = 2.0);
+
+DepthEvaluation EvaluateDepth(const cv::Mat& depth, const cv::Mat& truth_depth,
+                              const cv::Mat& textured_mask);
+
+nlohmann::json ToJson(const SparseEvaluation& evaluation);
+nlohmann::json ToJson(const DepthEvaluation& evaluation);
+
+}  // namespace dfsm

@@ -1,0 +1,109 @@
+#include "core/pipeline/pipeline.h"
+
+#include <chrono>
+
+#include "core/export/ply.h"
+#include "core/export/result_outputs.h"
+
+namespace dfsm {
+namespace {
+
+double MillisecondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+      .count();
+}
+
+std::vector<ColoredPoint> SparsePointCloud(const SparseReconstruction& sparse,
+                                           const cv::Mat& reference_color) {
+  std::vector<ColoredPoint> points;
+  const FeatureTracks& tracks = sparse.tracks;
+  for (int j = 0; j < tracks.num_tracks(); ++j) {
+    if (!sparse.inliers[j]) continue;
+    const Eigen::Vector2d pixel = tracks.pixels[tracks.reference].col(j);
+    const Eigen::Vector2d x = sparse.state.camera.PixelToUndistorted(pixel);
+    ColoredPoint point;
+    point.position = (Eigen::Vector3d(x.x(), x.y(), 1.0) / sparse.state.inverse_depths[j]).cast<float>();
+    const cv::Point at(cvRound(pixel.x()), cvRound(pixel.y()));
+    if (reference_color.channels() == 3) {
+      const cv::Vec3b bgr = reference_color.at<cv::Vec3b>(at);
+      point.r = bgr[2], point.g = bgr[1], point.b = bgr[0];
+    } else {
+      point.r = point.g = point.b = reference_color.at<uchar>(at);
+    }
+    points.push_back(point);
+  }
+  return points;
+}
+
+}  // namespace
+
+PipelineOutput RunPipeline(const Burst& burst, const PipelineOptions& options,
+                           const StageCallback& on_stage) {
+  PipelineOutput output;
+  Result& result = output.result;
+  result.bundle_adjustment.init = InitModeName(options.sparse.init);
+  const auto start = std::chrono::steady_clock::now();
+  try {
+    if (on_stage) on_stage("sparse");
+    output.sparse = ReconstructSparse(burst.gray, burst.reference(), options.sparse);
+    const SparseReconstruction& sparse = *output.sparse;
+    result.calibration = sparse.state.camera;
+    result.poses = sparse.state.poses;
+    result.bundle_adjustment = sparse.bundle_adjustment;
+    result.features = static_cast<int>(std::count(sparse.inliers.begin(), sparse.inliers.end(), true));
+    result.features_detected = sparse.feature_stats.corners;
+    result.timings_ms = sparse.timings_ms;
+    result.extra["sparse_detail"] = {{"cells", sparse.feature_stats.cells},
+                                     {"tracked", sparse.feature_stats.tracks},
+                                     {"inliers", result.features},
+                                     {"rank1_iterations", sparse.rank_one.iterations},
+                                     {"rank1_rms_residual_px", sparse.rank_one.rms_residual_px},
+                                     {"median_track_motion_px", sparse.tracks.MedianMaxDisplacement()}};
+    if (options.run_dense) {
+      if (on_stage) on_stage("dense");
+      const auto dense_start = std::chrono::steady_clock::now();
+      output.dense = ComputeDenseDepth(burst, sparse.state.camera, sparse.state.poses,
+                                       sparse.InlierInverseDepths(), options.dense);
+      result.timings_ms.emplace_back("dense", MillisecondsSince(dense_start));
+      DepthSummary depth;
+      depth.valid_fraction = output.dense->valid_fraction;
+      depth.planes = output.dense->planes;
+      depth.min_inverse_depth = output.dense->min_inverse_depth;
+      depth.max_inverse_depth = output.dense->max_inverse_depth;
+      result.depth = depth;
+      nlohmann::json dense_timings = nlohmann::json::object();
+      for (const auto& [stage, ms] : output.dense->timings_ms) dense_timings[stage] = ms;
+      result.extra["dense_timings_ms"] = dense_timings;
+    }
+    result.ok = true;
+  } catch (const ReconstructionError& e) {
+    result.ok = false;
+    result.error = e.what();
+  } catch (const std::exception& e) {
+    result.ok = false;
+    result.error = std::string("internal error: ") + e.what();
+  }
+  result.timings_ms.emplace_back("total", MillisecondsSince(start));
+  result.extra["input"] = {{"frames", burst.size()},
+                           {"width", burst.width()},
+                           {"height", burst.height()},
+                           {"reference", burst.reference()}};
+  return output;
+}
+
+void WritePipelineOutputs(const std::filesystem::path& out_dir, const Burst& burst,
+                          PipelineOutput* output) {
+  std::filesystem::create_directories(out_dir);
+  if (output->result.ok) {
+    const auto start = std::chrono::steady_clock::now();
+    const SparseReconstruction& sparse = *output->sparse;
+    WritePly(out_dir / "sparse_points.ply", SparsePointCloud(sparse, burst.reference_color));
+    WriteCalibrationFiles(out_dir, sparse.state.camera);
+    if (output->dense) WriteDenseOutputs(out_dir, burst, sparse.state.camera, *output->dense);
+    output->result.extra["write_ms"] = MillisecondsSince(start);
+  }
+  // result.json goes last: its presence marks a complete result directory.
+  WriteResultJson(out_dir, output->result);
+}
+
+}  // namespace dfsm

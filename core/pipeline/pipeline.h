@@ -1,0 +1,44 @@
+// The whole method on one burst: sparse reconstruction, then dense depth, and
+// the dfsm-result/1 directory that reports it.
+#pragma once
+
+#include <filesystem>
+#include <functional>
+#include <optional>
+#include <string>
+
+#include "core/dense/dense_depth.h"
+#include "core/io/burst.h"
+#include "core/io/result.h"
+#include "core/sparse/sparse_reconstruction.h"
+
+namespace dfsm {
+
+struct PipelineOptions {
+  SparseOptions sparse;
+  DenseOptions dense;
+  bool run_dense = true;
+};
+
+struct PipelineOutput {
+  Result result;  // result.ok == false carries the reason in result.error
+  std::optional<SparseReconstruction> sparse;
+  std::optional<DenseDepth> dense;
+};
+
+// Called with the name of each stage as it starts ("sparse", "dense", "writing").
+using StageCallback = std::function<void(const std::string& stage)>;
+
+// Never throws for a burst the method cannot handle: the failure is reported in
+// the returned result (status "failed" with a named reason).
+PipelineOutput RunPipeline(const Burst& burst, const PipelineOptions& options,
+                           const StageCallback& on_stage = {});
+
+// Writes result.json and every output file of a successful run into out_dir
+// (created when needed): depth.tiff, depth.png, confidence.png, preview.png,
+// points.ply, sparse_points.ply, calibration.json, calibration.yaml. A failed
+// run writes result.json alone. Each file is written atomically.
+void WritePipelineOutputs(const std::filesystem::path& out_dir, const Burst& burst,
+                          PipelineOutput* output);
+
+}  // namespace dfsm
