@@ -1,0 +1,40 @@
+#!/usr/bin/env bash
+# Installs the Debian 12 packages dfsm needs to build, test and run. Idempotent:
+# packages already present are skipped, so it is cheap on a prepared machine.
+set -euo pipefail
+here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
+
+packages=(
+  build-essential cmake ninja-build pkg-config git
+  libopencv-dev libeigen3-dev libceres-dev libopengv-dev
+  nlohmann-json3-dev libcpp-httplib-dev libsystemd-dev
+  libgtest-dev libgmock-dev libbenchmark-dev
+  opencv-doc   # real photographs used as textures of the synthetic bursts
+)
+# Further areas list their own packages, one per line (# comments allowed).
+for list in "$here"/*-deps.txt; do
+  [ -f "$list" ] || continue
+  while read -r line; do
+    line="${line%%#*}"
+    line="$(echo "$line" | xargs)"
+    [ -n "$line" ] && packages+=("$line")
+  done <"$list"
+done
+
+missing=()
+for package in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$package" 2>/dev/null | grep -q "install ok installed" ||
+    missing+=("$package")
+done
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "install-deps: all ${#packages[@]} packages present"
+  exit 0
+fi
+echo "install-deps: installing ${missing[*]}"
+if [ "$(id -u)" -ne 0 ]; then
+  echo "install-deps: must run as root to install packages" >&2
+  exit 1
+fi
+export DEBIAN_FRONTEND=noninteractive
+apt-get update -qq
+apt-get install -y -qq --no-install-recommends "${missing[@]}"
