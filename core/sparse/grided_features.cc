@@ -59,34 +59,38 @@ FeatureTracks TrackGridedFeatures(const std::vector<cv::Mat>& frames, int refere
   positions[reference] = corners;
   std::fill(valid[reference].begin(), valid[reference].end(), 1);
 
-  // Frames are tracked directly from the reference (no drift accumulates), in
-  // parallel; each frame's search starts at zero flow, which the pyramid
-  // handles for the few-pixel motions of a small-motion burst.
-  cv::parallel_for_(cv::Range(0, n), [&](const cv::Range& range) {
-    for (int i = range.start; i < range.end; ++i) {
-      if (i == reference) continue;
-      std::vector<cv::Mat> pyramid;
-      cv::buildOpticalFlowPyramid(frames[i], pyramid, window, options.klt_levels, true);
-      std::vector<cv::Point2f> forward = corners, backward = corners;
-      std::vector<uchar> status_forward, status_backward;
-      std::vector<float> error;
-      if (m == 0) continue;
-      cv::calcOpticalFlowPyrLK(ref_pyramid, pyramid, corners, forward, status_forward, error,
-                               window, options.klt_levels, criteria);
-      cv::calcOpticalFlowPyrLK(pyramid, ref_pyramid, forward, backward, status_backward, error,
-                               window, options.klt_levels, criteria,
-                               cv::OPTFLOW_USE_INITIAL_FLOW);
-      const double max_fb2 = options.max_forward_backward_px * options.max_forward_backward_px;
-      for (int j = 0; j < m; ++j) {
-        const cv::Point2f d = backward[j] - corners[j];
-        const bool inside = forward[j].x >= 0 && forward[j].y >= 0 &&
-                            forward[j].x <= frames[i].cols - 1 && forward[j].y <= frames[i].rows - 1;
-        valid[i][j] = status_forward[j] && status_backward[j] && inside &&
-                      d.dot(d) <= max_fb2;
-      }
-      positions[i] = std::move(forward);
+  // Every frame is tracked directly from the reference (no drift accumulates),
+  // starting from the positions found in its neighbour nearer the reference:
+  // consecutive frames differ by a pixel or so, so the pyramid search converges
+  // in a couple of iterations per level. OpenCV spreads the points over cores.
+  std::vector<int> order;
+  for (int d = 1; d < n; ++d) {
+    if (reference + d < n) order.push_back(reference + d);
+    if (reference - d >= 0) order.push_back(reference - d);
+  }
+  const double max_fb2 = options.max_forward_backward_px * options.max_forward_backward_px;
+  std::vector<cv::Mat> pyramid;
+  for (const int i : order) {
+    if (m == 0) break;
+    const int neighbour = i > reference ? i - 1 : i + 1;
+    cv::buildOpticalFlowPyramid(frames[i], pyramid, window, options.klt_levels, true);
+    std::vector<cv::Point2f> forward = positions[neighbour], backward = corners;
+    std::vector<uchar> status_forward, status_backward;
+    std::vector<float> error;
+    cv::calcOpticalFlowPyrLK(ref_pyramid, pyramid, corners, forward, status_forward, error, window,
+                             options.klt_levels, criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
+    cv::calcOpticalFlowPyrLK(pyramid, ref_pyramid, forward, backward, status_backward, error,
+                             window, options.klt_levels, criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
+    for (int j = 0; j < m; ++j) {
+      const cv::Point2f d = backward[j] - corners[j];
+      const bool inside = forward[j].x >= 0 && forward[j].y >= 0 &&
+                          forward[j].x <= frames[i].cols - 1 && forward[j].y <= frames[i].rows - 1;
+      valid[i][j] = status_forward[j] && status_backward[j] && inside && d.dot(d) <= max_fb2;
+      // A lost track keeps its neighbour's position as the next frame's guess.
+      if (!valid[i][j]) forward[j] = positions[neighbour][j];
     }
-  });
+    positions[i] = std::move(forward);
+  }
 
   std::vector<int> kept;
   for (int j = 0; j < m; ++j) {
