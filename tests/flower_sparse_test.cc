@@ -20,7 +20,8 @@ TEST(FlowerSparse, ReconstructsWithAPlausibleCamera) {
     SparseOptions options;
     options.init = init;
     const SparseReconstruction sparse = ReconstructSparse(burst.gray, burst.reference(), options);
-    const int inliers = static_cast<int>(std::count(sparse.inliers.begin(), sparse.inliers.end(), true));
+    const int inliers =
+        static_cast<int>(std::count(sparse.inliers.begin(), sparse.inliers.end(), true));
     // 512x288 gives 25x14 cells of 21 px; a textured clip keeps most of them.
     EXPECT_GT(sparse.feature_stats.tracks, 200) << InitModeName(init);
     EXPECT_GT(inliers, 180) << InitModeName(init);

@@ -16,10 +16,10 @@ inline std::filesystem::path SharedData(const std::string& name) {
 }  // namespace dfsm::testing
 
 // Skips the current test when a shared data set is missing.
-#define DFSM_REQUIRE_SHARED_DATA(name)                                                       \
-  do {                                                                                       \
-    if (!std::filesystem::exists(::dfsm::testing::SharedData(name) / "manifest.json"))       \
-      GTEST_SKIP() << "shared data set '" << name << "' not found at "                       \
-                   << ::dfsm::testing::SharedData(name)                                      \
-                   << " (it lives in ../shared/data beside the repository)";                 \
+#define DFSM_REQUIRE_SHARED_DATA(name)                                                 \
+  do {                                                                                 \
+    if (!std::filesystem::exists(::dfsm::testing::SharedData(name) / "manifest.json")) \
+      GTEST_SKIP() << "shared data set '" << name << "' not found at "                 \
+                   << ::dfsm::testing::SharedData(name)                                \
+                   << " (it lives in ../shared/data beside the repository)";           \
   } while (0)

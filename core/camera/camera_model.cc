@@ -59,9 +59,8 @@ double MeanDistortionError(const CameraModel& estimated, const CameraModel& trut
       // Express the estimated undistorted point in the true camera's normalized
       // frame: both models share the ideal pinhole of their own f, so compare
       // through the pixel grid of the undistorted image.
-      const Eigen::Vector2d x_u_truth = (estimated.UndistortedToIdealPixel(x_u) -
-                                         Eigen::Vector2d(truth.cx, truth.cy)) /
-                                        truth.f;
+      const Eigen::Vector2d x_u_truth =
+          (estimated.UndistortedToIdealPixel(x_u) - Eigen::Vector2d(truth.cx, truth.cy)) / truth.f;
       const auto back = truth.UndistortedToPixel(x_u_truth);
       if (!back) {
         ++bad;
@@ -76,15 +75,22 @@ double MeanDistortionError(const CameraModel& estimated, const CameraModel& trut
 }
 
 nlohmann::json ToJson(const CameraModel& camera) {
-  return {{"width", camera.width}, {"height", camera.height}, {"fx", camera.f},
-          {"fy", camera.f},        {"cx", camera.cx},         {"cy", camera.cy},
-          {"k1", camera.k1},       {"k2", camera.k2},         {"distortion_model", kDistortionModelName}};
+  return {{"width", camera.width},
+          {"height", camera.height},
+          {"fx", camera.f},
+          {"fy", camera.f},
+          {"cx", camera.cx},
+          {"cy", camera.cy},
+          {"k1", camera.k1},
+          {"k2", camera.k2},
+          {"distortion_model", kDistortionModelName}};
 }
 
 namespace {
 double RequireNumber(const nlohmann::json& j, const char* key) {
   if (!j.contains(key) || !j[key].is_number())
-    throw std::runtime_error(std::string("calibration: field '") + key + "' missing or not a number");
+    throw std::runtime_error(std::string("calibration: field '") + key +
+                             "' missing or not a number");
   return j[key].get<double>();
 }
 }  // namespace
@@ -92,9 +98,8 @@ double RequireNumber(const nlohmann::json& j, const char* key) {
 CameraModel CameraModelFromJson(const nlohmann::json& j) {
   if (!j.is_object()) throw std::runtime_error("calibration: not a JSON object");
   if (j.contains("distortion_model") && j["distortion_model"] != kDistortionModelName)
-    throw std::runtime_error("calibration: distortion_model '" +
-                             j["distortion_model"].dump() + "' is not '" + kDistortionModelName +
-                             "'");
+    throw std::runtime_error("calibration: distortion_model '" + j["distortion_model"].dump() +
+                             "' is not '" + kDistortionModelName + "'");
   CameraModel camera;
   camera.width = static_cast<int>(RequireNumber(j, "width"));
   camera.height = static_cast<int>(RequireNumber(j, "height"));

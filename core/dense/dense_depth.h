@@ -24,7 +24,7 @@ struct DenseDepth {
   double min_inverse_depth = 0.0;  // the swept range
   double max_inverse_depth = 0.0;
   int planes = 0;
-  double valid_fraction = 0.0;  // share of pixels with depth > 0
+  double valid_fraction = 0.0;                             // share of pixels with depth > 0
   std::vector<std::pair<std::string, double>> timings_ms;  // sub-stages, in order
 };
 

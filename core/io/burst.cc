@@ -40,8 +40,8 @@ BurstManifest ParseBurstManifest(const std::string& text, const std::string& ori
   if (!j.is_object()) throw BurstError(origin + ": the manifest must be a JSON object");
   if (!j.contains("format")) throw BurstError(origin + ": required field 'format' is missing");
   if (j["format"] != kBurstFormat)
-    throw BurstError(origin + ": format is " + j["format"].dump() + ", expected \"" +
-                     kBurstFormat + "\"");
+    throw BurstError(origin + ": format is " + j["format"].dump() + ", expected \"" + kBurstFormat +
+                     "\"");
 
   BurstManifest manifest;
   manifest.width = RequirePositiveInt(j, "width", origin);
@@ -83,8 +83,7 @@ BurstManifest ParseBurstManifest(const std::string& text, const std::string& ori
 BurstManifest ReadBurstManifest(const fs::path& burst_dir) {
   const fs::path path = burst_dir / "manifest.json";
   std::error_code ec;
-  if (!fs::is_directory(burst_dir, ec))
-    throw BurstError(burst_dir.string() + ": not a directory");
+  if (!fs::is_directory(burst_dir, ec)) throw BurstError(burst_dir.string() + ": not a directory");
   if (!fs::is_regular_file(path, ec)) throw BurstError(path.string() + ": missing");
   std::string text;
   try {
@@ -100,12 +99,9 @@ nlohmann::json ToJson(const BurstManifest& manifest) {
   for (const auto& frame : manifest.frames)
     frames.push_back(
         {{"file", frame.file}, {"timestamp_ns", frame.timestamp_ns}, {"sequence", frame.sequence}});
-  nlohmann::json j = {{"format", kBurstFormat},
-                      {"width", manifest.width},
-                      {"height", manifest.height},
-                      {"pixel_format", manifest.pixel_format},
-                      {"reference", manifest.reference},
-                      {"frames", frames}};
+  nlohmann::json j = {{"format", kBurstFormat},          {"width", manifest.width},
+                      {"height", manifest.height},       {"pixel_format", manifest.pixel_format},
+                      {"reference", manifest.reference}, {"frames", frames}};
   if (!manifest.source.is_null()) j["source"] = manifest.source;
   return j;
 }
@@ -121,10 +117,17 @@ cv::Mat ToGray8(const cv::Mat& frame) {
   }
   cv::Mat gray;
   switch (eight.channels()) {
-    case 1: gray = eight; break;
-    case 3: cv::cvtColor(eight, gray, cv::COLOR_BGR2GRAY); break;
-    case 4: cv::cvtColor(eight, gray, cv::COLOR_BGRA2GRAY); break;
-    default: throw BurstError("unsupported channel count " + std::to_string(eight.channels()));
+    case 1:
+      gray = eight;
+      break;
+    case 3:
+      cv::cvtColor(eight, gray, cv::COLOR_BGR2GRAY);
+      break;
+    case 4:
+      cv::cvtColor(eight, gray, cv::COLOR_BGRA2GRAY);
+      break;
+    default:
+      throw BurstError("unsupported channel count " + std::to_string(eight.channels()));
   }
   return gray;
 }

@@ -39,7 +39,7 @@ struct Result {
   CameraModel calibration;
   std::vector<Pose> poses;
   BundleAdjustmentSummary bundle_adjustment;
-  int features = 0;         // tracks used by the sparse stage
+  int features = 0;           // tracks used by the sparse stage
   int features_detected = 0;  // corners before tracking and outlier rejection
   std::optional<DepthSummary> depth;
   std::vector<std::pair<std::string, double>> timings_ms;  // stage -> ms, in pipeline order

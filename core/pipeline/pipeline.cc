@@ -22,7 +22,8 @@ std::vector<ColoredPoint> SparsePointCloud(const SparseReconstruction& sparse,
     const Eigen::Vector2d pixel = tracks.pixels[tracks.reference].col(j);
     const Eigen::Vector2d x = sparse.state.camera.PixelToUndistorted(pixel);
     ColoredPoint point;
-    point.position = (Eigen::Vector3d(x.x(), x.y(), 1.0) / sparse.state.inverse_depths[j]).cast<float>();
+    point.position =
+        (Eigen::Vector3d(x.x(), x.y(), 1.0) / sparse.state.inverse_depths[j]).cast<float>();
     const cv::Point at(cvRound(pixel.x()), cvRound(pixel.y()));
     if (reference_color.channels() == 3) {
       const cv::Vec3b bgr = reference_color.at<cv::Vec3b>(at);
@@ -50,15 +51,17 @@ PipelineOutput RunPipeline(const Burst& burst, const PipelineOptions& options,
     result.calibration = sparse.state.camera;
     result.poses = sparse.state.poses;
     result.bundle_adjustment = sparse.bundle_adjustment;
-    result.features = static_cast<int>(std::count(sparse.inliers.begin(), sparse.inliers.end(), true));
+    result.features =
+        static_cast<int>(std::count(sparse.inliers.begin(), sparse.inliers.end(), true));
     result.features_detected = sparse.feature_stats.corners;
     result.timings_ms = sparse.timings_ms;
-    result.extra["sparse_detail"] = {{"cells", sparse.feature_stats.cells},
-                                     {"tracked", sparse.feature_stats.tracks},
-                                     {"inliers", result.features},
-                                     {"rank1_iterations", sparse.rank_one.iterations},
-                                     {"rank1_rms_residual_px", sparse.rank_one.rms_residual_px},
-                                     {"median_track_motion_px", sparse.tracks.MedianMaxDisplacement()}};
+    result.extra["sparse_detail"] = {
+        {"cells", sparse.feature_stats.cells},
+        {"tracked", sparse.feature_stats.tracks},
+        {"inliers", result.features},
+        {"rank1_iterations", sparse.rank_one.iterations},
+        {"rank1_rms_residual_px", sparse.rank_one.rms_residual_px},
+        {"median_track_motion_px", sparse.tracks.MedianMaxDisplacement()}};
     if (options.run_dense) {
       if (on_stage) on_stage("dense");
       const auto dense_start = std::chrono::steady_clock::now();

@@ -67,11 +67,10 @@ BundleAdjustmentSummary RunBundleAdjustment(const FeatureTracks& tracks,
     if (!use[j]) continue;
     for (int i = 0; i < n; ++i) {
       if (i == tracks.reference) continue;
-      problem.AddResidualBlock(
-          UndistortedReprojectionError::Create(tracks.pixels[tracks.reference].col(j),
-                                               tracks.pixels[i].col(j), state->camera.cx,
-                                               state->camera.cy),
-          &huber, intrinsics, poses[i].data(), &inverse_depths[j]);
+      problem.AddResidualBlock(UndistortedReprojectionError::Create(
+                                   tracks.pixels[tracks.reference].col(j), tracks.pixels[i].col(j),
+                                   state->camera.cx, state->camera.cy),
+                               &huber, intrinsics, poses[i].data(), &inverse_depths[j]);
       ++residual_blocks;
     }
     // Inverse depths first: Schur eliminates them, leaving a small dense

@@ -24,9 +24,9 @@ std::vector<cv::Point2f> DetectGridedCorners(const cv::Mat& gray, int cell_px, d
   for (int y0 = 0; y0 < gray.rows; y0 += cell_px) {
     for (int x0 = 0; x0 < gray.cols; x0 += cell_px) {
       // Corners near the border cannot be tracked with a full KLT window.
-      const cv::Rect cell = cv::Rect(x0, y0, cell_px, cell_px) &
-                            cv::Rect(border_px, border_px, gray.cols - 2 * border_px,
-                                     gray.rows - 2 * border_px);
+      const cv::Rect cell =
+          cv::Rect(x0, y0, cell_px, cell_px) &
+          cv::Rect(border_px, border_px, gray.cols - 2 * border_px, gray.rows - 2 * border_px);
       if (cell.area() <= 0) continue;
       double best = 0.0;
       cv::Point location;

@@ -38,7 +38,8 @@ TEST(GridedFeatures, OneCornerPerCell) {
   EXPECT_GT(corners.size(), 150u);
   std::set<std::pair<int, int>> cells;
   for (const auto& corner : corners)
-    EXPECT_TRUE(cells.insert({static_cast<int>(corner.x) / 40, static_cast<int>(corner.y) / 40}).second);
+    EXPECT_TRUE(
+        cells.insert({static_cast<int>(corner.x) / 40, static_cast<int>(corner.y) / 40}).second);
 }
 
 TEST(GridedFeatures, TracksSubpixelShiftsInEveryFrame) {

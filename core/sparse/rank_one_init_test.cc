@@ -18,7 +18,8 @@ std::vector<Eigen::Matrix3d> TrueRotations(const TrackSimulation& sim) {
 std::pair<double, double> ScaleFit(const std::vector<double>& estimate,
                                    const std::vector<double>& truth) {
   double num = 0.0, den = 0.0;
-  for (size_t j = 0; j < truth.size(); ++j) num += estimate[j] * truth[j], den += truth[j] * truth[j];
+  for (size_t j = 0; j < truth.size(); ++j)
+    num += estimate[j] * truth[j], den += truth[j] * truth[j];
   const double s = num / den;
   double worst = 0.0;
   for (size_t j = 0; j < truth.size(); ++j)
@@ -102,7 +103,8 @@ TEST(RankOneInit, RejectsOutlierTracks) {
   EXPECT_LT(false_alarms, m / 50);
   std::vector<double> estimate, truth;
   for (int j = 0; j < m; ++j)
-    if (result.inliers[j]) estimate.push_back(result.inverse_depths[j]), truth.push_back(sim.inverse_depths[j]);
+    if (result.inliers[j])
+      estimate.push_back(result.inverse_depths[j]), truth.push_back(sim.inverse_depths[j]);
   const auto [scale, worst] = ScaleFit(estimate, truth);
   EXPECT_GT(scale, 0.0);
   EXPECT_LT(worst, 0.25);  // 0.1 px noise on ~10 px of parallax
@@ -112,7 +114,8 @@ TEST(RankOneInit, FailsCleanlyWithTooFewTracks) {
   FeatureTracks tracks;
   tracks.pixels.assign(3, Eigen::Matrix2Xd::Zero(2, 2));
   const RankOneResult result =
-      RankOneInit(tracks, CameraModel::Initial(64, 48), std::vector<Eigen::Matrix3d>(3, Eigen::Matrix3d::Identity()));
+      RankOneInit(tracks, CameraModel::Initial(64, 48),
+                  std::vector<Eigen::Matrix3d>(3, Eigen::Matrix3d::Identity()));
   EXPECT_FALSE(result.ok);
 }
 

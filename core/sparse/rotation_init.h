@@ -22,8 +22,8 @@ enum class RotationSolver {
 
 // Returns R_i with X_i = R_i X_ref + T_i for every frame (identity for the
 // reference). Bearings come from `camera` (the initial guess: f = max(w, h), k = 0).
-std::vector<Eigen::Matrix3d> EstimateRotations(const FeatureTracks& tracks,
-                                               const CameraModel& camera,
-                                               RotationSolver solver = RotationSolver::kRotationOnly);
+std::vector<Eigen::Matrix3d> EstimateRotations(
+    const FeatureTracks& tracks, const CameraModel& camera,
+    RotationSolver solver = RotationSolver::kRotationOnly);
 
 }  // namespace dfsm

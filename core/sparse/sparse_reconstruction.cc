@@ -63,8 +63,7 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
   StageTimer timer(&sparse.timings_ms);
   const int width = frames[reference].cols, height = frames[reference].rows;
 
-  sparse.tracks =
-      TrackGridedFeatures(frames, reference, options.features, &sparse.feature_stats);
+  sparse.tracks = TrackGridedFeatures(frames, reference, options.features, &sparse.feature_stats);
   timer.Lap("features");
   const int tracked = sparse.tracks.num_tracks();
   if (tracked < options.min_tracks)
@@ -77,9 +76,8 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
                                                            : " (motion too large or blur)"));
   const double parallax = sparse.tracks.MedianMaxDisplacement();
   if (parallax < options.min_parallax_px)
-    throw ReconstructionError("insufficient parallax: median track motion " +
-                              Format(parallax) + " px (need " +
-                              Format(options.min_parallax_px) + " px)");
+    throw ReconstructionError("insufficient parallax: median track motion " + Format(parallax) +
+                              " px (need " + Format(options.min_parallax_px) + " px)");
 
   const CameraModel initial = CameraModel::Initial(width, height);
   SparseState& state = sparse.state;

@@ -45,11 +45,12 @@ struct SparseOptions {
 struct SparseReconstruction {
   FeatureTracks tracks;
   GridedFeatureStats feature_stats;
-  SparseState state;             // camera, poses, inverse depths of every track
-  std::vector<bool> inliers;     // tracks used by the final adjustment
+  SparseState state;          // camera, poses, inverse depths of every track
+  std::vector<bool> inliers;  // tracks used by the final adjustment
   BundleAdjustmentSummary bundle_adjustment;
-  RankOneResult rank_one;        // diagnostics of the initialization (rank1 mode)
-  std::vector<std::pair<std::string, double>> timings_ms;  // features, rotation, rank1, bundle_adjustment
+  RankOneResult rank_one;  // diagnostics of the initialization (rank1 mode)
+  std::vector<std::pair<std::string, double>>
+      timings_ms;  // features, rotation, rank1, bundle_adjustment
 
   // Inverse depths of the inlier tracks.
   std::vector<double> InlierInverseDepths() const;

@@ -23,15 +23,17 @@ TrackSimulation SimulateTracks(const TrackSimulatorOptions& options) {
   const int n = options.frames;
   const Eigen::Vector3d a(unit(random), unit(random), 0.3 * unit(random));
   const Eigen::Vector3d b(unit(random), unit(random), 0.3 * unit(random));
-  const Eigen::Vector3d axis = Eigen::Vector3d(unit(random), unit(random), unit(random)).normalized();
-  const Eigen::Vector3d axis2 = Eigen::Vector3d(unit(random), unit(random), unit(random)).normalized();
+  const Eigen::Vector3d axis =
+      Eigen::Vector3d(unit(random), unit(random), unit(random)).normalized();
+  const Eigen::Vector3d axis2 =
+      Eigen::Vector3d(unit(random), unit(random), unit(random)).normalized();
   const double deg = M_PI / 180.0;
   for (int i = 0; i < n; ++i) {
     const double t = n > 1 ? static_cast<double>(i) / (n - 1) : 0.0;
     Pose pose;
     if (i > 0) {
-      const Eigen::Vector3d centre = 0.5 * options.baseline *
-                                     (std::sin(M_PI * t) * a.normalized() + t * b.normalized());
+      const Eigen::Vector3d centre =
+          0.5 * options.baseline * (std::sin(M_PI * t) * a.normalized() + t * b.normalized());
       pose.R = (Eigen::AngleAxisd(options.rotation_deg * deg * t, axis) *
                 Eigen::AngleAxisd(0.5 * options.rotation_deg * deg * std::sin(3.0 * t), axis2))
                    .toRotationMatrix();
@@ -66,7 +68,8 @@ TrackSimulation SimulateTracks(const TrackSimulatorOptions& options) {
       }
       if (!visible) continue;
       if (options.noise_px > 0.0)
-        for (int i = 0; i < n; ++i) pixels[i].col(count) += Eigen::Vector2d(noise(random), noise(random));
+        for (int i = 0; i < n; ++i)
+          pixels[i].col(count) += Eigen::Vector2d(noise(random), noise(random));
       sim.inverse_depths.push_back(w);
       ++count;
     }

@@ -24,10 +24,10 @@ struct TrackSimulatorOptions {
   int frames = 10;
   int tracks = 300;
   double f = 2100.0, k1 = -0.06, k2 = 0.015;
-  double baseline = 0.008;          // extent of the camera path, metres
-  double rotation_deg = 0.5;        // magnitude of the hand's rotation
+  double baseline = 0.008;    // extent of the camera path, metres
+  double rotation_deg = 0.5;  // magnitude of the hand's rotation
   double min_depth = 0.7, max_depth = 3.0;
-  double noise_px = 0.0;            // Gaussian pixel noise on every observation
+  double noise_px = 0.0;  // Gaussian pixel noise on every observation
   uint64_t seed = 1;
 };
 

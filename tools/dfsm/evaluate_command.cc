@@ -32,12 +32,14 @@ int RunEvaluateCommand(const Args& args) {
   std::vector<Pose> poses;
   for (const auto& pose : result.at("poses")) poses.push_back(PoseFromJson(pose));
   nlohmann::json report = {
-      {"sparse", ToJson(EvaluateSparse(CameraModelFromJson(result.at("calibration")), poses, truth))},
+      {"sparse",
+       ToJson(EvaluateSparse(CameraModelFromJson(result.at("calibration")), poses, truth))},
       {"bundle_adjustment", result.at("bundle_adjustment")}};
   if (result.contains("depth")) {
     const Burst burst = ReadBurst(burst_dir);
     const cv::Mat depth = ReadDepthTiff(result_dir / result["depth"].value("file", "depth.tiff"));
-    report["depth"] = ToJson(EvaluateDepth(depth, truth.depth, TexturedMask(burst.gray[burst.reference()])));
+    report["depth"] =
+        ToJson(EvaluateDepth(depth, truth.depth, TexturedMask(burst.gray[burst.reference()])));
   }
   std::cout << report.dump(2) << std::endl;
   return 0;

@@ -84,8 +84,8 @@ int RunProcessCommand(const Args& args) {
               burst.width(), burst.height(), burst.reference());
   std::printf("features    %d tracks used (%d corners detected)\n", result.features,
               result.features_detected);
-  std::printf("calibration f = %.2f px, k1 = %.5f, k2 = %.5f (init f = %d)\n",
-              result.calibration.f, result.calibration.k1, result.calibration.k2,
+  std::printf("calibration f = %.2f px, k1 = %.5f, k2 = %.5f (init f = %d)\n", result.calibration.f,
+              result.calibration.k1, result.calibration.k2,
               std::max(burst.width(), burst.height()));
   std::printf("bundle adj. init %s, %d iterations, %s, cost %.4g -> %.4g, rms %.3f px\n",
               ba.init.c_str(), ba.iterations, ba.converged ? "converged" : "NOT converged",
