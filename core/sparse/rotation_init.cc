@@ -20,22 +20,14 @@ opengv::bearingVectors_t Bearings(const Eigen::Matrix2Xd& pixels, const CameraMo
 }  // namespace
 
 std::vector<Eigen::Matrix3d> EstimateRotations(const FeatureTracks& tracks,
-                                               const CameraModel& camera, RotationSolver solver) {
+                                               const CameraModel& camera) {
   std::vector<Eigen::Matrix3d> rotations(tracks.num_frames(), Eigen::Matrix3d::Identity());
   const opengv::bearingVectors_t reference = Bearings(tracks.pixels[tracks.reference], camera);
   for (int i = 0; i < tracks.num_frames(); ++i) {
     if (i == tracks.reference || tracks.num_tracks() < 3) continue;
     const opengv::bearingVectors_t frame = Bearings(tracks.pixels[i], camera);
     opengv::relative_pose::CentralRelativeAdapter adapter(reference, frame);
-    opengv::rotation_t ref_from_frame;
-    if (solver == RotationSolver::kRotationOnly) {
-      ref_from_frame = opengv::relative_pose::rotationOnly(adapter);
-    } else {
-      // The eigensolver needs a starting rotation; rotationOnly is a good one.
-      adapter.setR12(opengv::relative_pose::rotationOnly(adapter));
-      opengv::eigensolverOutput_t output;
-      ref_from_frame = opengv::relative_pose::eigensolver(adapter, output);
-    }
+    const opengv::rotation_t ref_from_frame = opengv::relative_pose::rotationOnly(adapter);
     // OpenGV returns the rotation taking frame bearings into the reference
     // (b_ref = R b_i); the contract's R_i goes the other way.
     rotations[i] = ref_from_frame.transpose();

@@ -84,8 +84,7 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
   state.camera = initial;
   std::vector<bool> use(tracked, true);
   if (options.init == InitMode::kRankOne) {
-    const std::vector<Eigen::Matrix3d> rotations =
-        EstimateRotations(sparse.tracks, initial, options.rotation_solver);
+    const std::vector<Eigen::Matrix3d> rotations = EstimateRotations(sparse.tracks, initial);
     timer.Lap("rotation");
     sparse.rank_one = RankOneInit(sparse.tracks, initial, rotations, options.rank_one);
     timer.Lap("rank1");

@@ -30,7 +30,6 @@ const char* InitModeName(InitMode mode);
 
 struct SparseOptions {
   GridedFeatureOptions features;
-  RotationSolver rotation_solver = RotationSolver::kRotationOnly;
   RankOneOptions rank_one;
   BundleAdjustmentOptions bundle_adjustment;
   InitMode init = InitMode::kRankOne;
