@@ -19,10 +19,10 @@ namespace dfsm {
 // estimates is noise, and fitting it costs rotation accuracy; the rank-1 step
 // recovers the translation instead. rotationOnly is also closed-form (no
 // starting point, no iterations).
+//
 // Returns R_i with X_i = R_i X_ref + T_i for every frame (identity for the
 // reference). Bearings come from `camera` (the initial guess: f = max(w, h), k = 0).
-std::vector<Eigen::Matrix3d> EstimateRotations(
-    const FeatureTracks& tracks, const CameraModel& camera,
-    RotationSolver solver = RotationSolver::kRotationOnly);
+std::vector<Eigen::Matrix3d> EstimateRotations(const FeatureTracks& tracks,
+                                               const CameraModel& camera);
 
 }  // namespace dfsm
