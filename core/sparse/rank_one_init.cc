@@ -1,6 +1,7 @@
 #include "core/sparse/rank_one_init.h"
 
 #include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 
@@ -34,16 +35,28 @@ DerotatedFlow Derotate(const FeatureTracks& tracks, const CameraModel& camera,
   return flow;
 }
 
-// Residual of one observation under the exact bilinear model.
-Eigen::Vector2d Residual(const Eigen::Vector2d& p, const Eigen::Vector2d& q,
-                         const Eigen::Vector3d& C, double w) {
-  return (p - q) - w * (C.head<2>() - C.z() * q);
+// How a small correction delta of the frame's rotation (R_i <- R_i exp([delta]x))
+// moves a de-rotated observation q: the rotational flow field at q.
+Eigen::Matrix<double, 2, 3> RotationalFlow(const Eigen::Vector2d& q) {
+  Eigen::Matrix<double, 2, 3> B;
+  B << q.x() * q.y(), -(1.0 + q.x() * q.x()), q.y(), 1.0 + q.y() * q.y(), -q.x() * q.y(), -q.x();
+  return B;
 }
 
 struct Factors {
-  std::vector<Eigen::Vector3d> C;  // per non-reference frame
-  std::vector<double> w;           // per track
+  std::vector<Eigen::Vector3d> C;      // per non-reference frame
+  std::vector<Eigen::Vector3d> delta;  // per non-reference frame: rotation correction
+  std::vector<double> w;               // per track
 };
+
+// Residual of one observation: p - q = w (C - C_z q) + B(q) delta. The rotation
+// term absorbs what the rotation-only estimate got wrong: it took part of the
+// translation's parallax for rotation, and the leftover rotational flow, as
+// large as the parallax itself, would break the rank-1 structure.
+Eigen::Vector2d Residual(const Eigen::Vector2d& p, const Eigen::Vector2d& q,
+                         const Eigen::Vector3d& C, const Eigen::Vector3d& delta, double w) {
+  return (p - q) - w * (C.head<2>() - C.z() * q) - RotationalFlow(q) * delta;
+}
 
 // Rank-1 SVD of the 2(n-1) x m flow matrix (forward motion ignored).
 Factors InitialFactorization(const DerotatedFlow& flow, const std::vector<bool>& use) {
@@ -59,6 +72,7 @@ Factors InitialFactorization(const DerotatedFlow& flow, const std::vector<bool>&
   const Eigen::VectorXd w = A.transpose() * u;
   Factors factors;
   for (int k = 0; k < frames; ++k) factors.C.emplace_back(u(2 * k), u(2 * k + 1), 0.0);
+  factors.delta.assign(frames, Eigen::Vector3d::Zero());
   factors.w.assign(w.data(), w.data() + m);
   return factors;
 }
@@ -80,49 +94,91 @@ double Cost(const DerotatedFlow& flow, const Factors& f, const std::vector<bool>
   double cost = 0.0;
   for (size_t k = 0; k < f.C.size(); ++k)
     for (size_t j = 0; j < f.w.size(); ++j)
-      if (use[j]) cost += Residual(flow.p[j], flow.q[k][j], f.C[k], f.w[j]).squaredNorm();
+      if (use[j])
+        cost += Residual(flow.p[j], flow.q[k][j], f.C[k], f.delta[k], f.w[j]).squaredNorm();
   return cost;
 }
 
-// Alternating least squares on the exact model; returns the sweeps taken.
+// Levenberg-Marquardt on the exact model; returns the iterations taken.
+// Each inverse depth touches one column of the problem, so it is eliminated by
+// a Schur complement and every iteration solves a dense system over the
+// frames' 6 unknowns (centre and rotation correction) alone.
 int RefineBilinear(const DerotatedFlow& flow, Factors* f, const std::vector<bool>& use,
                    int max_iterations) {
-  const size_t frames = f->C.size(), m = f->w.size();
-  double previous = Cost(flow, *f, use);
+  const int frames = static_cast<int>(f->C.size());
+  const int m = static_cast<int>(f->w.size());
+  const int unknowns = 6 * frames;
+  double cost = Cost(flow, *f, use);
+  double lambda = 1e-6;
   int iteration = 0;
-  for (; iteration < max_iterations; ++iteration) {
-    // Every inverse depth given the centres (also for unused tracks, so that
-    // outliers get a value too).
-    for (size_t j = 0; j < m; ++j) {
-      double num = 0.0, den = 0.0;
-      for (size_t k = 0; k < frames; ++k) {
-        const Eigen::Vector2d g = f->C[k].head<2>() - f->C[k].z() * flow.q[k][j];
-        num += g.dot(flow.p[j] - flow.q[k][j]);
-        den += g.squaredNorm();
+  std::vector<Eigen::Matrix<double, 2, 6>> J(frames);
+  std::vector<Eigen::Vector2d> g(frames), r(frames);
+  for (; iteration < max_iterations && cost > 1e-30; ++iteration) {
+    Eigen::MatrixXd S = Eigen::MatrixXd::Zero(unknowns, unknowns);
+    Eigen::VectorXd rhs = Eigen::VectorXd::Zero(unknowns);
+    std::vector<double> h_ww(m, 0.0), b_w(m, 0.0);
+    std::vector<Eigen::VectorXd> h_tw(m);  // d^2 cost / d theta d w_j, all frames stacked
+    for (int j = 0; j < m; ++j) {
+      if (!use[j]) continue;
+      h_tw[j] = Eigen::VectorXd::Zero(unknowns);
+      for (int k = 0; k < frames; ++k) {
+        const Eigen::Vector2d& q = flow.q[k][j];
+        g[k] = f->C[k].head<2>() - f->C[k].z() * q;  // d residual / d w, negated
+        r[k] = Residual(flow.p[j], q, f->C[k], f->delta[k], f->w[j]);
+        J[k] << f->w[j], 0.0, -f->w[j] * q.x(), RotationalFlow(q).row(0), 0.0, f->w[j],
+            -f->w[j] * q.y(), RotationalFlow(q).row(1);
+        h_ww[j] += g[k].squaredNorm();
+        b_w[j] += g[k].dot(r[k]);
+        h_tw[j].segment<6>(6 * k) = J[k].transpose() * g[k];
+        S.block<6, 6>(6 * k, 6 * k) += J[k].transpose() * J[k];
+        rhs.segment<6>(6 * k) += J[k].transpose() * r[k];
       }
-      f->w[j] = den > 0.0 ? num / den : 0.0;
+      const double h = h_ww[j] * (1.0 + lambda);
+      if (h <= 0.0) continue;
+      rhs -= h_tw[j] * (b_w[j] / h);
+      S.selfadjointView<Eigen::Lower>().rankUpdate(h_tw[j], -1.0 / h);
     }
-    // Every centre given the inverse depths: 3x3 normal equations per frame.
-    for (size_t k = 0; k < frames; ++k) {
-      Eigen::Matrix3d N = Eigen::Matrix3d::Zero();
-      Eigen::Vector3d b = Eigen::Vector3d::Zero();
-      for (size_t j = 0; j < m; ++j) {
-        if (!use[j]) continue;
-        Eigen::Matrix<double, 2, 3> J;
-        J << 1.0, 0.0, -flow.q[k][j].x(), 0.0, 1.0, -flow.q[k][j].y();
-        J *= f->w[j];
-        N += J.transpose() * J;
-        b += J.transpose() * (flow.p[j] - flow.q[k][j]);
+    S = S.selfadjointView<Eigen::Lower>();
+    // Damping also handles the scale gauge (C, w) -> (sC, w/s), along which S is singular.
+    S.diagonal().array() += lambda * S.diagonal().array() + 1e-15;
+    const Eigen::VectorXd step = S.ldlt().solve(rhs);
+    Factors trial = *f;
+    for (int k = 0; k < frames; ++k) {
+      trial.C[k] += step.segment<3>(6 * k);
+      trial.delta[k] += step.segment<3>(6 * k + 3);
+    }
+    for (int j = 0; j < m; ++j) {
+      const double h = h_ww[j] * (1.0 + lambda);
+      if (!use[j] || h <= 0.0) continue;
+      trial.w[j] += (b_w[j] - h_tw[j].dot(step)) / h;
+    }
+    NormalizeGauge(&trial, use);
+    const double trial_cost = Cost(flow, trial, use);
+    if (trial_cost < cost) {
+      const double decrease = cost - trial_cost;
+      *f = std::move(trial);
+      cost = trial_cost;
+      lambda = std::max(lambda / 10.0, 1e-12);
+      if (decrease <= 1e-10 * cost) {
+        ++iteration;
+        break;
       }
-      f->C[k] = N.ldlt().solve(b);
+    } else {
+      lambda *= 10.0;
+      if (lambda > 1e8) break;
     }
-    NormalizeGauge(f, use);
-    const double cost = Cost(flow, *f, use);
-    if (previous - cost <= 1e-14 * previous || cost < 1e-30) {
-      ++iteration;
-      break;
+  }
+  // Tracks left out of the fit still get their best inverse depth.
+  for (int j = 0; j < m; ++j) {
+    if (use[j]) continue;
+    double num = 0.0, den = 0.0;
+    for (int k = 0; k < frames; ++k) {
+      const Eigen::Vector2d& q = flow.q[k][j];
+      const Eigen::Vector2d gk = f->C[k].head<2>() - f->C[k].z() * q;
+      num += gk.dot(flow.p[j] - q - RotationalFlow(q) * f->delta[k]);
+      den += gk.squaredNorm();
     }
-    previous = cost;
+    f->w[j] = den > 0.0 ? num / den : 0.0;
   }
   return iteration;
 }
@@ -141,25 +197,49 @@ RankOneResult RankOneInit(const FeatureTracks& tracks, const CameraModel& camera
   RankOneResult result;
   const int m = tracks.num_tracks();
   if (m < 3 || tracks.num_frames() < 2) return result;
-  const DerotatedFlow flow = Derotate(tracks, camera, rotations);
+  std::vector<Eigen::Matrix3d> refined = rotations;
+  DerotatedFlow flow = Derotate(tracks, camera, refined);
   std::vector<bool> use(m, true);
 
   Factors factors = InitialFactorization(flow, use);
   NormalizeGauge(&factors, use);
   for (int round = 0; round <= options.rejection_rounds; ++round) {
-    result.iterations += RefineBilinear(flow, &factors, use, options.max_iterations);
+    // The rotation correction is linearized: fold it into the rotations,
+    // de-rotate again and refine until it vanishes.
+    for (int relinearization = 0; relinearization < 5; ++relinearization) {
+      result.iterations += RefineBilinear(flow, &factors, use, options.max_iterations);
+      double largest = 0.0;
+      for (size_t k = 0; k < flow.frames.size(); ++k) {
+        const Eigen::Vector3d& delta = factors.delta[k];
+        largest = std::max(largest, delta.norm());
+        if (delta.norm() > 0.0)
+          refined[flow.frames[k]] *= Eigen::AngleAxisd(delta.norm(), delta.normalized()).matrix();
+        factors.delta[k].setZero();
+      }
+      flow = Derotate(tracks, camera, refined);
+      if (largest < 1e-9) break;  // radians: 2e-6 px at f = 2000
+    }
     // Per-track RMS residual in pixels.
-    std::vector<double> rms(m, 0.0), used_rms;
+    std::vector<double> rms(m, 0.0);
     for (int j = 0; j < m; ++j) {
       for (size_t k = 0; k < factors.C.size(); ++k)
-        rms[j] += Residual(flow.p[j], flow.q[k][j], factors.C[k], factors.w[j]).squaredNorm();
+        rms[j] += Residual(flow.p[j], flow.q[k][j], factors.C[k], factors.delta[k], factors.w[j])
+                      .squaredNorm();
       rms[j] = camera.f * std::sqrt(rms[j] / factors.C.size());
-      if (use[j]) used_rms.push_back(rms[j]);
     }
+    // Sigma from every track: outliers, a minority, barely move the median.
     const double threshold =
-        std::max(options.min_outlier_px, options.outlier_sigmas * RobustSigma(used_rms));
+        std::max(options.min_outlier_px, options.outlier_sigmas * RobustSigma(rms));
     std::vector<bool> next(m);
     for (int j = 0; j < m; ++j) next[j] = rms[j] <= threshold && factors.w[j] > 0.0;
+    if (round == 0) {
+      // The first fit saw the outliers too, and least squares spreads their
+      // error over every track (through the shared centres and rotation
+      // corrections). Refit on the better half before judging anyone.
+      std::vector<double> sorted = rms;
+      std::nth_element(sorted.begin(), sorted.begin() + m / 2, sorted.end());
+      for (int j = 0; j < m; ++j) next[j] = rms[j] <= sorted[m / 2] && factors.w[j] > 0.0;
+    }
     double sum = 0.0;
     int count = 0;
     for (int j = 0; j < m; ++j)
@@ -168,7 +248,7 @@ RankOneResult RankOneInit(const FeatureTracks& tracks, const CameraModel& camera
     const bool changed = next != use;
     use = next;
     if (count < 3) return result;
-    if (!changed) break;
+    if (!changed && round > 0) break;
   }
 
   result.inverse_depths = factors.w;
@@ -176,8 +256,8 @@ RankOneResult RankOneInit(const FeatureTracks& tracks, const CameraModel& camera
   result.poses.resize(tracks.num_frames());
   for (size_t k = 0; k < flow.frames.size(); ++k) {
     const int i = flow.frames[k];
-    result.poses[i].R = rotations[i];
-    result.poses[i].T = -rotations[i] * factors.C[k];
+    result.poses[i].R = refined[i];
+    result.poses[i].T = -refined[i] * factors.C[k];
   }
   result.ok = true;
   return result;

@@ -109,8 +109,9 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
 
   sparse.bundle_adjustment =
       RunBundleAdjustment(sparse.tracks, use, &state, options.bundle_adjustment);
-  // One round of outlier rejection on the adjusted model, then a short re-run
-  // from the adjusted state.
+  // Judge every track again under the adjusted camera: tracks the initial
+  // camera made look wrong come back, tracks that do not fit go, and a short
+  // re-run from the adjusted state settles the final set.
   {
     const std::vector<double> errors = TrackReprojectionErrors(sparse.tracks, state);
     std::vector<double> used_errors;
@@ -119,7 +120,7 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
     const double threshold = std::max(options.outlier_px, 4.0 * RobustSigma(used_errors));
     std::vector<bool> kept(tracked);
     for (int j = 0; j < tracked; ++j)
-      kept[j] = use[j] && errors[j] <= threshold && state.inverse_depths[j] > 0.0;
+      kept[j] = errors[j] <= threshold && state.inverse_depths[j] > 0.0;
     if (kept != use && std::count(kept.begin(), kept.end(), true) >= options.min_tracks) {
       use = kept;
       const BundleAdjustmentSummary first = sparse.bundle_adjustment;
