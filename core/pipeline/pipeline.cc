@@ -2,8 +2,9 @@
 
 #include <chrono>
 
+#include "core/export/calibration_export.h"
+#include "core/export/depth_export.h"
 #include "core/export/ply.h"
-#include "core/export/result_outputs.h"
 
 namespace dfsm {
 namespace {
@@ -101,8 +102,12 @@ void WritePipelineOutputs(const std::filesystem::path& out_dir, const Burst& bur
     const auto start = std::chrono::steady_clock::now();
     const SparseReconstruction& sparse = *output->sparse;
     WritePly(out_dir / "sparse_points.ply", SparsePointCloud(sparse, burst.reference_color));
-    WriteCalibrationFiles(out_dir, sparse.state.camera);
-    if (output->dense) WriteDenseOutputs(out_dir, burst, sparse.state.camera, *output->dense);
+    output->result.extra["calibration_files"] = WriteCalibrationFiles(out_dir, sparse.state.camera);
+    if (output->dense) {
+      const DenseDepth& dense = *output->dense;
+      output->result.extra["depth_outputs"] = WriteDepthOutputs(
+          out_dir, dense.depth, dense.confidence, burst.reference_color, sparse.state.camera);
+    }
     output->result.extra["write_ms"] = MillisecondsSince(start);
   }
   // result.json goes last: its presence marks a complete result directory.

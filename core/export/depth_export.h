@@ -1,0 +1,37 @@
+// Files a user looks at or loads elsewhere, made from a dense depth map:
+// depth.tiff (the contract's float32 depth), depth.png (16-bit, scaled),
+// confidence.png, preview.png (reference beside colourised inverse depth) and
+// points.ply (a coloured, subsampled point cloud).
+#pragma once
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+#include <vector>
+
+#include "core/camera/camera_model.h"
+#include "core/export/ply.h"
+
+namespace dfsm {
+
+struct DepthExportOptions {
+  int max_points = 250000;  // points.ply is subsampled on a regular grid to at most this
+};
+
+// depth: CV_32FC1 on the captured grid, 0 = none; confidence: CV_32FC1 in [0, 1]
+// (may be empty); reference_color: BGR8 or gray8 reference frame. Writes every
+// file atomically and returns their description for result.json, including
+// the scale of depth.png (depth = value * scale).
+nlohmann::json WriteDepthOutputs(const std::filesystem::path& out_dir, const cv::Mat& depth,
+                                 const cv::Mat& confidence, const cv::Mat& reference_color,
+                                 const CameraModel& camera, const DepthExportOptions& options = {});
+
+// The preview image: the reference frame beside its inverse depth in the turbo
+// colour map (near = red, far = blue, black = no estimate).
+cv::Mat DepthPreview(const cv::Mat& depth, const cv::Mat& reference_color);
+
+// Back-projects every `stride`-th valid pixel through the camera model.
+std::vector<ColoredPoint> DepthPointCloud(const cv::Mat& depth, const cv::Mat& reference_color,
+                                          const CameraModel& camera, int stride);
+
+}  // namespace dfsm

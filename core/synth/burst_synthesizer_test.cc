@@ -1,0 +1,155 @@
+#include "core/synth/burst_synthesizer.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <opencv2/imgproc.hpp>
+
+#include "core/io/ground_truth.h"
+#include "core/synth/camera_path.h"
+
+namespace dfsm {
+namespace {
+
+SynthOptions SmallOptions() {
+  SynthOptions options;
+  options.width = 320;
+  options.height = 240;
+  options.frames = 5;
+  options.noise_sigma = 0.0;
+  options.supersampling = 2;
+  return options;
+}
+
+// Mean absolute grey difference between the reference and frame i sampled at
+// where the ground truth says each reference pixel moved, with `shift` added
+// to the predicted position. The contract's geometry holds when the
+// unshifted prediction matches far better than a shifted one.
+double WarpError(const SynthBurst& burst, int i, double shift) {
+  const CameraModel& camera = burst.truth.camera;
+  const Pose& pose = burst.truth.poses[i];
+  cv::Mat reference, frame;
+  cv::cvtColor(burst.frames[0], reference, cv::COLOR_BGR2GRAY);
+  cv::cvtColor(burst.frames[i], frame, cv::COLOR_BGR2GRAY);
+  double sum = 0.0;
+  int count = 0;
+  for (int v = 20; v < camera.height - 20; v += 3) {
+    for (int u = 20; u < camera.width - 20; u += 3) {
+      const double depth = burst.truth.depth.at<float>(v, u);
+      const Eigen::Vector2d x = camera.PixelToUndistorted(Eigen::Vector2d(u, v));
+      const Eigen::Vector3d X = pose.Transform(depth * Eigen::Vector3d(x.x(), x.y(), 1.0));
+      const auto pixel = camera.UndistortedToPixel(X.head<2>() / X.z());
+      if (!pixel) continue;
+      cv::Mat sample;
+      cv::getRectSubPix(
+          frame, cv::Size(1, 1),
+          cv::Point2f(static_cast<float>(pixel->x() + shift), static_cast<float>(pixel->y())),
+          sample, CV_32F);
+      sum += std::abs(sample.at<float>(0, 0) - reference.at<uchar>(v, u));
+      ++count;
+    }
+  }
+  return sum / count;
+}
+
+TEST(BurstSynthesizer, FramesFollowTheGroundTruthGeometry) {
+  const SynthBurst burst = SynthesizeBurst(SmallOptions());
+  ASSERT_EQ(burst.frames.size(), 5u);
+  for (int i = 1; i < 5; ++i) {
+    const double aligned = WarpError(burst, i, 0.0);
+    EXPECT_LT(aligned, 4.0) << "frame " << i;
+    EXPECT_LT(aligned * 2.0, WarpError(burst, i, 1.5)) << "frame " << i;
+  }
+}
+
+TEST(BurstSynthesizer, MotionMatchesTheRequestedBaselineAndRotation) {
+  SynthOptions options = SmallOptions();
+  options.baseline = 0.01;
+  options.rotation_deg = 0.8;
+  const SynthBurst burst = SynthesizeBurst(options);
+  double widest = 0.0, largest_rotation = 0.0;
+  for (const Pose& a : burst.truth.poses) {
+    largest_rotation =
+        std::max(largest_rotation, RotationErrorDeg(a.R, Eigen::Matrix3d::Identity()));
+    for (const Pose& b : burst.truth.poses)
+      widest = std::max(widest, (a.Centre() - b.Centre()).norm());
+  }
+  EXPECT_NEAR(widest, 0.01, 1e-9);
+  EXPECT_NEAR(largest_rotation, 0.8, 1e-6);
+  EXPECT_TRUE(burst.truth.poses[0].R.isIdentity());
+  EXPECT_EQ(burst.truth.poses[0].T.norm(), 0.0);
+}
+
+TEST(BurstSynthesizer, DepthCoversTheImageWithSeveralLayers) {
+  const SynthBurst burst = SynthesizeBurst(SmallOptions());
+  double lowest, highest;
+  cv::minMaxLoc(burst.truth.depth, &lowest, &highest);
+  EXPECT_GT(lowest, 0.5);
+  EXPECT_LT(highest, 10.0);
+  EXPECT_GT(highest / lowest, 2.0) << "the scene needs depth contrast";
+  EXPECT_EQ(cv::countNonZero(burst.truth.depth), 320 * 240);
+}
+
+TEST(BurstSynthesizer, IsDeterministicAndSeedDependent) {
+  SynthOptions options = SmallOptions();
+  options.noise_sigma = 1.0;
+  const SynthBurst a = SynthesizeBurst(options), b = SynthesizeBurst(options);
+  EXPECT_EQ(cv::norm(a.frames[2], b.frames[2], cv::NORM_INF), 0.0);
+  options.seed = 2;
+  const SynthBurst c = SynthesizeBurst(options);
+  EXPECT_GT(cv::norm(a.frames[2], c.frames[2], cv::NORM_L1), 0.0);
+}
+
+TEST(BurstSynthesizer, RoundTripsThroughTheBurstFormat) {
+  SynthOptions options = SmallOptions();
+  options.color = false;
+  options.jpeg_quality = 90;
+  const SynthBurst synth = SynthesizeBurst(options);
+  const auto dir = std::filesystem::temp_directory_path() / "dfsm_synth_test_burst";
+  std::filesystem::remove_all(dir);
+  WriteSynthBurst(dir, synth);
+  const Burst burst = ReadBurst(dir);
+  const Burst in_memory = ToBurst(synth);
+  ASSERT_EQ(burst.size(), 5);
+  EXPECT_EQ(burst.manifest.pixel_format, "gray8");
+  for (int i = 0; i < 5; ++i)
+    EXPECT_EQ(cv::norm(burst.gray[i], in_memory.gray[i], cv::NORM_INF), 0);
+  const GroundTruth truth = ReadGroundTruth(dir);
+  EXPECT_EQ(truth.camera.f, synth.truth.camera.f);
+  EXPECT_EQ(cv::norm(truth.depth, synth.truth.depth, cv::NORM_INF), 0.0);
+  ASSERT_EQ(truth.poses.size(), 5u);
+  EXPECT_TRUE(truth.poses[3].T.isApprox(synth.truth.poses[3].T));
+  std::filesystem::remove_all(dir);
+}
+
+TEST(BurstSynthesizer, RejectsBadOptionsByName) {
+  SynthOptions options = SmallOptions();
+  options.frames = 2;
+  EXPECT_THROW(
+      {
+        try {
+          SynthesizeBurst(options);
+        } catch (const std::invalid_argument& e) {
+          EXPECT_NE(std::string(e.what()).find("frames"), std::string::npos);
+          throw;
+        }
+      },
+      std::invalid_argument);
+  options = SmallOptions();
+  options.k1 = -2.0;  // folds the image
+  EXPECT_THROW(SynthesizeBurst(options), std::invalid_argument);
+}
+
+TEST(BurstSynthesizer, ProceduralTexturesStandInForMissingPhotographs) {
+  SynthOptions options = SmallOptions();
+  options.texture_dir = "/nonexistent";
+  options.frames = 3;
+  const SynthBurst burst = SynthesizeBurst(options);
+  cv::Scalar mean, stddev;
+  cv::meanStdDev(burst.frames[0], mean, stddev);
+  EXPECT_GT(stddev[0], 10.0);
+  EXPECT_EQ(burst.manifest.source["synthetic"]["textures"][0], "procedural");
+}
+
+}  // namespace
+}  // namespace dfsm
