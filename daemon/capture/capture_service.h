@@ -56,8 +56,8 @@ struct CaptureStatus {
   std::string device, driver, card;
   std::string format;  // fourcc or libcamera pixel format as negotiated
   int width = 0, height = 0;
-  double fps = 0.0;         // negotiated (or measured) rate
-  bool streaming = false;   // frames arrived within frame_timeout
+  double fps = 0.0;        // negotiated (or measured) rate
+  bool streaming = false;  // frames arrived within frame_timeout
   uint64_t frames_captured = 0;
   uint64_t frames_dropped = 0;  // sequence gaps + buffers flagged with errors
   uint64_t reconnects = 0;
@@ -70,9 +70,9 @@ enum class BurstWhen { kLast, kNext };
 
 struct CapturedFrame {
   int64_t sequence = 0;
-  int64_t timestamp_ns = 0;  // CLOCK_MONOTONIC
-  cv::Mat gray;              // CV_8UC1
-  cv::Mat color;             // CV_8UC3 BGR where the source has colour, else empty
+  int64_t timestamp_ns = 0;     // CLOCK_MONOTONIC
+  cv::Mat gray;                 // CV_8UC1
+  cv::Mat color;                // CV_8UC3 BGR where the source has colour, else empty
   int64_t source_sequence = 0;  // the driver's own sequence (replay: index in its burst)
 };
 
@@ -96,7 +96,7 @@ class CaptureService {
   // (device, driver, card, format, fps, exposure where known, sequence range).
   // Throws CaptureUnavailable (not streaming, too few frames, gap, timeout).
   struct Burst {
-    BurstManifest manifest;  // frames[].file empty; WriteBurst fills them in
+    BurstManifest manifest;       // frames[].file empty; WriteBurst fills them in
     std::vector<cv::Mat> frames;  // BGR8 if the source has colour, else gray8
   };
   virtual Burst GrabBurst(int frames, BurstWhen when, std::chrono::milliseconds timeout) = 0;

@@ -1,0 +1,82 @@
+// CaptureService::Create: checks the configuration and picks the frame source
+// named by the URI's scheme.
+#include "daemon/capture/capture_service.h"
+
+#include <cmath>
+#include <filesystem>
+
+#include "daemon/capture/replay_source.h"
+#include "daemon/capture/source_uri.h"
+#include "daemon/capture/streaming_service.h"
+#ifdef DFSM_HAVE_LIBCAMERA
+#include "daemon/capture/libcamera_source.h"
+#endif
+#ifdef DFSM_HAVE_SYNTH
+#include "daemon/capture/synthetic_source.h"
+#endif
+
+namespace dfsm::capture {
+
+namespace {
+
+void CheckConfig(const CaptureConfig& config) {
+  const auto fail = [](const std::string& message) { throw CaptureConfigError(message); };
+  if (config.width < 0 || config.height < 0)
+    fail("capture size " + std::to_string(config.width) + "x" + std::to_string(config.height) +
+         " is negative");
+  if ((config.width == 0) != (config.height == 0))
+    fail("capture width and height must be given together (or both 0 for the default)");
+  if (config.ring_frames < 3 || config.ring_frames > 4096)
+    fail("ring_frames " + std::to_string(config.ring_frames) + " is outside 3..4096");
+  if (config.device_buffers < 4 || config.device_buffers > 32)
+    fail("device_buffers " + std::to_string(config.device_buffers) + " is outside 4..32");
+  if (config.frame_timeout.count() <= 0) fail("frame_timeout must be positive");
+  if (config.reconnect_backoff.count() < 0) fail("reconnect_backoff must not be negative");
+  if (!std::isfinite(config.fps)) fail("fps must be a finite number");
+}
+
+}  // namespace
+
+std::unique_ptr<CaptureService> CaptureService::Create(const CaptureConfig& config) {
+  CheckConfig(config);
+  const SourceUri uri = ParseSourceUri(config.source);  // throws CaptureConfigError
+  std::unique_ptr<FrameSource> source;
+  if (uri.scheme == "replay") {
+    if (uri.path.empty())
+      throw CaptureConfigError("source \"" + config.source +
+                               "\": replay needs a burst directory, e.g. replay:/var/lib/dfsm/b1");
+    try {
+      ReplaySource::FindBursts(uri.path);
+    } catch (const SourceError& e) {
+      throw CaptureConfigError(std::string("source: ") + e.what());
+    }
+    source = std::make_unique<ReplaySource>(uri.path, config.fps);
+  } else if (config.fps < 0) {
+    throw CaptureConfigError("fps " + std::to_string(config.fps) +
+                             " is negative: only a replay can run unpaced");
+  } else if (uri.scheme == "v4l2") {
+    if (uri.path.empty())
+      throw CaptureConfigError("source \"" + config.source +
+                               "\": v4l2 needs a device path, e.g. v4l2:/dev/video0");
+    throw CaptureConfigError("source \"" + config.source +
+                             "\": V4L2 capture lands in the next commit");
+  } else if (uri.scheme == "libcamera") {
+#ifdef DFSM_HAVE_LIBCAMERA
+    source = std::make_unique<LibcameraSource>(uri.path, config);
+#else
+    throw CaptureConfigError("source \"" + config.source +
+                             "\": this build has no libcamera support (libcamera-dev was not "
+                             "found when it was built)");
+#endif
+  } else if (uri.scheme == "synthetic") {
+#ifdef DFSM_HAVE_SYNTH
+    source = std::make_unique<SyntheticSource>(config);
+#else
+    throw CaptureConfigError("source \"" + config.source +
+                             "\": this build has no synthetic source (core/synth missing)");
+#endif
+  }
+  return std::make_unique<StreamingCaptureService>(config, std::move(source));
+}
+
+}  // namespace dfsm::capture

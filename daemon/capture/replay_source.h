@@ -1,0 +1,53 @@
+// Plays recorded bursts (dfsm-burst/1) as if a camera delivered them: one burst
+// directory, or a directory whose subdirectories are bursts (played in name
+// order), looped forever. Frames come at the recorded rate (from the
+// manifest's timestamps), at a fixed rate, or as fast as they are read.
+//
+// Moving from a burst's last frame back to its first (or to the next burst) is
+// reported as a discontinuity, so no grabbed burst ever spans the seam.
+// Memory: the decoded frames of one burst at a time.
+#pragma once
+
+#include <chrono>
+#include <filesystem>
+#include <vector>
+
+#include "daemon/capture/frame_source.h"
+
+namespace dfsm::capture {
+
+class ReplaySource : public FrameSource {
+ public:
+  // fps > 0: that rate; fps == 0: the recorded rate (30 fps where timestamps
+  // are missing); fps < 0: no pacing at all.
+  ReplaySource(std::filesystem::path root, double fps);
+
+  // The bursts under `root`, in play order. Throws SourceError(kConfig) when
+  // there are none.
+  static std::vector<std::filesystem::path> FindBursts(const std::filesystem::path& root);
+
+  void Open() override;
+  void Close() override;
+  ReadResult Read(FrameSlot& slot, std::chrono::milliseconds timeout) override;
+  SourceDescription Describe() const override;
+
+ private:
+  struct Frame {
+    cv::Mat gray;
+    cv::Mat color;            // empty for gray bursts
+    int64_t interval_ns = 0;  // until the next frame, at the recorded rate
+  };
+  void LoadBurst(size_t index);
+
+  const std::filesystem::path root_;
+  const double fps_;
+  std::vector<std::filesystem::path> bursts_;
+  size_t burst_index_ = 0;
+  std::vector<Frame> frames_;
+  size_t next_frame_ = 0;
+  bool seam_ = false;  // the next frame starts a new pass
+  bool open_ = false;
+  std::chrono::steady_clock::time_point due_;
+};
+
+}  // namespace dfsm::capture

@@ -1,0 +1,67 @@
+// The CaptureService implementation: one FrameSource read by a capture thread
+// of its own into a FrameRing, with reopening after failures, and bursts of
+// consecutive frames copied out of the ring on request.
+//
+// Sequence numbers are the service's own: they increase by one per frame that
+// followed its predecessor without loss, and skip ahead by the number of frames
+// the source reports lost (driver sequence gaps, error buffers), plus one at
+// every discontinuity (a reopened device, a replay seam). A gap between two
+// sequence numbers therefore always means "not consecutive in time", and
+// GrabBurst never returns frames across one.
+#pragma once
+
+#include <atomic>
+#include <condition_variable>
+#include <memory>
+#include <mutex>
+#include <thread>
+
+#include "daemon/capture/capture_service.h"
+#include "daemon/capture/frame_ring.h"
+#include "daemon/capture/frame_source.h"
+
+namespace dfsm::capture {
+
+class StreamingCaptureService : public CaptureService {
+ public:
+  StreamingCaptureService(CaptureConfig config, std::unique_ptr<FrameSource> source);
+  ~StreamingCaptureService() override;
+
+  void Start() override;
+  void Stop() override;
+  CaptureStatus Status() const override;
+  Burst GrabBurst(int frames, BurstWhen when, std::chrono::milliseconds timeout) override;
+  std::optional<CapturedFrame> LatestFrame() const override;
+
+ private:
+  void Run();
+  bool OpenSource();
+  void LoseSource(const std::string& error, bool gone);
+  void SleepUnlessStopped(std::chrono::milliseconds duration);
+  void ApplyHoldRequest();
+
+  const CaptureConfig config_;
+  const std::unique_ptr<FrameSource> source_;
+  // Logically const readers copy out of the ring; the ring has its own lock.
+  mutable FrameRing ring_;
+
+  std::thread thread_;
+  std::atomic<bool> stop_{false};
+  std::mutex stop_mutex_;
+  std::condition_variable stop_cv_;
+
+  // Counts bursts being taken: while positive, the source holds its automatic
+  // controls (applied by the capture thread, which owns the source).
+  std::atomic<int> holds_{0};
+  bool holding_ = false;  // capture thread only
+
+  mutable std::mutex status_mutex_;
+  CaptureStatus status_;           // guarded by status_mutex_
+  SourceDescription description_;  // guarded by status_mutex_
+  bool ever_opened_ = false;       // capture thread only
+  int64_t next_sequence_ = 0;      // capture thread only
+  std::atomic<bool> streaming_{false};
+  std::atomic<bool> gone_{false};  // the last failure was a device that went away
+};
+
+}  // namespace dfsm::capture
