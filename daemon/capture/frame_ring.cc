@@ -44,8 +44,15 @@ FrameRing::Buffer* FrameRing::FindFreeLocked() {
   for (auto& buffer : buffers_)
     if (!buffer->in_ring && buffer->pins == 0 && buffer.get() != staging_) return buffer.get();
   if (static_cast<int>(buffers_.size()) < max_buffers_) {
+    // A spare, needed only while readers pin buffers: give it the ring's size
+    // now, so the source does not allocate in the capture path.
     buffers_.push_back(std::make_unique<Buffer>());
-    return buffers_.back().get();
+    Buffer* spare = buffers_.back().get();
+    if (width_ > 0) {
+      spare->slot.gray.create(height_, width_, CV_8UC1);
+      if (color_) spare->slot.color.create(height_, width_, CV_8UC3);
+    }
+    return spare;
   }
   return nullptr;
 }

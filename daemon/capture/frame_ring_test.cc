@@ -100,6 +100,7 @@ TEST(FrameRing, ConcurrentReadersNeverSeeATornFrame) {
     for (int i = 0; i < 3000; ++i) {
       FrameSlot* slot = ring.Staging();
       if (slot == nullptr) continue;  // readers hold every spare: drop
+      slot->gray.create(64, 64, CV_8UC1);
       slot->gray.setTo(static_cast<uint8_t>(i & 0xff));
       ring.Publish(i);
     }

@@ -67,8 +67,10 @@ TEST_F(ReplaySourceTest, PacesAtTheRecordedRate) {
     ASSERT_EQ(source.Read(slot, std::chrono::milliseconds(500)), ReadResult::kFrame);
     stamps.push_back(slot.timestamp_ns);
   }
-  for (size_t i = 1; i < stamps.size(); ++i)
-    EXPECT_GE(stamps[i] - stamps[i - 1], 19000000) << "frame " << i << " came early";
+  // Paced from a schedule: single intervals jitter with wake-up latency, the
+  // sum does not.
+  EXPECT_GE(stamps.back() - stamps.front(), 3 * 20000000 - 2000000);
+  EXPECT_LT(stamps.back() - stamps.front(), 3 * 20000000 + 40000000);
 }
 
 TEST_F(ReplaySourceTest, ShortTimeoutBeforeTheNextFrameIsATimeout) {
