@@ -16,6 +16,26 @@ struct DenseOptions {
   int planes = 128;
   // Fraction of the sparse inverse-depth range added on both sides of the sweep.
   double inverse_depth_margin = 0.2;
+
+  // Coarse-to-fine: every plane is swept at 1/coarse_scale of the resolution;
+  // full resolution then searches 2 * refine_radius + 1 planes of the same
+  // lattice around the upsampled coarse winner. coarse_scale 1 sweeps every
+  // plane at full resolution (slow; for comparisons).
+  int coarse_scale = 4;
+  int refine_radius = 4;
+  // Aggregation window half-widths (pixels of the respective level).
+  int coarse_window_radius = 2;
+  int fine_window_radius = 3;
+  // Gaussian pre-filter of every frame (captured pixels): evens out the blur
+  // of bilinear resampling and the sensor/JPEG noise. 0: none.
+  double prefilter_sigma = 0.8;
+  float truncation = 24.0f;  // grey levels, see PhotoCostOptions
+  // Pixels whose confidence (distinctiveness of the cost minimum) is lower get no depth.
+  double min_confidence = 0.1;
+  // Edge-aware refinement: confidence-weighted guided filter on inverse depth,
+  // guided by the reference image. radius 0: off.
+  int guided_radius = 8;
+  double guided_eps = 1e-3;  // on a [0, 1] guide
 };
 
 struct DenseDepth {

@@ -1,0 +1,203 @@
+#include "core/dense/dense_depth.h"
+
+#include <chrono>
+#include <cmath>
+#include <opencv2/imgproc.hpp>
+#include <stdexcept>
+#include <string>
+
+#include "core/dense/guided_filter.h"
+#include "core/dense/inverse_depth_lattice.h"
+#include "core/dense/plane_selection.h"
+#include "core/dense/plane_sweep.h"
+#include "core/dense/radial_inverse.h"
+#include "core/dense/sweep_level.h"
+
+namespace dfsm {
+namespace {
+
+class StageTimer {
+ public:
+  explicit StageTimer(std::vector<std::pair<std::string, double>>* timings)
+      : timings_(timings), start_(std::chrono::steady_clock::now()) {}
+  void Lap(const std::string& stage) {
+    const auto now = std::chrono::steady_clock::now();
+    timings_->emplace_back(stage, std::chrono::duration<double, std::milli>(now - start_).count());
+    start_ = now;
+  }
+
+ private:
+  std::vector<std::pair<std::string, double>>* timings_;
+  std::chrono::steady_clock::time_point start_;
+};
+
+void Require(bool condition, const std::string& message) {
+  if (!condition) throw std::invalid_argument("dense: " + message);
+}
+
+void ValidateInputs(const Burst& burst, const CameraModel& camera, const std::vector<Pose>& poses,
+                    const DenseOptions& options) {
+  Require(burst.size() >= 2,
+          "need the reference and at least one other frame, got " + std::to_string(burst.size()));
+  Require(burst.reference() >= 0 && burst.reference() < burst.size(),
+          "reference index " + std::to_string(burst.reference()) + " outside the " +
+              std::to_string(burst.size()) + " frames");
+  Require(static_cast<int>(poses.size()) == burst.size(),
+          std::to_string(poses.size()) + " poses for " + std::to_string(burst.size()) + " frames");
+  Require(camera.width == burst.width() && camera.height == burst.height(),
+          "camera is " + std::to_string(camera.width) + "x" + std::to_string(camera.height) +
+              " but the burst is " + std::to_string(burst.width()) + "x" +
+              std::to_string(burst.height()));
+  for (int i = 0; i < burst.size(); ++i) {
+    const cv::Mat& frame = burst.gray[i];
+    Require(frame.type() == CV_8UC1 && frame.cols == burst.width() && frame.rows == burst.height(),
+            "frame " + std::to_string(i) + " is not 8-bit gray of the burst's size");
+    Require(poses[i].R.allFinite() && poses[i].T.allFinite(),
+            "pose " + std::to_string(i) + " is not finite");
+  }
+  Require(options.coarse_scale >= 1, "coarse_scale must be >= 1");
+  Require(burst.width() / options.coarse_scale >= 8 && burst.height() / options.coarse_scale >= 8,
+          "image " + std::to_string(burst.width()) + "x" + std::to_string(burst.height()) +
+              " too small for coarse_scale " + std::to_string(options.coarse_scale));
+  Require(options.refine_radius >= 1 && 2 * options.refine_radius + 1 <= options.planes,
+          "refine_radius must be >= 1 and fit 2 * refine_radius + 1 planes in the lattice");
+  Require(options.coarse_window_radius >= 0 && options.fine_window_radius >= 0,
+          "window radii must be >= 0");
+  Require(
+      options.prefilter_sigma >= 0.0 && options.truncation > 0.0f &&
+          options.min_confidence >= 0.0 && options.guided_radius >= 0 && options.guided_eps > 0.0,
+      "prefilter_sigma, min_confidence, guided_radius must be >= 0; truncation, guided_eps > 0");
+}
+
+cv::Mat Prefiltered(const cv::Mat& gray, double sigma) {
+  cv::Mat image;
+  gray.convertTo(image, CV_32F);
+  if (sigma > 0.0) cv::GaussianBlur(image, image, cv::Size(), sigma, sigma, cv::BORDER_REPLICATE);
+  return image;
+}
+
+}  // namespace
+
+DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
+                             const std::vector<Pose>& poses,
+                             const std::vector<double>& sparse_inverse_depths,
+                             const DenseOptions& options) {
+  ValidateInputs(burst, camera, poses, options);
+  const InverseDepthLattice lattice = InverseDepthLattice::FromSparse(
+      sparse_inverse_depths, options.inverse_depth_margin, options.planes);
+  DenseDepth result;
+  result.min_inverse_depth = lattice.min_inverse_depth;
+  result.max_inverse_depth = lattice.max_inverse_depth;
+  result.planes = lattice.planes;
+  StageTimer timer(&result.timings_ms);
+
+  const RadialInverse radial(camera);
+  const cv::Mat reference = Prefiltered(burst.gray[burst.reference()], options.prefilter_sigma);
+  std::vector<cv::Mat> frames;
+  std::vector<Pose> other_poses;
+  for (int i = 0; i < burst.size(); ++i) {
+    if (i == burst.reference()) continue;
+    frames.push_back(Prefiltered(burst.gray[i], options.prefilter_sigma));
+    other_poses.push_back(poses[i]);
+  }
+  timer.Lap("prepare");
+
+  PhotoCostOptions cost;
+  cost.truncation = options.truncation;
+  const int scale = options.coarse_scale;
+  const SweepLevel coarse = MakeSweepLevel(reference, frames, other_poses, camera, radial, scale);
+  cost.window_radius = options.coarse_window_radius;
+  std::vector<cv::Mat> coarse_costs = SweepAllPlanes(coarse, lattice, cost);
+  timer.Lap("coarse_sweep");
+  PlaneSelection coarse_selection = SelectPlanes(coarse_costs);
+  coarse_costs.clear();
+  timer.Lap("coarse_select");
+
+  cv::Mat plane, confidence;
+  if (scale == 1) {
+    plane = coarse_selection.plane;
+    confidence = coarse_selection.confidence;
+  } else {
+    // A 3x3 median drops isolated coarse outliers before they seed the window.
+    cv::Mat coarse_plane;
+    cv::medianBlur(coarse_selection.plane, coarse_plane, 3);
+    const cv::Size full(burst.width(), burst.height());
+    // Level pixel x sits at captured scale * x + (scale - 1) / 2, which is
+    // exactly the pixel-centre alignment of cv::resize.
+    const cv::Size covered(coarse_plane.cols * scale, coarse_plane.rows * scale);
+    cv::Mat centre, coarse_confidence;
+    cv::resize(coarse_plane, centre, covered, 0, 0, cv::INTER_LINEAR);
+    cv::resize(coarse_selection.confidence, coarse_confidence, covered, 0, 0, cv::INTER_LINEAR);
+    // Rows/columns lost to the integer downsampling copy their neighbours.
+    cv::copyMakeBorder(centre, centre, 0, full.height - covered.height, 0,
+                       full.width - covered.width, cv::BORDER_REPLICATE);
+    cv::copyMakeBorder(coarse_confidence, coarse_confidence, 0, full.height - covered.height, 0,
+                       full.width - covered.width, cv::BORDER_REPLICATE);
+    const int window = 2 * options.refine_radius + 1;
+    cv::Mat first(full, CV_32SC1);
+    for (int y = 0; y < full.height; ++y) {
+      const float* c = centre.ptr<float>(y);
+      int* f = first.ptr<int>(y);
+      for (int x = 0; x < full.width; ++x)
+        f[x] = std::clamp(static_cast<int>(std::lround(c[x])) - options.refine_radius, 0,
+                          lattice.planes - window);
+    }
+    const SweepLevel fine = MakeSweepLevel(reference, frames, other_poses, camera, radial, 1);
+    timer.Lap("upsample");
+    cost.window_radius = options.fine_window_radius;
+    const std::vector<cv::Mat> fine_costs = SweepPlaneWindow(fine, lattice, first, window, cost);
+    timer.Lap("fine_sweep");
+    const PlaneSelection fine_selection = SelectPlanes(fine_costs, first);
+    plane = fine_selection.plane;
+    // A winner on the window's edge means the coarse seed was off by more than
+    // the window: the true minimum lies outside what was searched.
+    confidence = coarse_confidence;
+    for (int y = 0; y < full.height; ++y) {
+      const uchar* edge = fine_selection.at_edge.ptr<uchar>(y);
+      const float* p = plane.ptr<float>(y);
+      float* c = confidence.ptr<float>(y);
+      for (int x = 0; x < full.width; ++x) {
+        const bool lattice_end = p[x] < 0.5f || p[x] > lattice.planes - 1.5f;
+        if (p[x] < 0.0f || (edge[x] && !lattice_end)) c[x] = 0.0f;
+      }
+    }
+    timer.Lap("fine_select");
+  }
+
+  const float min_confidence = static_cast<float>(options.min_confidence);
+  cv::Mat weight(plane.size(), CV_32FC1);
+  for (int y = 0; y < plane.rows; ++y) {
+    const float* p = plane.ptr<float>(y);
+    const float* c = confidence.ptr<float>(y);
+    float* wt = weight.ptr<float>(y);
+    for (int x = 0; x < plane.cols; ++x)
+      wt[x] = (p[x] >= 0.0f && c[x] >= min_confidence) ? c[x] : 0.0f;
+  }
+  if (options.guided_radius > 0) {
+    cv::Mat guide;
+    burst.gray[burst.reference()].convertTo(guide, CV_32F, 1.0 / 255.0);
+    plane = WeightedGuidedFilter(guide, plane, weight, options.guided_radius,
+                                 static_cast<float>(options.guided_eps));
+  }
+
+  result.depth = cv::Mat::zeros(plane.size(), CV_32FC1);
+  result.confidence = confidence;
+  int valid = 0;
+  for (int y = 0; y < plane.rows; ++y) {
+    const float* p = plane.ptr<float>(y);
+    const float* wt = weight.ptr<float>(y);
+    float* d = result.depth.ptr<float>(y);
+    for (int x = 0; x < plane.cols; ++x) {
+      if (wt[x] <= 0.0f) continue;
+      const double w = lattice.At(p[x]);
+      if (!(w > 0.0)) continue;
+      d[x] = static_cast<float>(1.0 / w);
+      ++valid;
+    }
+  }
+  result.valid_fraction = static_cast<double>(valid) / plane.total();
+  timer.Lap("refine");
+  return result;
+}
+
+}  // namespace dfsm

@@ -1,0 +1,68 @@
+#include "core/dense/plane_selection.h"
+
+#include <algorithm>
+
+#include "core/dense/plane_sweep.h"
+
+namespace dfsm {
+
+PlaneSelection SelectPlanes(const std::vector<cv::Mat>& costs, const cv::Mat& first_plane) {
+  CV_Assert(!costs.empty());
+  const int n = static_cast<int>(costs.size());
+  const cv::Size size = costs[0].size();
+  PlaneSelection selection;
+  selection.plane.create(size, CV_32FC1);
+  selection.confidence.create(size, CV_32FC1);
+  selection.at_edge.create(size, CV_8UC1);
+  cv::parallel_for_(cv::Range(0, size.height), [&](const cv::Range& rows) {
+    std::vector<const float*> slice(n);
+    std::vector<float> curve(n);
+    for (int y = rows.start; y < rows.end; ++y) {
+      for (int k = 0; k < n; ++k) slice[k] = costs[k].ptr<float>(y);
+      const int* first = first_plane.empty() ? nullptr : first_plane.ptr<int>(y);
+      float* plane = selection.plane.ptr<float>(y);
+      float* confidence = selection.confidence.ptr<float>(y);
+      uchar* at_edge = selection.at_edge.ptr<uchar>(y);
+      for (int x = 0; x < size.width; ++x) {
+        int best = 0;
+        for (int k = 0; k < n; ++k) {
+          curve[k] = slice[k][x];
+          if (curve[k] < curve[best]) best = k;
+        }
+        const float c_best = curve[best];
+        if (c_best >= kNoCost) {
+          plane[x] = -1.0f;
+          confidence[x] = 0.0f;
+          at_edge[x] = 0;
+          continue;
+        }
+        // The valley of the winner: walk out while the cost keeps rising.
+        int left = best, right = best;
+        while (left > 0 && curve[left - 1] >= curve[left] && curve[left - 1] < kNoCost) --left;
+        while (right < n - 1 && curve[right + 1] >= curve[right] && curve[right + 1] < kNoCost)
+          ++right;
+        float rival = kNoCost, highest = c_best;
+        for (int k = 0; k < n; ++k) {
+          if (curve[k] >= kNoCost) continue;
+          highest = std::max(highest, curve[k]);
+          if (k < left || k > right) rival = std::min(rival, curve[k]);
+        }
+        if (rival >= kNoCost) rival = highest;
+        confidence[x] = rival > 0.0f ? 1.0f - c_best / rival : 0.0f;
+
+        float offset = 0.0f;
+        if (best > 0 && best < n - 1 && curve[best - 1] < kNoCost && curve[best + 1] < kNoCost) {
+          const float curvature = curve[best - 1] - 2.0f * c_best + curve[best + 1];
+          if (curvature > 0.0f)
+            offset =
+                std::clamp(0.5f * (curve[best - 1] - curve[best + 1]) / curvature, -0.5f, 0.5f);
+        }
+        plane[x] = static_cast<float>((first ? first[x] : 0) + best) + offset;
+        at_edge[x] = (best == 0 || best == n - 1) ? 255 : 0;
+      }
+    }
+  });
+  return selection;
+}
+
+}  // namespace dfsm

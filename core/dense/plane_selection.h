@@ -1,0 +1,24 @@
+// Winner-take-all over a cost volume with sub-plane parabolic refinement and
+// a per-pixel confidence.
+#pragma once
+
+#include <opencv2/core.hpp>
+#include <vector>
+
+namespace dfsm {
+
+struct PlaneSelection {
+  cv::Mat plane;       // CV_32FC1, fractional lattice index of the winner; -1 = no cost at all
+  cv::Mat confidence;  // CV_32FC1 in [0, 1]
+  cv::Mat at_edge;     // CV_8UC1, 255 where the winner is the first or last slice
+};
+
+// `costs[k]` is the slice of lattice plane first_plane + k (first_plane:
+// CV_32SC1, or empty for 0). The confidence is the distinctiveness of the
+// winner's basin: 1 - c_best / c_rival, where c_rival is the lowest cost
+// outside the valley that descends to the winner (the cost of the most
+// competitive other depth). A flat or multi-modal curve scores near 0; a curve
+// with no rival valley scores against its largest cost.
+PlaneSelection SelectPlanes(const std::vector<cv::Mat>& costs, const cv::Mat& first_plane = {});
+
+}  // namespace dfsm

@@ -1,0 +1,44 @@
+// Photo-consistency of the reference against every other frame for
+// fronto-parallel planes, aggregated over a square window: the cost volume of
+// the plane sweep, either over every plane of the lattice (coarse level) or
+// over a narrow per-pixel window of planes (full resolution).
+#pragma once
+
+#include <opencv2/core.hpp>
+#include <vector>
+
+#include "core/dense/inverse_depth_lattice.h"
+#include "core/dense/sweep_level.h"
+
+namespace dfsm {
+
+// Cost of pixels where too few frames saw the plane.
+inline constexpr float kNoCost = 1.0e9f;
+
+struct PhotoCostOptions {
+  // Absolute intensity differences are truncated here (grey levels): an
+  // occluded or specular frame costs at most this much.
+  float truncation = 24.0f;
+  // Half-width of the square aggregation window (box filter), level pixels.
+  int window_radius = 2;
+  // Aggregated samples below this share of (frames x window) leave the cost
+  // at kNoCost (the plane leaves most frames).
+  float min_valid_share = 0.5f;
+};
+
+// One CV_32FC1 slice per lattice plane: the mean truncated absolute
+// difference over frames and window. Planes run in parallel; memory is one
+// slice per plane plus two per worker.
+std::vector<cv::Mat> SweepAllPlanes(const SweepLevel& level, const InverseDepthLattice& lattice,
+                                    const PhotoCostOptions& options);
+
+// `count` slices: slice k holds, at each pixel, the cost of lattice plane
+// first_plane(pixel) + k (first_plane: CV_32SC1, level size, every window
+// inside the lattice). Neighbours in a window are aggregated slice by slice,
+// i.e. at their own window's k-th plane: exact where first_plane is locally
+// constant, which the caller's smooth coarse estimate makes almost everywhere.
+std::vector<cv::Mat> SweepPlaneWindow(const SweepLevel& level, const InverseDepthLattice& lattice,
+                                      const cv::Mat& first_plane, int count,
+                                      const PhotoCostOptions& options);
+
+}  // namespace dfsm

@@ -1,0 +1,45 @@
+// The data of the plane sweep at one resolution: every frame on its captured
+// (distorted) grid, the undistorted ray of each reference pixel, and each
+// other frame's plane-induced homography between undistorted coordinates. A
+// sample is mapped back onto a frame's captured grid through RadialInverse,
+// so frames are interpolated once, never resampled onto an undistorted grid.
+#pragma once
+
+#include <opencv2/core.hpp>
+#include <vector>
+
+#include "core/camera/camera_model.h"
+#include "core/camera/pose.h"
+#include "core/dense/radial_inverse.h"
+
+namespace dfsm {
+
+// For the plane Z = 1/w of the reference, a reference ray x = (x_u, y_u, 1)
+// lands in a frame at the undistorted normalized point dehomogenized from
+// H(w) x, H(w) = R + w T e3^T: linear in w.
+struct PlaneHomography {
+  float r[9];  // R, row-major
+  float t[3];  // T
+};
+
+struct SweepLevel {
+  int scale = 1;                // captured pixels per pixel of this level
+  cv::Mat reference;            // CV_32FC1, reference frame
+  cv::Mat ray_x, ray_y;         // CV_32FC1, undistorted normalized coords of the reference pixels
+  std::vector<cv::Mat> frames;  // CV_32FC1, the other frames
+  std::vector<PlaneHomography> warps;  // one per entry of `frames`
+  const RadialInverse* radial = nullptr;
+  // Captured pixel p = c + f * ratio * x_u is level pixel (p - (scale - 1) / 2) / scale
+  // = centre + focal * ratio * x_u.
+  float focal = 0.0f, centre_x = 0.0f, centre_y = 0.0f;
+};
+
+// Builds the level `scale` (1: full resolution; > 1: area-downsampled by that
+// factor, pixel centres at scale * x + (scale - 1) / 2 of the captured grid)
+// from full-resolution float images. `frames[i]` and `poses[i]` belong
+// together; the reference itself is not among them. `radial` must outlive the level.
+SweepLevel MakeSweepLevel(const cv::Mat& reference, const std::vector<cv::Mat>& frames,
+                          const std::vector<Pose>& poses, const CameraModel& camera,
+                          const RadialInverse& radial, int scale);
+
+}  // namespace dfsm
