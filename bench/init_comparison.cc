@@ -5,6 +5,7 @@
 // Renders generated bursts with ground truth (10 and 15 frames), reconstructs
 // each with both starts and prints one JSON line per run and a Markdown table.
 //   init_comparison [--bursts N] [--width W --height H] [--max-iterations K]
+//                   [--rotation-mdeg R]
 #include <chrono>
 #include <cstdio>
 #include <cstring>
@@ -15,7 +16,7 @@
 
 #include "core/pipeline/evaluation.h"
 #include "core/sparse/sparse_reconstruction.h"
-#include "core/synth/synthetic_burst.h"
+#include "core/synth/burst_synthesizer.h"
 
 namespace dfsm {
 namespace {
@@ -65,6 +66,7 @@ int main(int argc, char** argv) {
   const int width = ArgInt(argc, argv, "--width", 960);
   const int height = ArgInt(argc, argv, "--height", 540);
   const int max_iterations = ArgInt(argc, argv, "--max-iterations", 100);
+  const double rotation_deg = ArgInt(argc, argv, "--rotation-mdeg", 1000) / 1000.0;
 
   std::map<std::string, Aggregate> table;  // key: "<frames> <init>"
   for (const int frames : {10, 15}) {
@@ -74,7 +76,9 @@ int main(int argc, char** argv) {
       synth.height = height;
       synth.frames = frames;
       synth.seed = 1000 * frames + b;
-      const SyntheticBurst burst = RenderSyntheticBurst(synth);
+      synth.rotation_deg = rotation_deg;
+      synth.supersampling = 2;
+      const SynthBurst burst = SynthesizeBurst(synth);
       std::vector<cv::Mat> gray;
       for (const cv::Mat& frame : burst.frames) gray.push_back(ToGray8(frame));
       for (const InitMode init : {InitMode::kRankOne, InitMode::kNaive}) {
@@ -125,11 +129,11 @@ int main(int argc, char** argv) {
     }
   }
   std::printf(
-      "\n%dx%d, %d bursts per frame count, iteration limit %d\n\n"
+      "\n%dx%d, %d bursts per frame count, tremor rotation %.2f deg, iteration limit %d\n\n"
       "| frames | init | converged | iterations (median / max) | BA ms (mean) | sparse ms (mean) "
       "| focal err %% (median / max) | distortion err px (median / max) | rotation err deg "
       "(median) |\n|---|---|---|---|---|---|---|---|---|\n",
-      width, height, bursts, max_iterations);
+      width, height, bursts, rotation_deg, max_iterations);
   for (const auto& [key, a] : table) {
     const auto space = key.find(' ');
     std::printf(
