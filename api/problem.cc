@@ -1,0 +1,45 @@
+#include "api/problem.h"
+
+#include <nlohmann/json.hpp>
+
+namespace dfsm::api {
+
+void SetProblem(httplib::Response& response, int status, const std::string& slug,
+                const std::string& title, const std::string& detail) {
+  response.status = status;
+  const nlohmann::json body = {{"type", "urn:dfsm:problem:" + slug},
+                               {"title", title},
+                               {"status", status},
+                               {"detail", detail}};
+  response.set_content(body.dump() + "\n", kProblemContentType);
+}
+
+void SetDefaultProblem(const httplib::Request& request, httplib::Response& response,
+                       size_t max_body_bytes) {
+  switch (response.status) {
+    case 404:
+      SetProblem(response, 404, "not-found", "No such endpoint",
+                 request.method + " " + request.path + " is not part of this API; see " +
+                     "/api/v1/openapi.json");
+      return;
+    case 405:
+      SetProblem(response, 405, "method-not-allowed", "Method not allowed",
+                 request.method + " is not supported on " + request.path);
+      return;
+    case 413:
+      SetProblem(
+          response, 413, "body-too-large", "Request body too large",
+          "the body exceeds server.max_body_bytes (" + std::to_string(max_body_bytes) + " bytes)");
+      return;
+    case 414:
+      SetProblem(response, 414, "uri-too-long", "URI too long", "the request URI is too long");
+      return;
+    default:
+      SetProblem(response, response.status, "http-" + std::to_string(response.status),
+                 response.status == 400 ? "Malformed request"
+                                        : "HTTP error " + std::to_string(response.status),
+                 "the request could not be parsed or handled");
+  }
+}
+
+}  // namespace dfsm::api

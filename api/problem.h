@@ -1,0 +1,24 @@
+// Errors as RFC 9457 problem details (application/problem+json): a stable
+// machine-readable `type`, a short `title` naming the problem and a `detail`
+// sentence a user can act on.
+#pragma once
+
+#include <httplib.h>
+
+#include <string>
+
+namespace dfsm::api {
+
+inline constexpr const char* kProblemContentType = "application/problem+json";
+inline constexpr const char* kJsonContentType = "application/json";
+
+// `slug` becomes the type "urn:dfsm:problem:<slug>" (e.g. "queue-full").
+void SetProblem(httplib::Response& response, int status, const std::string& slug,
+                const std::string& title, const std::string& detail);
+
+// A problem body for a status that httplib produced on its own (404 of an
+// unknown path, 413 of an oversized body, 400 of a malformed request).
+void SetDefaultProblem(const httplib::Request& request, httplib::Response& response,
+                       size_t max_body_bytes);
+
+}  // namespace dfsm::api

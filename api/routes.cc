@@ -1,0 +1,395 @@
+#include "api/routes.h"
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "api/job_request.h"
+#include "api/openapi.h"
+#include "api/problem.h"
+#include "core/io/file_util.h"
+#include "daemon/service/ustar.h"
+
+namespace dfsm::api {
+namespace {
+
+using service::Job;
+using service::JobStatus;
+
+constexpr const char* kJobFiles[][2] = {
+    {"result.json", "application/json"},
+    {"depth.tiff", "image/tiff"},
+    {"depth.png", "image/png"},
+    {"preview.png", "image/png"},
+    {"confidence.png", "image/png"},
+    {"points.ply", "application/octet-stream"},  // binary PLY has no registered type
+    {"sparse_points.ply", "application/octet-stream"},
+    {"calibration.json", "application/json"},
+    {"calibration.yaml", "application/yaml"},
+    {"burst.tar", "application/x-tar"},
+};
+
+void SetJson(httplib::Response& response, int status, const nlohmann::json& body) {
+  response.status = status;
+  response.set_content(body.dump(2) + "\n", kJsonContentType);
+}
+
+std::string JobPath(const std::string& id) { return "/api/v1/jobs/" + id; }
+
+nlohmann::json JobJson(const Job& job) {
+  nlohmann::json json = service::ToJson(job);
+  nlohmann::json links = {{"self", JobPath(job.id)}};
+  if (IsFinished(job.status)) {
+    nlohmann::json files = nlohmann::json::array();
+    files.push_back(JobPath(job.id) + "/result.json");
+    if (job.status == JobStatus::kSucceeded) {
+      for (const auto& file : kJobFiles) {
+        const std::string name = file[0];
+        if (name != "result.json" && name != "burst.tar")
+          files.push_back(JobPath(job.id) + "/" + name);
+      }
+    }
+    links["files"] = files;
+  }
+  if (job.has_burst) links["burst"] = JobPath(job.id) + "/burst.tar";
+  json["links"] = links;
+  return json;
+}
+
+void NoSuchJob(httplib::Response& response, const std::string& id) {
+  SetProblem(response, 404, "unknown-job", "Unknown job",
+             service::IsValidJobId(id) ? "there is no job '" + id + "' (deleted or never created)"
+                                       : "'" + id + "' is not a job id");
+}
+
+void Accepted(httplib::Response& response, const Job& job) {
+  response.set_header("Location", JobPath(job.id));
+  SetJson(response, 202, {{"id", job.id}, {"status", JobStatusName(job.status)}});
+}
+
+void QueueFull(const ApiContext& context, httplib::Response& response, const std::string& what) {
+  response.set_header("Retry-After", std::to_string(context.config->jobs.retry_after_s));
+  SetProblem(response, 503, "queue-full", "Job queue full",
+             what + "; retry after " + std::to_string(context.config->jobs.retry_after_s) + " s");
+}
+
+nlohmann::json CameraJson(const capture::CaptureStatus& s) {
+  return {
+      {"source", s.source},
+      {"device", s.device},
+      {"driver", s.driver},
+      {"card", s.card},
+      {"format", s.format},
+      {"width", s.width},
+      {"height", s.height},
+      {"fps", s.fps},
+      {"streaming", s.streaming},
+      {"frames_captured", s.frames_captured},
+      {"frames_dropped", s.frames_dropped},
+      {"reconnects", s.reconnects},
+      {"ring_fill", s.ring_fill},
+      {"ring_capacity", s.ring_capacity},
+      {"last_error", s.last_error.empty() ? nlohmann::json(nullptr) : nlohmann::json(s.last_error)},
+      {"last_frame_monotonic_ns", s.last_frame_monotonic_ns}};
+}
+
+// --- handlers --------------------------------------------------------------
+
+void PostCapture(const ApiContext& context, const httplib::Request& request,
+                 httplib::Response& response) {
+  service::JobOptions options;
+  try {
+    options = ParseCaptureRequest(request.body, *context.config);
+  } catch (const RequestError& e) {
+    return SetProblem(response, 400, "invalid-request", "Invalid capture request", e.what());
+  }
+  try {
+    const Job job = context.intake->FromCapture(
+        options, std::chrono::milliseconds(context.config->pipeline.burst_timeout_ms));
+    Accepted(response, job);
+  } catch (const service::QueueFull& e) {
+    QueueFull(context, response, e.what());
+  } catch (const capture::CaptureUnavailable& e) {
+    response.set_header("Retry-After", "1");
+    SetProblem(response, 503, "capture-unavailable", "No burst available", e.what());
+  }
+}
+
+void PostJob(const ApiContext& context, const httplib::Request& request,
+             httplib::Response& response) {
+  const std::string type = request.get_header_value("Content-Type");
+  if (!type.empty() && type.rfind("application/x-tar", 0) != 0 &&
+      type.rfind("application/octet-stream", 0) != 0) {
+    return SetProblem(
+        response, 415, "unsupported-media-type", "Unsupported upload type",
+        "upload a tar of a dfsm-burst/1 directory as application/x-tar, not '" + type + "'");
+  }
+  service::JobOptions options;
+  try {
+    options = ParseUploadQuery(request.params, *context.config);
+  } catch (const RequestError& e) {
+    return SetProblem(response, 400, "invalid-request", "Invalid upload options", e.what());
+  }
+  if (request.body.empty()) {
+    return SetProblem(response, 400, "invalid-upload", "Empty upload",
+                      "the body must be a tar of a dfsm-burst/1 directory");
+  }
+  try {
+    Accepted(response, context.intake->FromArchive(request.body, options));
+  } catch (const service::QueueFull& e) {
+    QueueFull(context, response, e.what());
+  } catch (const service::BadUpload& e) {
+    SetProblem(response, 422, "invalid-burst", "Upload is not a usable burst", e.what());
+  }
+}
+
+void ListJobs(const ApiContext& context, const httplib::Request& request,
+              httplib::Response& response) {
+  ListQuery query;
+  try {
+    query = ParseListQuery(request.params);
+  } catch (const RequestError& e) {
+    return SetProblem(response, 400, "invalid-request", "Invalid list query", e.what());
+  }
+  nlohmann::json jobs = nlohmann::json::array();
+  std::string last;
+  bool more = false;
+  for (const Job& job : context.store->List()) {  // newest first
+    if (!query.after.empty() && job.id >= query.after) continue;
+    if (!query.status.empty() && query.status != JobStatusName(job.status)) continue;
+    if (static_cast<int>(jobs.size()) == query.limit) {
+      more = true;
+      break;
+    }
+    jobs.push_back(JobJson(job));
+    last = job.id;
+  }
+  nlohmann::json body = {{"jobs", jobs}, {"next", nullptr}};
+  if (more) {
+    std::string next = "/api/v1/jobs?limit=" + std::to_string(query.limit) + "&after=" + last;
+    if (!query.status.empty()) next += "&status=" + query.status;
+    body["next"] = next;
+    response.set_header("Link", "<" + next + ">; rel=\"next\"");
+  }
+  SetJson(response, 200, body);
+}
+
+void GetJob(const ApiContext& context, const httplib::Request& request,
+            httplib::Response& response) {
+  const std::string id = request.matches[1];
+  const std::optional<Job> job = context.store->Get(id);
+  if (!job) return NoSuchJob(response, id);
+  SetJson(response, 200, JobJson(*job));
+}
+
+void DeleteJob(const ApiContext& context, const httplib::Request& request,
+               httplib::Response& response) {
+  const std::string id = request.matches[1];
+  const std::optional<Job> job = context.store->Get(id);
+  if (!job) return NoSuchJob(response, id);
+  if (context.scheduler->IsRunning(id)) {
+    return SetProblem(response, 409, "job-in-progress", "Job in progress",
+                      "job " + id + " is being processed; delete it once it has finished");
+  }
+  context.scheduler->RemoveQueued(id);
+  context.store->Remove(id);
+  response.status = 204;
+}
+
+void GetJobFile(const ApiContext& context, const httplib::Request& request,
+                httplib::Response& response) {
+  const std::string id = request.matches[1];
+  const std::string file = request.matches[2];
+  const char* content_type = JobFileContentType(file);
+  if (!content_type) {
+    return SetProblem(response, 404, "unknown-file", "No such job file",
+                      "'" + file + "' is not a job file (result.json, depth.tiff, depth.png, " +
+                          "preview.png, confidence.png, points.ply, sparse_points.ply, " +
+                          "calibration.json, calibration.yaml, burst.tar)");
+  }
+  const std::optional<Job> job = context.store->Get(id);
+  if (!job) return NoSuchJob(response, id);
+  try {
+    if (file == "burst.tar") {
+      if (!job->has_burst) {
+        return SetProblem(response, 410, "burst-deleted", "Burst not kept",
+                          "job " + id + " was run with keep_burst false; its burst is deleted");
+      }
+      response.set_content(service::WriteTar(service::CollectFiles(context.store->BurstDir(id))),
+                           content_type);
+      return;
+    }
+    if (!IsFinished(job->status)) {
+      response.set_header("Retry-After", "1");
+      return SetProblem(response, 409, "job-not-finished", "Job not finished",
+                        "job " + id + " is " + JobStatusName(job->status) +
+                            "; its files appear when it has finished");
+    }
+    const std::filesystem::path path = context.store->OutputDir(id) / file;
+    if (!std::filesystem::is_regular_file(path)) {
+      return SetProblem(response, 404, "file-not-produced", "File not produced",
+                        job->status == JobStatus::kFailed
+                            ? "job " + id + " failed (" + job->error + "); it has no " + file
+                            : "job " + id + " did not produce " + file);
+    }
+    response.set_content(ReadFileToString(path), content_type);
+  } catch (const std::exception& e) {
+    // Deleted by retention or DELETE between the lookup and the read.
+    SetProblem(response, 404, "file-gone", "File no longer available", e.what());
+  }
+}
+
+void GetCalibration(const ApiContext& context, httplib::Response& response) {
+  // The newest successful job: it saw the camera as it is now (focus, zoom).
+  const std::optional<Job> job = context.store->LatestSucceeded();
+  if (!job) {
+    return SetProblem(response, 404, "no-calibration", "No calibration yet",
+                      "no job has succeeded yet; POST /api/v1/captures to make one");
+  }
+  try {
+    const nlohmann::json result =
+        nlohmann::json::parse(ReadFileToString(context.store->OutputDir(job->id) / "result.json"));
+    SetJson(response, 200,
+            {{"job", job->id},
+             {"finished_ms", job->finished_ms},
+             {"calibration", result.at("calibration")},
+             {"rms_reprojection_px", result.value("bundle_adjustment", nlohmann::json::object())
+                                         .value("rms_reprojection_px", 0.0)},
+             {"links",
+              {{"json", JobPath(job->id) + "/calibration.json"},
+               {"yaml", JobPath(job->id) + "/calibration.yaml"}}}});
+  } catch (const std::exception& e) {
+    SetProblem(response, 503, "calibration-unreadable", "Calibration unreadable", e.what());
+  }
+}
+
+void GetCamera(const ApiContext& context, httplib::Response& response) {
+  if (!context.capture) {
+    return SetProblem(response, 404, "no-capture", "No capture source",
+                      "this daemon runs without a capture source");
+  }
+  SetJson(response, 200, CameraJson(context.capture->Status()));
+}
+
+void GetSnapshot(const ApiContext& context, httplib::Response& response) {
+  std::optional<capture::CapturedFrame> frame;
+  if (context.capture) frame = context.capture->LatestFrame();
+  if (!frame) {
+    response.set_header("Retry-After", "1");
+    return SetProblem(response, 503, "no-frame", "No frame yet",
+                      "the capture source has not delivered a frame");
+  }
+  std::vector<unsigned char> jpeg;
+  cv::imencode(".jpg", frame->color.empty() ? frame->gray : frame->color, jpeg,
+               {cv::IMWRITE_JPEG_QUALITY, 90});
+  response.set_content(std::string(jpeg.begin(), jpeg.end()), "image/jpeg");
+}
+
+void GetReady(const ApiContext& context, httplib::Response& response) {
+  std::vector<std::string> problems;
+  if (!context.capture) {
+    problems.push_back("no capture source");
+  } else {
+    const capture::CaptureStatus status = context.capture->Status();
+    if (!status.streaming) {
+      problems.push_back("capture is not streaming" +
+                         (status.last_error.empty() ? "" : " (" + status.last_error + ")"));
+    }
+  }
+  if (context.scheduler->Full()) problems.push_back("the job queue is full");
+  if (problems.empty()) return SetJson(response, 200, {{"status", "ready"}});
+  std::string detail;
+  for (const std::string& p : problems) detail += (detail.empty() ? "" : "; ") + p;
+  SetProblem(response, 503, "not-ready", "Not ready", detail);
+}
+
+void GetMetrics(const ApiContext& context, httplib::Response& response) {
+  service::GaugeSnapshot gauges;
+  if (context.capture) {
+    const capture::CaptureStatus status = context.capture->Status();
+    gauges.frames_captured = status.frames_captured;
+    gauges.frames_dropped = status.frames_dropped;
+    gauges.reconnects = status.reconnects;
+    gauges.streaming = status.streaming;
+    gauges.ring_fill = status.ring_fill;
+  }
+  gauges.queue_depth = context.scheduler->Depth();
+  gauges.queue_capacity = context.scheduler->capacity();
+  gauges.jobs_processing = context.scheduler->Running();
+  response.set_content(context.metrics->Render(gauges), "text/plain; version=0.0.4");
+}
+
+}  // namespace
+
+const char* JobFileContentType(const std::string& file) {
+  for (const auto& entry : kJobFiles) {
+    if (file == entry[0]) return entry[1];
+  }
+  return nullptr;
+}
+
+void RegisterRoutes(const ApiContext& context, httplib::Server* server) {
+  const ApiContext c = context;
+  const std::string id = "([^/]+)";
+  server->Get("/healthz", [](const httplib::Request&, httplib::Response& response) {
+    SetJson(response, 200, {{"status", "alive"}});
+  });
+  server->Get("/readyz", [c](const httplib::Request&, httplib::Response& r) { GetReady(c, r); });
+  server->Get("/metrics", [c](const httplib::Request&, httplib::Response& r) { GetMetrics(c, r); });
+  server->Get("/api/v1/openapi.json", [](const httplib::Request&, httplib::Response& response) {
+    SetJson(response, 200, OpenApiDocument());
+  });
+  server->Get("/api/v1/camera",
+              [c](const httplib::Request&, httplib::Response& r) { GetCamera(c, r); });
+  server->Get("/api/v1/snapshot.jpg",
+              [c](const httplib::Request&, httplib::Response& r) { GetSnapshot(c, r); });
+  server->Get("/api/v1/calibration",
+              [c](const httplib::Request&, httplib::Response& r) { GetCalibration(c, r); });
+  server->Post("/api/v1/captures",
+               [c](const httplib::Request& q, httplib::Response& r) { PostCapture(c, q, r); });
+  server->Post("/api/v1/jobs",
+               [c](const httplib::Request& q, httplib::Response& r) { PostJob(c, q, r); });
+  server->Get("/api/v1/jobs",
+              [c](const httplib::Request& q, httplib::Response& r) { ListJobs(c, q, r); });
+  server->Get("/api/v1/jobs/" + id,
+              [c](const httplib::Request& q, httplib::Response& r) { GetJob(c, q, r); });
+  server->Delete("/api/v1/jobs/" + id,
+                 [c](const httplib::Request& q, httplib::Response& r) { DeleteJob(c, q, r); });
+  server->Get("/api/v1/jobs/" + id + "/" + id,
+              [c](const httplib::Request& q, httplib::Response& r) { GetJobFile(c, q, r); });
+
+  const size_t max_body = static_cast<size_t>(context.config->server.max_body_bytes);
+  server->set_error_handler(
+      [max_body](const httplib::Request& request, httplib::Response& response) {
+        if (response.body.empty()) SetDefaultProblem(request, response, max_body);
+      });
+  server->set_exception_handler(
+      [](const httplib::Request&, httplib::Response& response, std::exception_ptr error) {
+        std::string what = "unknown error";
+        try {
+          if (error) std::rethrow_exception(error);
+        } catch (const std::exception& e) {
+          what = e.what();
+        } catch (...) {
+        }
+        SetProblem(response, 500, "internal-error", "Internal error", what);
+      });
+  const std::string origin = context.config->server.cors_origin;
+  if (!origin.empty()) {
+    server->set_post_routing_handler(
+        [origin](const httplib::Request&, httplib::Response& response) {
+          response.set_header("Access-Control-Allow-Origin", origin);
+          response.set_header("Access-Control-Expose-Headers", "Location, Retry-After, Link");
+        });
+    server->Options(".*", [origin](const httplib::Request&, httplib::Response& response) {
+      response.set_header("Access-Control-Allow-Methods", "GET, POST, DELETE, OPTIONS");
+      response.set_header("Access-Control-Allow-Headers", "Content-Type");
+      response.set_header("Access-Control-Max-Age", "600");
+      response.status = 204;
+    });
+  }
+  service::Metrics* metrics = context.metrics;
+  server->set_logger([metrics](const httplib::Request&, const httplib::Response& response) {
+    metrics->HttpRequest(response.status);
+  });
+}
+
+}  // namespace dfsm::api

@@ -1,0 +1,36 @@
+// The REST API (/api/v1/..., /healthz, /readyz, /metrics): maps HTTP requests
+// to the service layer and its errors to problem+json. Handlers do quick work
+// only: a capture request copies frames from the ring and stores them, an
+// upload is parsed and stored; the pipeline itself runs on the scheduler's
+// workers, never on an HTTP thread.
+#pragma once
+
+#include <httplib.h>
+
+#include "daemon/capture/capture_service.h"
+#include "daemon/service/config.h"
+#include "daemon/service/job_intake.h"
+#include "daemon/service/job_scheduler.h"
+#include "daemon/service/job_store.h"
+#include "daemon/service/metrics.h"
+
+namespace dfsm::api {
+
+// What the routes work on; owned by the daemon, which outlives the server.
+struct ApiContext {
+  const service::DaemonConfig* config = nullptr;
+  service::JobStore* store = nullptr;
+  service::JobScheduler* scheduler = nullptr;
+  service::JobIntake* intake = nullptr;
+  capture::CaptureService* capture = nullptr;  // may be null (no capture source)
+  service::Metrics* metrics = nullptr;
+};
+
+// Registers every route, the CORS headers when configured, and the error and
+// exception handlers that turn anything else into problem+json.
+void RegisterRoutes(const ApiContext& context, httplib::Server* server);
+
+// Content type of a job file, or nullptr when `file` is not a job file.
+const char* JobFileContentType(const std::string& file);
+
+}  // namespace dfsm::api

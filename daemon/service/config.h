@@ -1,0 +1,108 @@
+// dfsmd's configuration: one table of keys, read from a TOML file and then
+// from command-line flags (flags win). Every key has a default, so an empty
+// file and no flags give a working daemon on 127.0.0.1:8080.
+//
+// Invariant: a DaemonConfig returned by LoadDaemonConfig has passed Validate():
+// every value is in range, so the rest of the daemon never re-checks it.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace dfsm::service {
+
+// A configuration that cannot be used. The message names the key (as written
+// in the file, "section.key") and the problem. dfsmd exits with kExitConfig.
+class ConfigError : public std::invalid_argument {
+ public:
+  using std::invalid_argument::invalid_argument;
+};
+
+// EX_CONFIG from sysexits.h: systemd's RestartPreventExitStatus=78 keeps a
+// misconfigured daemon from restarting in a loop.
+inline constexpr int kExitConfig = 78;
+
+struct ServerConfig {
+  std::string listen = "127.0.0.1";
+  int port = 8080;  // 0: any free port (printed at start-up)
+  int threads = 8;  // HTTP worker threads (each keep-alive connection holds one)
+  int64_t max_body_bytes = 256LL << 20;
+  std::string cors_origin;  // empty: no CORS headers at all
+};
+
+struct CaptureSection {
+  std::string source = "replay:";
+  int width = 0, height = 0;
+  double fps = 0.0;
+  std::string pixel_format;
+  int ring_frames = 64;
+  int device_buffers = 4;
+  int frame_timeout_ms = 2000;
+  int reconnect_backoff_ms = 1000;
+  // No frame for this long: capture is stuck and the watchdog pings stop, so
+  // systemd restarts the daemon. 0: never.
+  int stall_timeout_ms = 20000;
+};
+
+struct PipelineSection {
+  int frames = 10;
+  std::string when = "last";  // "last" | "next"
+  int planes = 128;
+  int grid = 0;  // feature grid cell in pixels; 0: scaled with the image
+  std::string init = "rank1";
+  bool dense = true;
+  int burst_timeout_ms = 5000;  // "next" bursts wait at most this long
+};
+
+struct JobsSection {
+  std::filesystem::path state_dir = "/var/lib/dfsmd";
+  int workers = 1;
+  int queue = 8;
+  bool keep_burst = true;
+  int retry_after_s = 5;
+};
+
+struct RetentionSection {
+  int max_jobs = 200;                 // 0: no limit
+  int64_t max_bytes = 4LL << 30;      // 0: no limit
+  int64_t max_age_s = 7 * 24 * 3600;  // 0: no limit
+};
+
+struct DaemonConfig {
+  ServerConfig server;
+  CaptureSection capture;
+  PipelineSection pipeline;
+  JobsSection jobs;
+  RetentionSection retention;
+};
+
+// Checks every value's range; throws ConfigError naming the first bad key.
+void Validate(const DaemonConfig& config);
+
+// Applies a TOML document. Unknown sections or keys and values of the wrong
+// type are errors (a typo must not silently fall back to a default). Returns
+// the keys it set.
+std::vector<std::string> ApplyToml(const std::string& text, const std::string& origin,
+                                   DaemonConfig* config);
+
+// Applies "--section.key VALUE" / "--section.key=VALUE" flags.
+void ApplyFlag(const std::string& key, const std::string& value, DaemonConfig* config);
+
+struct CommandLine {
+  DaemonConfig config;
+  bool help = false;
+  bool check_only = false;  // --check-config: validate and exit
+};
+
+// Parses argv: --config FILE first (wherever it appears), then every flag in
+// order; $STATE_DIRECTORY (set by systemd's StateDirectory=) is the state_dir
+// default when neither the file nor a flag sets it. Validates the result.
+CommandLine ParseCommandLine(const std::vector<std::string>& args);
+
+// One line per key: "section.key  type  default  description", for --help and docs.
+std::string DescribeKeys();
+
+}  // namespace dfsm::service

@@ -1,0 +1,106 @@
+#include "daemon/service/job.h"
+
+#include <chrono>
+#include <stdexcept>
+
+namespace dfsm::service {
+
+const char* JobStatusName(JobStatus status) {
+  switch (status) {
+    case JobStatus::kQueued:
+      return "queued";
+    case JobStatus::kProcessing:
+      return "processing";
+    case JobStatus::kSucceeded:
+      return "succeeded";
+    case JobStatus::kFailed:
+      return "failed";
+  }
+  return "?";
+}
+
+JobStatus ParseJobStatus(const std::string& name) {
+  for (JobStatus status :
+       {JobStatus::kQueued, JobStatus::kProcessing, JobStatus::kSucceeded, JobStatus::kFailed}) {
+    if (name == JobStatusName(status)) return status;
+  }
+  throw std::invalid_argument("unknown job status '" + name + "'");
+}
+
+nlohmann::json ToJson(const Job& job) {
+  nlohmann::json timings = nlohmann::json::object();
+  for (const auto& [stage, ms] : job.timings_ms) timings[stage] = ms;
+  nlohmann::json json = {
+      {"id", job.id},
+      {"origin", job.origin},
+      {"status", JobStatusName(job.status)},
+      {"stage", job.stage},
+      {"options",
+       {{"frames", job.options.frames},
+        {"when", job.options.when},
+        {"planes", job.options.planes},
+        {"grid", job.options.grid},
+        {"init", job.options.init},
+        {"dense", job.options.dense},
+        {"keep_burst", job.options.keep_burst}}},
+      {"created_ms", job.created_ms},
+      {"started_ms", job.started_ms},
+      {"finished_ms", job.finished_ms},
+      {"attempts", job.attempts},
+      {"timings_ms", timings},
+      {"has_burst", job.has_burst},
+      {"bytes", job.bytes},
+      {"input", job.input.is_null() ? nlohmann::json::object() : job.input},
+  };
+  if (!job.error.empty()) json["error"] = job.error;
+  return json;
+}
+
+Job JobFromJson(const nlohmann::json& json) {
+  Job job;
+  job.id = json.at("id").get<std::string>();
+  if (!IsValidJobId(job.id)) throw std::invalid_argument("bad job id '" + job.id + "'");
+  job.origin = json.value("origin", "upload");
+  job.status = ParseJobStatus(json.at("status").get<std::string>());
+  job.stage = json.value("stage", "");
+  job.error = json.value("error", "");
+  const nlohmann::json& options = json.at("options");
+  job.options.frames = options.at("frames").get<int>();
+  job.options.when = options.value("when", "last");
+  job.options.planes = options.at("planes").get<int>();
+  job.options.grid = options.value("grid", 0);
+  job.options.init = options.at("init").get<std::string>();
+  job.options.dense = options.value("dense", true);
+  job.options.keep_burst = options.value("keep_burst", true);
+  job.created_ms = json.at("created_ms").get<int64_t>();
+  job.started_ms = json.value("started_ms", int64_t{0});
+  job.finished_ms = json.value("finished_ms", int64_t{0});
+  job.attempts = json.value("attempts", 0);
+  for (const auto& [stage, ms] : json.value("timings_ms", nlohmann::json::object()).items()) {
+    job.timings_ms.emplace_back(stage, ms.get<double>());
+  }
+  job.has_burst = json.value("has_burst", false);
+  job.bytes = json.value("bytes", int64_t{0});
+  job.input = json.value("input", nlohmann::json::object());
+  return job;
+}
+
+bool IsValidJobId(const std::string& id) {
+  if (id.size() != 19 || id[0] != 'j' || id[14] != '-') return false;
+  for (size_t i = 1; i < 14; ++i) {
+    if (id[i] < '0' || id[i] > '9') return false;
+  }
+  for (size_t i = 15; i < 19; ++i) {
+    const char c = id[i];
+    if (!((c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'))) return false;
+  }
+  return true;
+}
+
+int64_t NowUnixMs() {
+  return std::chrono::duration_cast<std::chrono::milliseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+}  // namespace dfsm::service

@@ -1,0 +1,61 @@
+// A pipeline job as the daemon tracks, stores and reports it.
+#pragma once
+
+#include <cstdint>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace dfsm::service {
+
+enum class JobStatus { kQueued, kProcessing, kSucceeded, kFailed };
+
+const char* JobStatusName(JobStatus status);
+// Throws std::invalid_argument for a name that is not a status.
+JobStatus ParseJobStatus(const std::string& name);
+inline bool IsFinished(JobStatus status) {
+  return status == JobStatus::kSucceeded || status == JobStatus::kFailed;
+}
+
+// How to process one burst: the daemon's [pipeline] defaults with the
+// request's overrides applied (already validated).
+struct JobOptions {
+  int frames = 10;
+  std::string when = "last";  // captures only
+  int planes = 128;
+  int grid = 0;
+  std::string init = "rank1";
+  bool dense = true;
+  bool keep_burst = true;
+};
+
+struct Job {
+  std::string id;
+  std::string origin;  // "capture" | "upload" | "recovered"
+  JobStatus status = JobStatus::kQueued;
+  std::string stage;  // current or last pipeline stage ("sparse", "dense", "writing")
+  std::string error;  // when failed
+  JobOptions options;
+  int64_t created_ms = 0;  // Unix epoch milliseconds
+  int64_t started_ms = 0;
+  int64_t finished_ms = 0;
+  int attempts = 0;  // times processing started (a restart mid-job adds one)
+  std::vector<std::pair<std::string, double>> timings_ms;  // from result.json
+  bool has_burst = false;                                  // burst still stored
+  int64_t bytes = 0;                                       // on disk, when finished
+  nlohmann::json input;                                    // width, height, frames of the burst
+};
+
+nlohmann::json ToJson(const Job& job);
+// Throws std::invalid_argument / nlohmann::json::exception for a damaged record.
+Job JobFromJson(const nlohmann::json& json);
+
+// Job ids are 'j' + 13 digits of creation time in ms + '-' + 4 hex digits:
+// sortable by creation, and safe as a path component.
+bool IsValidJobId(const std::string& id);
+
+int64_t NowUnixMs();
+
+}  // namespace dfsm::service

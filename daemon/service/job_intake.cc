@@ -1,0 +1,111 @@
+#include "daemon/service/job_intake.h"
+
+#include <filesystem>
+
+namespace dfsm::service {
+namespace fs = std::filesystem;
+namespace {
+
+// Refuse before decoding: a tiny PNG can claim an enormous frame.
+constexpr int64_t kMaxPixels = 64LL << 20;
+constexpr size_t kMaxFrames = 1000;
+
+nlohmann::json InputSummary(const Burst& burst) {
+  return {{"width", burst.width()},
+          {"height", burst.height()},
+          {"frames", burst.size()},
+          {"pixel_format", burst.manifest.pixel_format}};
+}
+
+// RAII removal of a staging directory that did not become part of a job.
+struct StagingGuard {
+  fs::path dir;
+  ~StagingGuard() {
+    std::error_code error;
+    if (!dir.empty()) fs::remove_all(dir, error);
+  }
+};
+
+}  // namespace
+
+JobScheduler::Reservation JobIntake::Reserve() {
+  std::optional<JobScheduler::Reservation> reservation = scheduler_->TryReserve();
+  if (!reservation) {
+    metrics_->JobRejected();
+    throw QueueFull("the job queue is full (" + std::to_string(scheduler_->capacity()) +
+                    " waiting)");
+  }
+  return std::move(*reservation);
+}
+
+Job JobIntake::FromCapture(const JobOptions& options, std::chrono::milliseconds timeout) {
+  if (!capture_) throw capture::CaptureUnavailable("this daemon has no capture source");
+  JobScheduler::Reservation reservation = Reserve();
+  const capture::BurstWhen when =
+      options.when == "next" ? capture::BurstWhen::kNext : capture::BurstWhen::kLast;
+  capture::CaptureService::Burst grabbed = capture_->GrabBurst(options.frames, when, timeout);
+
+  StagingGuard staging{store_->NewStagingDir()};
+  const fs::path burst_dir = staging.dir / "burst";
+  WriteBurst(burst_dir, grabbed.manifest, grabbed.frames);
+
+  auto burst = std::make_shared<Burst>();
+  burst->manifest = ReadBurstManifest(burst_dir);
+  for (const cv::Mat& frame : grabbed.frames) burst->gray.push_back(ToGray8(frame));
+  const cv::Mat& reference = grabbed.frames.at(burst->manifest.reference);
+  burst->reference_color = reference.channels() == 3 ? reference : burst->gray[burst->reference()];
+
+  Job job = store_->Create("capture", options, burst_dir, InputSummary(*burst));
+  scheduler_->Submit(std::move(reservation), job.id, std::move(burst));
+  return job;
+}
+
+Job JobIntake::FromArchive(std::string_view archive, const JobOptions& options) {
+  JobScheduler::Reservation reservation = Reserve();
+  std::vector<TarEntry> entries;
+  try {
+    entries = ReadTar(archive, tar_limits_);
+  } catch (const TarError& e) {
+    throw BadUpload(e.what());
+  }
+  StagingGuard staging{store_->NewStagingDir()};
+  const fs::path extracted = staging.dir / "upload";
+  fs::create_directories(extracted);
+  ExtractTar(entries, extracted);
+
+  // The burst is the archive's top level, or its single top-level directory.
+  fs::path root = extracted;
+  if (!fs::exists(root / "manifest.json")) {
+    std::vector<fs::path> children;
+    for (const auto& child : fs::directory_iterator(extracted)) children.push_back(child.path());
+    if (children.size() == 1 && fs::is_directory(children[0]) &&
+        fs::exists(children[0] / "manifest.json")) {
+      root = children[0];
+    } else {
+      throw BadUpload(
+          "the archive has no manifest.json at its top level or in a single top-level directory");
+    }
+  }
+  auto burst = std::make_shared<Burst>();
+  try {
+    const BurstManifest manifest = ReadBurstManifest(root);
+    if (static_cast<int64_t>(manifest.width) * manifest.height > kMaxPixels) {
+      throw BadUpload("manifest.json: " + std::to_string(manifest.width) + "x" +
+                      std::to_string(manifest.height) + " frames are larger than the limit of " +
+                      std::to_string(kMaxPixels) + " pixels");
+    }
+    if (manifest.frames.size() > kMaxFrames) {
+      throw BadUpload("manifest.json: more than " + std::to_string(kMaxFrames) + " frames");
+    }
+    ReadBurstOptions read;
+    read.max_frames = options.frames;
+    *burst = ReadBurst(root, read);
+  } catch (const BurstError& e) {
+    throw BadUpload(e.what());
+  }
+  Job job = store_->Create("upload", options, root, InputSummary(*burst));
+  scheduler_->Submit(std::move(reservation), job.id, std::move(burst));
+  return job;
+}
+
+}  // namespace dfsm::service

@@ -1,0 +1,86 @@
+#include "daemon/service/job_processor.h"
+
+#include <iostream>
+
+#include "core/pipeline/pipeline.h"
+
+namespace dfsm::service {
+namespace {
+
+PipelineOptions ToPipelineOptions(const JobOptions& options) {
+  PipelineOptions pipeline;
+  pipeline.sparse.init = ParseInitMode(options.init);
+  pipeline.sparse.features.cell_px = options.grid;
+  pipeline.dense.planes = options.planes;
+  pipeline.run_dense = options.dense;
+  return pipeline;
+}
+
+}  // namespace
+
+void JobProcessor::Process(const std::string& id, std::shared_ptr<const Burst> preloaded) {
+  std::optional<Job> found = store_->Get(id);
+  if (!found) return;  // deleted while queued
+  Job job = *found;
+  try {
+    if (job.attempts >= kMaxAttempts) {
+      Finish(&job, false,
+             "abandoned: processing was interrupted " + std::to_string(job.attempts) + " times");
+      return;
+    }
+    job.status = JobStatus::kProcessing;
+    job.started_ms = NowUnixMs();
+    job.stage = "loading";
+    ++job.attempts;
+    store_->Update(job);
+
+    std::shared_ptr<const Burst> burst = preloaded;
+    if (!burst) {
+      ReadBurstOptions read;
+      read.max_frames = job.options.frames;
+      burst = std::make_shared<Burst>(ReadBurst(store_->BurstDir(id), read));
+    }
+    const auto on_stage = [&](const std::string& stage) {
+      job.stage = stage;
+      store_->Update(job);
+    };
+    PipelineOutput output = RunPipeline(*burst, ToPipelineOptions(job.options), on_stage);
+    on_stage("writing");
+    const std::filesystem::path staged = store_->NewStagingDir();
+    WritePipelineOutputs(staged, *burst, &output);
+    store_->CommitOutput(id, staged);
+    job.timings_ms = output.result.timings_ms;
+    Finish(&job, output.result.ok, output.result.error);
+  } catch (const std::exception& e) {
+    Finish(&job, false, e.what());
+  }
+}
+
+void JobProcessor::Finish(Job* job, bool ok, const std::string& error) {
+  try {
+    job->status = ok ? JobStatus::kSucceeded : JobStatus::kFailed;
+    job->error = ok ? "" : error;
+    job->finished_ms = NowUnixMs();
+    job->stage = "done";
+    if (ok && !job->options.keep_burst) {
+      store_->DropBurst(job->id);
+      job->has_burst = false;
+    }
+    job->bytes = JobStore::DirectoryBytes(store_->BurstDir(job->id)) +
+                 JobStore::DirectoryBytes(store_->OutputDir(job->id));
+    store_->Update(*job);
+    metrics_->JobFinished(ok);
+    for (const auto& [stage, ms] : job->timings_ms) metrics_->StageDuration(stage, ms / 1000.0);
+    if (job->started_ms > 0) {
+      metrics_->JobDuration((job->started_ms - job->created_ms) / 1000.0,
+                            (job->finished_ms - job->created_ms) / 1000.0);
+    }
+    store_->EnforceRetention(retention_, NowUnixMs());
+  } catch (const std::exception& e) {
+    // The record could not be written (disk full?): the job stays as it was on
+    // disk and is retried at the next start.
+    std::cerr << "dfsmd: job " << job->id << ": cannot record the outcome: " << e.what() << "\n";
+  }
+}
+
+}  // namespace dfsm::service

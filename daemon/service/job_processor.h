@@ -1,0 +1,38 @@
+// Runs one stored job through the pipeline: status transitions, outputs
+// written beside the job, metrics, retention. Called by the scheduler's workers.
+//
+// Invariant: whatever happens (bad burst, pipeline failure, I/O error), the job
+// ends succeeded or failed with a reason, and output/ appears whole or not at all.
+#pragma once
+
+#include <memory>
+#include <string>
+
+#include "core/io/burst.h"
+#include "daemon/service/config.h"
+#include "daemon/service/job_store.h"
+#include "daemon/service/metrics.h"
+
+namespace dfsm::service {
+
+class JobProcessor {
+ public:
+  // A job interrupted this many times (a crash or kill mid-run each time) is
+  // failed instead of run again: it may be what kills the daemon.
+  static constexpr int kMaxAttempts = 3;
+
+  JobProcessor(JobStore* store, Metrics* metrics, RetentionSection retention)
+      : store_(store), metrics_(metrics), retention_(retention) {}
+
+  // Never throws.
+  void Process(const std::string& id, std::shared_ptr<const Burst> preloaded);
+
+ private:
+  void Finish(Job* job, bool ok, const std::string& error);
+
+  JobStore* store_;
+  Metrics* metrics_;
+  const RetentionSection retention_;
+};
+
+}  // namespace dfsm::service

@@ -1,0 +1,206 @@
+#include "daemon/service/job_store.h"
+
+#include <unistd.h>
+
+#include <iostream>
+#include <random>
+
+#include "core/io/file_util.h"
+#include "daemon/service/retention.h"
+
+namespace dfsm::service {
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr const char* kRecordFile = "job.json";
+
+}  // namespace
+
+JobStore::JobStore(fs::path state_dir) : state_dir_(std::move(state_dir)) {
+  std::error_code error;
+  for (const char* sub : {"jobs", "tmp"}) {
+    fs::create_directories(state_dir_ / sub, error);
+    if (error) {
+      throw JobStoreError("state directory '" + (state_dir_ / sub).string() +
+                          "' cannot be created: " + error.message());
+    }
+  }
+  if (::access(state_dir_.c_str(), W_OK) != 0) {
+    throw JobStoreError("state directory '" + state_dir_.string() + "' is not writable");
+  }
+  // Leftovers of an interrupted upload, capture or output: never acknowledged
+  // to anyone, or superseded by a re-run.
+  for (const auto& entry : fs::directory_iterator(state_dir_ / "tmp")) {
+    fs::remove_all(entry.path(), error);
+  }
+  for (const auto& entry : fs::directory_iterator(state_dir_ / "jobs")) {
+    const std::string name = entry.path().filename().string();
+    try {
+      if (!IsValidJobId(name)) throw std::invalid_argument("not a job id");
+      Job job = JobFromJson(nlohmann::json::parse(ReadFileToString(entry.path() / kRecordFile)));
+      if (job.id != name) throw std::invalid_argument("record names job " + job.id);
+      job.has_burst = fs::exists(entry.path() / "burst" / "manifest.json");
+      jobs_.emplace(job.id, job);
+    } catch (const std::exception& e) {
+      const fs::path aside = state_dir_ / "damaged" / name;
+      std::cerr << "dfsmd: job directory '" << entry.path().string() << "' is damaged (" << e.what()
+                << "); moved to " << aside.string() << "\n";
+      fs::create_directories(aside.parent_path(), error);
+      fs::rename(entry.path(), aside, error);
+    }
+  }
+}
+
+fs::path JobStore::NewStagingDir() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const fs::path dir =
+      state_dir_ / "tmp" /
+      ("stage-" + std::to_string(::getpid()) + "-" + std::to_string(++staging_counter_));
+  fs::create_directories(dir);
+  return dir;
+}
+
+std::string JobStore::NewIdLocked() {
+  static thread_local std::mt19937 random(std::random_device{}());
+  for (;;) {
+    char id[32];
+    const int64_t now = NowUnixMs();
+    const uint32_t suffix = (++id_counter_ + random()) & 0xffff;
+    std::snprintf(id, sizeof(id), "j%013lld-%04x", static_cast<long long>(now), suffix);
+    if (!jobs_.count(id)) return id;
+  }
+}
+
+Job JobStore::Create(const std::string& origin, const JobOptions& options,
+                     const fs::path& staged_burst, const nlohmann::json& input) {
+  // The job directory is assembled in tmp/ (record + burst) and appears in
+  // jobs/ with one rename.
+  const fs::path assembly = NewStagingDir();
+  fs::rename(staged_burst, assembly / "burst");
+  std::lock_guard<std::mutex> lock(mutex_);
+  Job job;
+  job.id = NewIdLocked();
+  job.origin = origin;
+  job.options = options;
+  job.created_ms = NowUnixMs();
+  job.has_burst = true;
+  job.input = input;
+  WriteRecord(assembly, job);
+  std::error_code error;
+  fs::rename(assembly, JobDir(job.id), error);
+  if (error) {
+    fs::remove_all(assembly);
+    throw JobStoreError("cannot store job " + job.id + ": " + error.message());
+  }
+  jobs_.emplace(job.id, job);
+  return job;
+}
+
+std::optional<Job> JobStore::Get(const std::string& id) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const auto it = jobs_.find(id);
+  if (it == jobs_.end()) return std::nullopt;
+  return it->second;
+}
+
+std::vector<Job> JobStore::List() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  std::vector<Job> jobs;
+  for (auto it = jobs_.rbegin(); it != jobs_.rend(); ++it) jobs.push_back(it->second);
+  return jobs;
+}
+
+std::vector<Job> JobStore::Unfinished() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  std::vector<Job> jobs;
+  for (const auto& [id, job] : jobs_) {
+    if (!IsFinished(job.status)) jobs.push_back(job);
+  }
+  return jobs;
+}
+
+std::optional<Job> JobStore::LatestSucceeded() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const Job* latest = nullptr;
+  for (const auto& [id, job] : jobs_) {
+    if (job.status == JobStatus::kSucceeded &&
+        (!latest || job.finished_ms >= latest->finished_ms)) {
+      latest = &job;
+    }
+  }
+  if (!latest) return std::nullopt;
+  return *latest;
+}
+
+void JobStore::Update(const Job& job) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const auto it = jobs_.find(job.id);
+  if (it == jobs_.end()) throw JobStoreError("unknown job " + job.id);
+  WriteRecord(JobDir(job.id), job);
+  it->second = job;
+}
+
+void JobStore::CommitOutput(const std::string& id, const fs::path& staged_output) {
+  const fs::path target = OutputDir(id);
+  std::error_code error;
+  if (fs::exists(target)) Discard(target);
+  fs::rename(staged_output, target, error);
+  if (error) throw JobStoreError("cannot store the output of job " + id + ": " + error.message());
+}
+
+void JobStore::DropBurst(const std::string& id) {
+  const fs::path burst = BurstDir(id);
+  if (fs::exists(burst)) Discard(burst);
+}
+
+bool JobStore::Remove(const std::string& id) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!jobs_.erase(id)) return false;
+  }
+  Discard(JobDir(id));
+  return true;
+}
+
+std::vector<std::string> JobStore::EnforceRetention(const RetentionSection& limits,
+                                                    int64_t now_ms) {
+  const std::vector<std::string> expired = SelectExpiredJobs(List(), limits, now_ms);
+  for (const std::string& id : expired) Remove(id);
+  return expired;
+}
+
+fs::path JobStore::JobDir(const std::string& id) const { return state_dir_ / "jobs" / id; }
+fs::path JobStore::BurstDir(const std::string& id) const { return JobDir(id) / "burst"; }
+fs::path JobStore::OutputDir(const std::string& id) const { return JobDir(id) / "output"; }
+
+void JobStore::WriteRecord(const fs::path& job_dir, const Job& job) const {
+  try {
+    WriteFileAtomically(job_dir / kRecordFile, ToJson(job).dump(2) + "\n");
+  } catch (const std::exception& e) {
+    throw JobStoreError(e.what());
+  }
+}
+
+void JobStore::Discard(const fs::path& dir) {
+  fs::path trash;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    trash = state_dir_ / "tmp" / ("trash-" + std::to_string(++staging_counter_));
+  }
+  std::error_code error;
+  fs::rename(dir, trash, error);
+  fs::remove_all(error ? dir : trash, error);
+}
+
+int64_t JobStore::DirectoryBytes(const fs::path& dir) {
+  int64_t bytes = 0;
+  std::error_code error;
+  for (auto it = fs::recursive_directory_iterator(dir, error); !error && it != fs::end(it);
+       it.increment(error)) {
+    if (it->is_regular_file(error)) bytes += static_cast<int64_t>(it->file_size(error));
+  }
+  return bytes;
+}
+
+}  // namespace dfsm::service

@@ -1,0 +1,53 @@
+#include "daemon/service/systemd_notifier.h"
+
+#include <systemd/sd-daemon.h>
+
+#include <iostream>
+
+namespace dfsm::service {
+
+SystemdNotifier::SystemdNotifier() {
+  uint64_t usec = 0;
+  if (sd_watchdog_enabled(0, &usec) > 0) interval_ = std::chrono::microseconds(usec);
+}
+
+SystemdNotifier::~SystemdNotifier() { StopWatchdog(); }
+
+void SystemdNotifier::Ready(const std::string& status) {
+  sd_notify(0, ("READY=1\nSTATUS=" + status).c_str());
+}
+
+void SystemdNotifier::Status(const std::string& status) {
+  sd_notify(0, ("STATUS=" + status).c_str());
+}
+
+void SystemdNotifier::Stopping() { sd_notify(0, "STOPPING=1"); }
+
+void SystemdNotifier::StartWatchdog(std::function<bool()> healthy) {
+  if (!watchdog_enabled() || thread_.joinable()) return;
+  thread_ = std::thread([this, healthy = std::move(healthy)] {
+    bool was_healthy = true;
+    std::unique_lock<std::mutex> lock(mutex_);
+    while (!stop_) {
+      const bool ok = healthy();
+      if (ok) sd_notify(0, "WATCHDOG=1");
+      if (ok != was_healthy) {
+        std::cerr << (ok ? "dfsmd: healthy again, watchdog pings resume\n"
+                         : "dfsmd: capture is stuck, watchdog pings stop\n");
+        was_healthy = ok;
+      }
+      wake_.wait_for(lock, interval_ / 2, [this] { return stop_; });
+    }
+  });
+}
+
+void SystemdNotifier::StopWatchdog() {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stop_ = true;
+  }
+  wake_.notify_all();
+  if (thread_.joinable()) thread_.join();
+}
+
+}  // namespace dfsm::service
