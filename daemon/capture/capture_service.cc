@@ -8,6 +8,7 @@
 #include "daemon/capture/replay_source.h"
 #include "daemon/capture/source_uri.h"
 #include "daemon/capture/streaming_service.h"
+#include "daemon/capture/v4l2_source.h"
 #ifdef DFSM_HAVE_LIBCAMERA
 #include "daemon/capture/libcamera_source.h"
 #endif
@@ -58,8 +59,8 @@ std::unique_ptr<CaptureService> CaptureService::Create(const CaptureConfig& conf
     if (uri.path.empty())
       throw CaptureConfigError("source \"" + config.source +
                                "\": v4l2 needs a device path, e.g. v4l2:/dev/video0");
-    throw CaptureConfigError("source \"" + config.source +
-                             "\": V4L2 capture lands in the next commit");
+    source = std::make_unique<V4l2Source>(V4l2Source::Options::FromConfig(uri.path, config),
+                                          MakeSystemV4l2Device());
   } else if (uri.scheme == "libcamera") {
 #ifdef DFSM_HAVE_LIBCAMERA
     source = std::make_unique<LibcameraSource>(uri.path, config);

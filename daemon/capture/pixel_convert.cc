@@ -1,0 +1,153 @@
+#include "daemon/capture/pixel_convert.h"
+
+#include <linux/videodev2.h>
+
+#include <opencv2/imgproc.hpp>
+#include <stdexcept>
+#include <string>
+
+namespace dfsm::capture {
+
+bool IsSupportedFourcc(uint32_t fourcc) {
+  switch (fourcc) {
+    case V4L2_PIX_FMT_YUYV:
+    case V4L2_PIX_FMT_UYVY:
+    case V4L2_PIX_FMT_NV12:
+    case V4L2_PIX_FMT_YUV420:
+    case V4L2_PIX_FMT_GREY:
+    case V4L2_PIX_FMT_MJPEG:
+    case V4L2_PIX_FMT_JPEG:
+      return true;
+    default:
+      return false;
+  }
+}
+
+bool HasCheapColor(uint32_t fourcc) {
+  return fourcc == V4L2_PIX_FMT_YUYV || fourcc == V4L2_PIX_FMT_UYVY ||
+         fourcc == V4L2_PIX_FMT_NV12 || fourcc == V4L2_PIX_FMT_YUV420;
+}
+
+size_t MinimumFrameBytes(const FrameLayout& layout) {
+  const size_t w = static_cast<size_t>(layout.width), h = static_cast<size_t>(layout.height);
+  const size_t stride = static_cast<size_t>(layout.bytesperline);
+  size_t row = 0;
+  switch (layout.fourcc) {
+    case V4L2_PIX_FMT_YUYV:
+    case V4L2_PIX_FMT_UYVY:
+      row = 2 * w;
+      break;
+    case V4L2_PIX_FMT_NV12:
+    case V4L2_PIX_FMT_YUV420:
+    case V4L2_PIX_FMT_GREY:
+      row = w;
+      break;
+    default:
+      return 1;  // compressed
+  }
+  if (stride < row)
+    throw std::runtime_error("bytesperline " + std::to_string(stride) + " is less than the " +
+                             std::to_string(row) + " bytes a row of width " + std::to_string(w) +
+                             " needs");
+  switch (layout.fourcc) {
+    case V4L2_PIX_FMT_NV12:
+      return stride * h + stride * ((h + 1) / 2);
+    case V4L2_PIX_FMT_YUV420:
+      return stride * h + 2 * (stride / 2) * ((h + 1) / 2);
+    default:
+      return stride * h;
+  }
+}
+
+namespace {
+
+void CheckSize(size_t bytesused, const FrameLayout& layout) {
+  const size_t needed = MinimumFrameBytes(layout);
+  if (bytesused < needed)
+    throw std::runtime_error("short frame: " + std::to_string(bytesused) + " bytes where " +
+                             std::to_string(needed) + " are needed");
+}
+
+}  // namespace
+
+void ConvertFrame(const uint8_t* data, size_t bytesused, const FrameLayout& layout, cv::Mat& gray,
+                  cv::Mat* color, MjpegDecoder* mjpeg) {
+  const int w = layout.width, h = layout.height;
+  const size_t stride = static_cast<size_t>(layout.bytesperline);
+  auto* bytes = const_cast<uint8_t*>(data);  // cv::Mat headers; nothing writes through them
+  switch (layout.fourcc) {
+    case V4L2_PIX_FMT_YUYV:
+    case V4L2_PIX_FMT_UYVY: {
+      CheckSize(bytesused, layout);
+      const bool yuyv = layout.fourcc == V4L2_PIX_FMT_YUYV;
+      const cv::Mat packed(h, w, CV_8UC2, bytes, stride);
+      // Luma is every other byte: OpenCV's channel extraction, vectorized.
+      cv::extractChannel(packed, gray, yuyv ? 0 : 1);
+      if (color != nullptr)
+        cv::cvtColor(packed, *color, yuyv ? cv::COLOR_YUV2BGR_YUYV : cv::COLOR_YUV2BGR_UYVY);
+      return;
+    }
+    case V4L2_PIX_FMT_NV12: {
+      CheckSize(bytesused, layout);
+      const cv::Mat y(h, w, CV_8UC1, bytes, stride);
+      y.copyTo(gray);
+      if (color != nullptr) {
+        const cv::Mat uv(h / 2, w / 2, CV_8UC2, bytes + stride * static_cast<size_t>(h), stride);
+        cv::cvtColorTwoPlane(y, uv, *color, cv::COLOR_YUV2BGR_NV12);
+      }
+      return;
+    }
+    case V4L2_PIX_FMT_YUV420: {
+      CheckSize(bytesused, layout);
+      const cv::Mat y(h, w, CV_8UC1, bytes, stride);
+      y.copyTo(gray);
+      if (color != nullptr) {
+        if (stride == static_cast<size_t>(w) && h % 2 == 0) {
+          const cv::Mat i420(h * 3 / 2, w, CV_8UC1, bytes);
+          cv::cvtColor(i420, *color, cv::COLOR_YUV2BGR_I420);
+        } else {
+          // Padded rows: upsample the chroma planes by hand (rare layout).
+          const size_t cstride = stride / 2;
+          const uint8_t* u = bytes + stride * static_cast<size_t>(h);
+          const uint8_t* v = u + cstride * static_cast<size_t>((h + 1) / 2);
+          cv::Mat yuv(h, w, CV_8UC3);
+          for (int r = 0; r < h; ++r) {
+            const uint8_t* yr = y.ptr<uint8_t>(r);
+            const uint8_t* ur = u + cstride * static_cast<size_t>(r / 2);
+            const uint8_t* vr = v + cstride * static_cast<size_t>(r / 2);
+            auto* out = yuv.ptr<uint8_t>(r);
+            for (int c = 0; c < w; ++c) {
+              out[3 * c] = yr[c];
+              out[3 * c + 1] = ur[c / 2];
+              out[3 * c + 2] = vr[c / 2];
+            }
+          }
+          cv::cvtColor(yuv, *color, cv::COLOR_YUV2BGR);
+        }
+      }
+      return;
+    }
+    case V4L2_PIX_FMT_GREY: {
+      CheckSize(bytesused, layout);
+      cv::Mat(h, w, CV_8UC1, bytes, stride).copyTo(gray);
+      if (color != nullptr) color->release();
+      return;
+    }
+    case V4L2_PIX_FMT_MJPEG:
+    case V4L2_PIX_FMT_JPEG: {
+      if (mjpeg == nullptr) throw std::logic_error("ConvertFrame: MJPEG without a decoder");
+      if (bytesused == 0) throw std::runtime_error("empty MJPEG frame");
+      if (color != nullptr) {
+        mjpeg->DecodeBgr(data, bytesused, w, h, *color);
+        cv::cvtColor(*color, gray, cv::COLOR_BGR2GRAY);
+      } else {
+        mjpeg->DecodeGray(data, bytesused, w, h, gray);
+      }
+      return;
+    }
+    default:
+      throw std::runtime_error("unsupported pixel format");
+  }
+}
+
+}  // namespace dfsm::capture
