@@ -104,6 +104,11 @@ const char* TypeName(KeyType type) {
   return "?";
 }
 
+std::string WithArticle(KeyType type) {
+  return (type == KeyType::kInt || type == KeyType::kInt64 ? "an " : "a ") +
+         std::string(TypeName(type));
+}
+
 ConfigError KeyError(const std::string& key, const std::string& problem) {
   return ConfigError(key + ": " + problem);
 }
@@ -125,7 +130,7 @@ void SetFromToml(const Key& key, const toml::node& node, DaemonConfig* config) {
     std::ostringstream got;
     got << node.type();
     return KeyError(key.name,
-                    std::string("expected a ") + TypeName(key.type) + ", got a " + got.str());
+                    "expected " + WithArticle(key.type) + ", got " + got.str());
   };
   switch (key.type) {
     case KeyType::kString:

@@ -76,7 +76,8 @@ Job JobFromJson(const nlohmann::json& json) {
   job.started_ms = json.value("started_ms", int64_t{0});
   job.finished_ms = json.value("finished_ms", int64_t{0});
   job.attempts = json.value("attempts", 0);
-  for (const auto& [stage, ms] : json.value("timings_ms", nlohmann::json::object()).items()) {
+  const nlohmann::json timings = json.value("timings_ms", nlohmann::json::object());
+  for (const auto& [stage, ms] : timings.items()) {
     job.timings_ms.emplace_back(stage, ms.get<double>());
   }
   job.has_burst = json.value("has_burst", false);
