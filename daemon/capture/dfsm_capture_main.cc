@@ -1,0 +1,207 @@
+// dfsm-capture: runs one CaptureService from the command line and writes what
+// happened as JSON. It is how the VM tests drive real kernel drivers, and a
+// quick way to check a camera by hand:
+//
+//   dfsm-capture --source v4l2:/dev/video0 --fps 30 --duration 5 --burst 10 --out /tmp/b
+#include <sys/resource.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <fstream>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <thread>
+
+#include "core/io/burst.h"
+#include "daemon/capture/capture_service.h"
+
+namespace {
+
+using dfsm::capture::BurstWhen;
+using dfsm::capture::CaptureConfig;
+using dfsm::capture::CaptureService;
+using dfsm::capture::CaptureStatus;
+using Clock = std::chrono::steady_clock;
+
+constexpr const char* kUsage =
+    "usage: dfsm-capture --source URI [--width W --height H] [--fps F] [--format FOURCC]\n"
+    "                    [--ring N] [--buffers N] [--frame-timeout-ms T] [--backoff-ms T]\n"
+    "                    [--duration S] [--until-reconnected S]\n"
+    "                    [--burst N [--when last|next] [--timeout-ms T] [--out DIR]]\n"
+    "                    [--report FILE]\n"
+    "Streams for --duration seconds (and, with --until-reconnected, until the source\n"
+    "has been lost and found again), then optionally grabs a burst and writes it as\n"
+    "dfsm-burst/1, and prints (or writes) a JSON report.\n";
+
+nlohmann::json ToJson(const CaptureStatus& s) {
+  return {{"source", s.source},
+          {"device", s.device},
+          {"driver", s.driver},
+          {"card", s.card},
+          {"format", s.format},
+          {"width", s.width},
+          {"height", s.height},
+          {"fps", s.fps},
+          {"streaming", s.streaming},
+          {"frames_captured", s.frames_captured},
+          {"frames_dropped", s.frames_dropped},
+          {"reconnects", s.reconnects},
+          {"ring_fill", s.ring_fill},
+          {"ring_capacity", s.ring_capacity},
+          {"last_error", s.last_error},
+          {"last_frame_monotonic_ns", s.last_frame_monotonic_ns}};
+}
+
+double CpuSeconds() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return static_cast<double>(usage.ru_utime.tv_sec + usage.ru_stime.tv_sec) +
+         static_cast<double>(usage.ru_utime.tv_usec + usage.ru_stime.tv_usec) * 1e-6;
+}
+
+struct Arguments {
+  CaptureConfig config;
+  double duration_s = 0.0;
+  double until_reconnected_s = 0.0;
+  int burst = 0;
+  BurstWhen when = BurstWhen::kNext;
+  int timeout_ms = 5000;
+  std::string out, report;
+};
+
+Arguments Parse(int argc, char** argv) {
+  Arguments a;
+  for (int i = 1; i < argc; ++i) {
+    const std::string flag = argv[i];
+    if (flag == "--help" || flag == "-h") {
+      std::cout << kUsage;
+      std::exit(0);
+    }
+    if (i + 1 >= argc) throw std::invalid_argument(flag + " needs a value");
+    const std::string value = argv[++i];
+    if (flag == "--source")
+      a.config.source = value;
+    else if (flag == "--width")
+      a.config.width = std::stoi(value);
+    else if (flag == "--height")
+      a.config.height = std::stoi(value);
+    else if (flag == "--fps")
+      a.config.fps = std::stod(value);
+    else if (flag == "--format")
+      a.config.pixel_format = value;
+    else if (flag == "--ring")
+      a.config.ring_frames = std::stoi(value);
+    else if (flag == "--buffers")
+      a.config.device_buffers = std::stoi(value);
+    else if (flag == "--frame-timeout-ms")
+      a.config.frame_timeout = std::chrono::milliseconds(std::stoi(value));
+    else if (flag == "--backoff-ms")
+      a.config.reconnect_backoff = std::chrono::milliseconds(std::stoi(value));
+    else if (flag == "--duration")
+      a.duration_s = std::stod(value);
+    else if (flag == "--until-reconnected")
+      a.until_reconnected_s = std::stod(value);
+    else if (flag == "--burst")
+      a.burst = std::stoi(value);
+    else if (flag == "--when") {
+      if (value != "last" && value != "next") throw std::invalid_argument("--when is last or next");
+      a.when = value == "last" ? BurstWhen::kLast : BurstWhen::kNext;
+    } else if (flag == "--timeout-ms")
+      a.timeout_ms = std::stoi(value);
+    else if (flag == "--out")
+      a.out = value;
+    else if (flag == "--report")
+      a.report = value;
+    else
+      throw std::invalid_argument("unknown option " + flag);
+  }
+  return a;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Arguments args;
+  try {
+    args = Parse(argc, argv);
+  } catch (const std::exception& e) {
+    std::cerr << "dfsm-capture: " << e.what() << "\n" << kUsage;
+    return 2;
+  }
+  nlohmann::json report = {{"ok", false}};
+  int exit_code = 1;
+  try {
+    auto service = CaptureService::Create(args.config);
+    const auto start = Clock::now();
+    const double cpu_start = CpuSeconds();
+    service->Start();
+
+    // Stream, sampling the status to see outages (and how long they lasted).
+    nlohmann::json outage;
+    Clock::time_point lost_at{};
+    bool lost = false, recovered = false;
+    const auto stream_until = start + std::chrono::duration<double>(args.duration_s);
+    const auto give_up = stream_until + std::chrono::duration<double>(args.until_reconnected_s);
+    while (Clock::now() < give_up) {
+      const CaptureStatus s = service->Status();
+      if (!lost && s.frames_captured > 0 && !s.streaming) {
+        lost = true;
+        lost_at = Clock::now();
+        outage["first_error"] = s.last_error;
+      }
+      if (lost && !recovered && s.streaming && s.reconnects > 0) {
+        recovered = true;
+        outage["recovery_s"] = std::chrono::duration<double>(Clock::now() - lost_at).count();
+        outage["error_while_lost"] = outage["first_error"];
+      }
+      if (Clock::now() >= stream_until && (args.until_reconnected_s <= 0 || recovered)) break;
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    const CaptureStatus streamed = service->Status();
+    const double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
+    report["after_streaming"] = ToJson(streamed);
+    report["elapsed_s"] = elapsed;
+    report["cpu_s"] = CpuSeconds() - cpu_start;
+    report["mean_fps"] =
+        elapsed > 0 ? static_cast<double>(streamed.frames_captured) / elapsed : 0.0;
+    if (args.until_reconnected_s > 0) {
+      outage["lost"] = lost;
+      outage["recovered"] = recovered;
+      report["outage"] = outage;
+    }
+
+    if (args.burst > 0) {
+      const auto grab_start = Clock::now();
+      CaptureService::Burst burst =
+          service->GrabBurst(args.burst, args.when, std::chrono::milliseconds(args.timeout_ms));
+      report["burst"] = {
+          {"frames", burst.frames.size()},
+          {"grab_s", std::chrono::duration<double>(Clock::now() - grab_start).count()},
+          {"manifest", dfsm::ToJson(burst.manifest)}};
+      if (!args.out.empty()) {
+        dfsm::WriteBurst(args.out, burst.manifest, burst.frames);
+        report["burst"]["dir"] = args.out;
+      }
+    }
+    report["final"] = ToJson(service->Status());
+    service->Stop();
+    report["ok"] = args.until_reconnected_s <= 0 || recovered;
+    exit_code = report["ok"].get<bool>() ? 0 : 1;
+  } catch (const std::exception& e) {
+    report["error"] = e.what();
+    std::cerr << "dfsm-capture: " << e.what() << "\n";
+  }
+  const std::string text = report.dump(2) + "\n";
+  if (args.report.empty()) {
+    std::cout << text;
+  } else {
+    std::ofstream file(args.report);
+    file << text;
+    if (!file) {
+      std::cerr << "dfsm-capture: cannot write " << args.report << "\n";
+      return 1;
+    }
+  }
+  return exit_code;
+}
