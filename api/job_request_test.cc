@@ -1,0 +1,104 @@
+#include "api/job_request.h"
+
+#include <gtest/gtest.h>
+
+namespace dfsm::api {
+namespace {
+
+std::string ErrorOf(const std::function<void()>& body) {
+  try {
+    body();
+  } catch (const RequestError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(JobRequestTest, EmptyBodyGivesTheConfiguredDefaults) {
+  service::DaemonConfig config;
+  config.pipeline.planes = 48;
+  config.jobs.keep_burst = false;
+  const service::JobOptions options = ParseCaptureRequest("  \n", config);
+  EXPECT_EQ(options.frames, 10);
+  EXPECT_EQ(options.when, "last");
+  EXPECT_EQ(options.planes, 48);
+  EXPECT_FALSE(options.keep_burst);
+}
+
+TEST(JobRequestTest, BodyOverridesEachField) {
+  const service::JobOptions options = ParseCaptureRequest(
+      R"({"frames":12,"when":"next","planes":64,"grid":40,"init":"naive","dense":false,"keep_burst":false})",
+      service::DaemonConfig());
+  EXPECT_EQ(options.frames, 12);
+  EXPECT_EQ(options.when, "next");
+  EXPECT_EQ(options.planes, 64);
+  EXPECT_EQ(options.grid, 40);
+  EXPECT_EQ(options.init, "naive");
+  EXPECT_FALSE(options.dense);
+  EXPECT_FALSE(options.keep_burst);
+}
+
+TEST(JobRequestTest, BadBodiesNameTheProblem) {
+  const service::DaemonConfig config;
+  const auto error = [&](const std::string& body) {
+    return ErrorOf([&] { ParseCaptureRequest(body, config); });
+  };
+  EXPECT_NE(error("{\"frames\":").find("not valid JSON"), std::string::npos);
+  EXPECT_EQ(error("[1]"), "the body must be a JSON object");
+  EXPECT_EQ(error(R"({"frames":"ten"})"), "'frames' must be an integer");
+  EXPECT_EQ(error(R"({"frames":2})"), "'frames' must be in [3, 64], got 2");
+  EXPECT_EQ(error(R"({"frames":65})"), "'frames' must be in [3, 64], got 65");
+  EXPECT_EQ(error(R"({"when":"soon"})"), "'when' must be \"last\" or \"next\", got \"soon\"");
+  EXPECT_EQ(error(R"({"init":"rank2"})"), "'init' must be \"rank1\" or \"naive\", got \"rank2\"");
+  EXPECT_EQ(error(R"({"planes":1})"), "'planes' must be in [2, 1024], got 1");
+  EXPECT_EQ(error(R"({"dense":"yes"})"), "'dense' must be true or false");
+  EXPECT_NE(error(R"({"frame":10})").find("unknown field 'frame'"), std::string::npos);
+}
+
+TEST(JobRequestTest, UploadQueryIsTextAndHasNoWhen) {
+  const service::DaemonConfig config;
+  const service::JobOptions all = ParseUploadQuery({}, config);
+  EXPECT_EQ(all.frames, 0);  // every frame of the upload
+  const service::JobOptions options =
+      ParseUploadQuery({{"frames", "8"}, {"init", "naive"}, {"keep_burst", "false"}}, config);
+  EXPECT_EQ(options.frames, 8);
+  EXPECT_EQ(options.init, "naive");
+  EXPECT_FALSE(options.keep_burst);
+  EXPECT_EQ(ErrorOf([&] {
+              ParseUploadQuery({{"planes", "many"}}, config);
+            }),
+            "'planes' must be an integer, got 'many'");
+  EXPECT_NE(ErrorOf([&] {
+              ParseUploadQuery({{"when", "next"}}, config);
+            }).find("unknown field 'when'"),
+            std::string::npos);
+  EXPECT_EQ(ErrorOf([&] {
+              ParseUploadQuery({{"dense", "1"}, {"dense", "0"}}, config);
+            }),
+            "'dense' is given more than once");
+}
+
+TEST(JobRequestTest, ListQuery) {
+  const ListQuery query = ParseListQuery({{"limit", "5"}, {"status", "failed"}});
+  EXPECT_EQ(query.limit, 5);
+  EXPECT_EQ(query.status, "failed");
+  EXPECT_EQ(ErrorOf([] {
+              ParseListQuery({{"limit", "0"}});
+            }),
+            "'limit' must be in [1, 1000], got 0");
+  EXPECT_EQ(ErrorOf([] {
+              ParseListQuery({{"after", "../x"}});
+            }),
+            "'after' is not a job id: '../x'");
+  EXPECT_NE(ErrorOf([] {
+              ParseListQuery({{"status", "done"}});
+            }).find("'status' must be"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf([] {
+              ParseListQuery({{"page", "2"}});
+            }).find("unknown query parameter 'page'"),
+            std::string::npos);
+}
+
+}  // namespace
+}  // namespace dfsm::api

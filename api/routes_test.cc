@@ -1,0 +1,176 @@
+// The routes on a real server and store, without a capture source: listing,
+// pagination, deletion, problem+json for every kind of bad request, and the
+// OpenAPI document naming every route.
+#include "api/routes.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include "api/http_server.h"
+#include "core/io/file_util.h"
+
+namespace dfsm::api {
+namespace {
+
+namespace fs = std::filesystem;
+
+class RoutesTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("routes-test-" + std::to_string(::getpid()));
+    fs::remove_all(dir_);
+    config_.server.port = 0;
+    config_.server.max_body_bytes = 64 * 1024;
+    config_.jobs.queue = 2;
+    store_ = std::make_unique<service::JobStore>(dir_);
+    // Never started: queued jobs stay queued, so the queue's bounds are testable.
+    scheduler_ = std::make_unique<service::JobScheduler>(
+        1, config_.jobs.queue, [](const std::string&, std::shared_ptr<const Burst>) {});
+    service::TarLimits limits;
+    intake_ = std::make_unique<service::JobIntake>(store_.get(), scheduler_.get(), nullptr,
+                                                   &metrics_, limits);
+    ApiContext context{&config_, store_.get(), scheduler_.get(), intake_.get(), nullptr, &metrics_};
+    server_ = std::make_unique<HttpServer>(config_.server);
+    RegisterRoutes(context, server_->server());
+    port_ = server_->Bind();
+    server_->Start();
+    client_ = std::make_unique<httplib::Client>("127.0.0.1", port_);
+  }
+  void TearDown() override {
+    server_->Stop();
+    scheduler_->Shutdown();
+    fs::remove_all(dir_);
+  }
+
+  std::string AddJob(service::JobStatus status) {
+    const fs::path burst = store_->NewStagingDir() / "burst";
+    fs::create_directories(burst);
+    WriteFileAtomically(burst / "manifest.json", "{}");
+    service::Job job = store_->Create("upload", {}, burst, {});
+    job.status = status;
+    store_->Update(job);
+    return job.id;
+  }
+
+  // Checks a problem+json answer and returns its detail.
+  std::string Problem(const httplib::Result& result, int status) {
+    EXPECT_TRUE(result);
+    if (!result) return "";
+    EXPECT_EQ(result->status, status) << result->body;
+    EXPECT_EQ(result->get_header_value("Content-Type"), "application/problem+json");
+    const nlohmann::json body = nlohmann::json::parse(result->body);
+    EXPECT_EQ(body["status"], status);
+    EXPECT_FALSE(body["title"].get<std::string>().empty());
+    return body["detail"].get<std::string>();
+  }
+
+  fs::path dir_;
+  service::DaemonConfig config_;
+  service::Metrics metrics_;
+  std::unique_ptr<service::JobStore> store_;
+  std::unique_ptr<service::JobScheduler> scheduler_;
+  std::unique_ptr<service::JobIntake> intake_;
+  std::unique_ptr<HttpServer> server_;
+  std::unique_ptr<httplib::Client> client_;
+  int port_ = 0;
+};
+
+TEST_F(RoutesTest, ListsNewestFirstInPages) {
+  std::vector<std::string> ids;
+  for (int i = 0; i < 5; ++i) ids.push_back(AddJob(service::JobStatus::kFailed));
+  auto page = client_->Get("/api/v1/jobs?limit=2");
+  ASSERT_TRUE(page);
+  EXPECT_EQ(page->status, 200);
+  nlohmann::json body = nlohmann::json::parse(page->body);
+  ASSERT_EQ(body["jobs"].size(), 2u);
+  EXPECT_EQ(body["jobs"][0]["id"], ids[4]);
+  EXPECT_EQ(body["jobs"][1]["id"], ids[3]);
+  std::vector<std::string> seen;
+  std::string next = "/api/v1/jobs?limit=2";
+  while (!next.empty()) {
+    page = client_->Get(next.c_str());
+    body = nlohmann::json::parse(page->body);
+    for (const auto& job : body["jobs"]) seen.push_back(job["id"]);
+    next = body["next"].is_null() ? "" : body["next"].get<std::string>();
+  }
+  EXPECT_EQ(seen, (std::vector<std::string>{ids[4], ids[3], ids[2], ids[1], ids[0]}));
+  Problem(client_->Get("/api/v1/jobs?limit=none"), 400);
+}
+
+TEST_F(RoutesTest, UnknownJobsFilesAndPathTricksAreProblems) {
+  const std::string id = AddJob(service::JobStatus::kQueued);
+  EXPECT_NE(Problem(client_->Get("/api/v1/jobs/j0000000000000-0000"), 404).find("there is no job"),
+            std::string::npos);
+  EXPECT_NE(Problem(client_->Get("/api/v1/jobs/..%2E"), 404).find("not a job id"),
+            std::string::npos);
+  Problem(client_->Get("/api/v1/jobs/..%2F..%2Fetc"), 404);
+  EXPECT_NE(Problem(client_->Get(("/api/v1/jobs/" + id + "/job.json").c_str()), 404)
+                .find("not a job file"),
+            std::string::npos);
+  Problem(client_->Get(("/api/v1/jobs/" + id + "/..%2Fjob.json").c_str()), 404);
+  Problem(client_->Get(("/api/v1/jobs/" + id + "/../../jobs").c_str()), 404);
+  Problem(client_->Get(("/api/v1/jobs/" + id + "/result.json").c_str()), 409);
+  Problem(client_->Get("/api/v1/nothing"), 404);
+  Problem(client_->Get("/api/v1/calibration"), 404);
+  Problem(client_->Get("/api/v1/snapshot.jpg"), 503);
+  EXPECT_NE(Problem(client_->Get("/readyz"), 503).find("no capture source"), std::string::npos);
+  EXPECT_EQ(client_->Get("/healthz")->status, 200);
+}
+
+TEST_F(RoutesTest, BadUploadsAreNamed) {
+  auto tar = [&](const std::string& body, const std::string& query = "") {
+    return client_->Post(("/api/v1/jobs" + query).c_str(), body, "application/x-tar");
+  };
+  EXPECT_NE(Problem(tar("not a tar" + std::string(600, ' ')), 422).find("tar header at byte 0"),
+            std::string::npos);
+  EXPECT_NE(Problem(tar(""), 400).find("must be a tar"), std::string::npos);
+  Problem(client_->Post("/api/v1/jobs", "{}", "application/json"), 415);
+  EXPECT_NE(Problem(tar("x", "?planes=0"), 400).find("'planes'"), std::string::npos);
+  EXPECT_NE(Problem(tar(std::string(128 * 1024, '\0')), 413).find("max_body_bytes"),
+            std::string::npos);
+  EXPECT_NE(Problem(client_->Post("/api/v1/captures", "{\"frames\":", "application/json"), 400)
+                .find("not valid JSON"),
+            std::string::npos);
+  // Valid body, but this daemon has no capture source.
+  Problem(client_->Post("/api/v1/captures", "", "application/json"), 503);
+  EXPECT_TRUE(store_->List().empty());  // nothing half-made was kept
+  EXPECT_TRUE(fs::is_empty(dir_ / "tmp"));
+}
+
+TEST_F(RoutesTest, FullQueueAnswers503WithRetryAfter) {
+  auto held1 = scheduler_->TryReserve();
+  auto held2 = scheduler_->TryReserve();
+  const auto result = client_->Post("/api/v1/captures", "", "application/json");
+  EXPECT_NE(Problem(result, 503).find("queue is full"), std::string::npos);
+  EXPECT_EQ(result->get_header_value("Retry-After"), "5");
+  EXPECT_NE(Problem(client_->Get("/readyz"), 503).find("queue is full"), std::string::npos);
+  const auto metrics = client_->Get("/metrics");
+  EXPECT_NE(metrics->body.find("dfsmd_jobs_rejected_total 1"), std::string::npos);
+  EXPECT_NE(metrics->body.find("dfsmd_queue_depth 2"), std::string::npos);
+}
+
+TEST_F(RoutesTest, DeleteRemovesQueuedAndFinishedJobs) {
+  const std::string queued = AddJob(service::JobStatus::kQueued);
+  const std::string failed = AddJob(service::JobStatus::kFailed);
+  EXPECT_EQ(client_->Delete(("/api/v1/jobs/" + queued).c_str())->status, 204);
+  EXPECT_EQ(client_->Delete(("/api/v1/jobs/" + failed).c_str())->status, 204);
+  Problem(client_->Delete(("/api/v1/jobs/" + failed).c_str()), 404);
+  EXPECT_TRUE(store_->List().empty());
+}
+
+TEST_F(RoutesTest, OpenApiDocumentsEveryRoute) {
+  const auto result = client_->Get("/api/v1/openapi.json");
+  ASSERT_EQ(result->status, 200);
+  const nlohmann::json document = nlohmann::json::parse(result->body);
+  EXPECT_EQ(document["openapi"], "3.0.3");
+  for (const char* path : {"/api/v1/captures", "/api/v1/jobs", "/api/v1/jobs/{id}",
+                           "/api/v1/jobs/{id}/{file}", "/api/v1/calibration", "/api/v1/camera",
+                           "/api/v1/snapshot.jpg", "/healthz", "/readyz", "/metrics"}) {
+    EXPECT_TRUE(document["paths"].contains(path)) << path;
+  }
+  EXPECT_EQ(JobFileContentType("depth.tiff"), std::string("image/tiff"));
+  EXPECT_EQ(JobFileContentType("../job.json"), nullptr);
+}
+
+}  // namespace
+}  // namespace dfsm::api

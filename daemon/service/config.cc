@@ -129,8 +129,7 @@ void SetFromToml(const Key& key, const toml::node& node, DaemonConfig* config) {
   const auto wrong_type = [&] {
     std::ostringstream got;
     got << node.type();
-    return KeyError(key.name,
-                    "expected " + WithArticle(key.type) + ", got " + got.str());
+    return KeyError(key.name, "expected " + WithArticle(key.type) + ", got " + got.str());
   };
   switch (key.type) {
     case KeyType::kString:

@@ -91,14 +91,22 @@ TEST(ConfigTest, FlagsWinOverTheFileWhereverTheyStand) {
 }
 
 TEST(ConfigTest, BadFlagsAreNamed) {
-  EXPECT_EQ(ErrorOf([] { ParseCommandLine({"--server.port", "eighty"}); }),
+  EXPECT_EQ(ErrorOf([] {
+              ParseCommandLine({"--server.port", "eighty"});
+            }),
             "server.port: expected an integer, got 'eighty'");
-  EXPECT_EQ(ErrorOf([] { ParseCommandLine({"--sever.port", "80"}); }),
+  EXPECT_EQ(ErrorOf([] {
+              ParseCommandLine({"--sever.port", "80"});
+            }),
             "--sever.port: unknown option (see dfsmd --help)");
   EXPECT_EQ(ErrorOf([] { ParseCommandLine({"--server.port"}); }), "--server.port: needs a value");
-  EXPECT_EQ(ErrorOf([] { ParseCommandLine({"--config", "/nonexistent/dfsmd.toml"}); }),
+  EXPECT_EQ(ErrorOf([] {
+              ParseCommandLine({"--config", "/nonexistent/dfsmd.toml"});
+            }),
             "--config: cannot read '/nonexistent/dfsmd.toml'");
-  EXPECT_EQ(ErrorOf([] { ParseCommandLine({"--pipeline.dense", "maybe"}); }),
+  EXPECT_EQ(ErrorOf([] {
+              ParseCommandLine({"--pipeline.dense", "maybe"});
+            }),
             "pipeline.dense: expected true or false, got 'maybe'");
   EXPECT_NE(ErrorOf([] { ParseCommandLine({"stray"}); }).find("unexpected argument"),
             std::string::npos);

@@ -39,8 +39,8 @@ JobScheduler::Reservation JobIntake::Reserve() {
 }
 
 Job JobIntake::FromCapture(const JobOptions& options, std::chrono::milliseconds timeout) {
-  if (!capture_) throw capture::CaptureUnavailable("this daemon has no capture source");
   JobScheduler::Reservation reservation = Reserve();
+  if (!capture_) throw capture::CaptureUnavailable("this daemon has no capture source");
   const capture::BurstWhen when =
       options.when == "next" ? capture::BurstWhen::kNext : capture::BurstWhen::kLast;
   capture::CaptureService::Burst grabbed = capture_->GrabBurst(options.frames, when, timeout);

@@ -42,9 +42,8 @@ class Gate {
 
 TEST(JobSchedulerTest, BoundedQueueRefusesWhenFullAndRunsInOrder) {
   Gate gate;
-  JobScheduler scheduler(1, 2, [&](const std::string& id, std::shared_ptr<const Burst>) {
-    gate.Wait(id);
-  });
+  JobScheduler scheduler(
+      1, 2, [&](const std::string& id, std::shared_ptr<const Burst>) { gate.Wait(id); });
   scheduler.Start();
   scheduler.Submit(*scheduler.TryReserve(), "a", nullptr);
   gate.AwaitStarted(1);
@@ -70,9 +69,8 @@ TEST(JobSchedulerTest, BoundedQueueRefusesWhenFullAndRunsInOrder) {
 
 TEST(JobSchedulerTest, RecoveredJobsAreNeverRefusedAndShutdownKeepsTheQueue) {
   Gate gate;
-  JobScheduler scheduler(1, 1, [&](const std::string& id, std::shared_ptr<const Burst>) {
-    gate.Wait(id);
-  });
+  JobScheduler scheduler(
+      1, 1, [&](const std::string& id, std::shared_ptr<const Burst>) { gate.Wait(id); });
   for (const char* id : {"r1", "r2", "r3"}) scheduler.SubmitRecovered(id);
   EXPECT_EQ(scheduler.Depth(), 3);
   scheduler.Start();

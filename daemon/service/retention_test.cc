@@ -39,7 +39,8 @@ TEST(RetentionTest, BytesAndAgeLimitsAndOlderJobsGoToo) {
   limits.max_bytes = 150;
   limits.max_age_s = 0;
   // 60 fits, 60 + 100 does not: job 1 goes and with it the older job 0.
-  EXPECT_EQ(SelectExpiredJobs(jobs, limits, 1000), (std::vector<std::string>{jobs[0].id, jobs[1].id}));
+  EXPECT_EQ(SelectExpiredJobs(jobs, limits, 1000),
+            (std::vector<std::string>{jobs[0].id, jobs[1].id}));
   limits.max_bytes = 0;
   limits.max_age_s = 10;
   EXPECT_EQ(SelectExpiredJobs(jobs, limits, 1000 + 10 * 1000).size(), 0u);

@@ -89,17 +89,18 @@ TEST(UstarTest, RejectsPathsThatLeaveTheArchive) {
 }
 
 TEST(UstarTest, RejectsLinksDevicesAndExtendedHeaders) {
-  for (const auto& [type, message] : std::vector<std::pair<char, std::string>>{
-           {'1', "links are not allowed"},
-           {'2', "links are not allowed"},
-           {'3', "not a regular file"},
-           {'6', "not a regular file"},
-           {'x', "extended headers"},
-           {'L', "extended headers"}}) {
+  for (const auto& [type, message] :
+       std::vector<std::pair<char, std::string>>{{'1', "links are not allowed"},
+                                                 {'2', "links are not allowed"},
+                                                 {'3', "not a regular file"},
+                                                 {'6', "not a regular file"},
+                                                 {'x', "extended headers"},
+                                                 {'L', "extended headers"}}) {
     std::string archive = WriteTar({{"frames/link", ""}});
     archive[156] = type;
     FixChecksum(&archive, 0);
-    EXPECT_NE(ErrorOf(archive).find(message), std::string::npos) << type << ": " << ErrorOf(archive);
+    EXPECT_NE(ErrorOf(archive).find(message), std::string::npos)
+        << type << ": " << ErrorOf(archive);
   }
 }
 
@@ -111,8 +112,9 @@ TEST(UstarTest, RejectsDamageAndOversize) {
   EXPECT_NE(ErrorOf(archive.substr(0, 700)).find("truncated"), std::string::npos);
   EXPECT_NE(ErrorOf(archive.substr(0, 300)).find("truncated"), std::string::npos);
   EXPECT_EQ(ErrorOf(std::string(1024, '\0')), "tar archive is empty");
-  EXPECT_NE(ErrorOf("this is not a tar file at all" + std::string(600, ' ')).find("header at byte 0"),
-            std::string::npos);
+  EXPECT_NE(
+      ErrorOf("this is not a tar file at all" + std::string(600, ' ')).find("header at byte 0"),
+      std::string::npos);
   std::string bad_magic = archive;
   std::memcpy(bad_magic.data() + 257, "xxxxx", 5);
   FixChecksum(&bad_magic, 0);
