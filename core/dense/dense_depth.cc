@@ -1,5 +1,6 @@
 #include "core/dense/dense_depth.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <opencv2/imgproc.hpp>
@@ -56,17 +57,37 @@ void ValidateInputs(const Burst& burst, const CameraModel& camera, const std::ve
             "pose " + std::to_string(i) + " is not finite");
   }
   Require(options.coarse_scale >= 1, "coarse_scale must be >= 1");
+  Require(options.coarse_planes == 0 || options.coarse_planes >= 2,
+          "coarse_planes must be 0 (all planes) or >= 2");
   Require(burst.width() / options.coarse_scale >= 8 && burst.height() / options.coarse_scale >= 8,
           "image " + std::to_string(burst.width()) + "x" + std::to_string(burst.height()) +
               " too small for coarse_scale " + std::to_string(options.coarse_scale));
-  Require(options.refine_radius >= 1 && 2 * options.refine_radius + 1 <= options.planes,
-          "refine_radius must be >= 1 and fit 2 * refine_radius + 1 planes in the lattice");
+  Require(options.refine_radius >= 1, "refine_radius must be >= 1");
+  Require(options.refine_stride >= 0, "refine_stride must be >= 0 (0: chosen from the parallax)");
   Require(options.coarse_window_radius >= 0 && options.fine_window_radius >= 0,
           "window radii must be >= 0");
   Require(
       options.prefilter_sigma >= 0.0 && options.truncation > 0.0f &&
           options.min_confidence >= 0.0 && options.guided_radius >= 0 && options.guided_eps > 0.0,
       "prefilter_sigma, min_confidence, guided_radius must be >= 0; truncation, guided_eps > 0");
+}
+
+// Coarse planes are spaced this far apart in coarse pixels of parallax, fine
+// windows this far in full-resolution pixels (when the options leave them to
+// the data): well below the matching precision of either level, so the
+// parabola through three neighbours still resolves the minimum.
+constexpr double kCoarsePlaneParallax = 0.1;
+constexpr double kFinePlaneParallax = 0.15;
+
+// Largest image motion (pixels) per unit of inverse depth over the frames: a
+// point at inverse depth w moves by about f |T_xy + x T_z| w.
+double MaxParallaxPerInverseDepth(const CameraModel& camera, const std::vector<Pose>& poses) {
+  const double corner = std::hypot(camera.width, camera.height) / (2.0 * camera.f);
+  double largest = 0.0;
+  for (const Pose& pose : poses)
+    largest =
+        std::max(largest, camera.f * (pose.T.head<2>().norm() + corner * std::abs(pose.T.z())));
+  return std::max(largest, 1e-12);
 }
 
 cv::Mat Prefiltered(const cv::Mat& gray, double sigma) {
@@ -93,13 +114,18 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
 
   const RadialInverse radial(camera);
   const cv::Mat reference = Prefiltered(burst.gray[burst.reference()], options.prefilter_sigma);
-  std::vector<cv::Mat> frames;
+  std::vector<int> others;
   std::vector<Pose> other_poses;
   for (int i = 0; i < burst.size(); ++i) {
     if (i == burst.reference()) continue;
-    frames.push_back(Prefiltered(burst.gray[i], options.prefilter_sigma));
+    others.push_back(i);
     other_poses.push_back(poses[i]);
   }
+  std::vector<cv::Mat> frames(others.size());
+  cv::parallel_for_(cv::Range(0, static_cast<int>(others.size())), [&](const cv::Range& range) {
+    for (int n = range.start; n < range.end; ++n)
+      frames[n] = Prefiltered(burst.gray[others[n]], options.prefilter_sigma);
+  });
   timer.Lap("prepare");
 
   PhotoCostOptions cost;
@@ -107,10 +133,31 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
   const int scale = options.coarse_scale;
   const SweepLevel coarse = MakeSweepLevel(reference, frames, other_poses, camera, radial, scale);
   cost.window_radius = options.coarse_window_radius;
-  std::vector<cv::Mat> coarse_costs = SweepAllPlanes(coarse, lattice, cost);
+  // Parallax (full-resolution pixels) between neighbouring lattice planes in
+  // the frame that moves most: what "a plane" means in the images.
+  const double plane_parallax = MaxParallaxPerInverseDepth(camera, other_poses) * lattice.step();
+  InverseDepthLattice coarse_lattice = lattice;
+  if (scale > 1) {
+    coarse_lattice.planes =
+        options.coarse_planes > 0
+            ? options.coarse_planes
+            : std::clamp(static_cast<int>(std::ceil(plane_parallax * (lattice.planes - 1) /
+                                                    (scale * kCoarsePlaneParallax))) +
+                             1,
+                         std::min(16, lattice.planes), lattice.planes);
+  }
+  std::vector<cv::Mat> coarse_costs = SweepAllPlanes(coarse, coarse_lattice, cost);
   timer.Lap("coarse_sweep");
   PlaneSelection coarse_selection = SelectPlanes(coarse_costs);
   coarse_costs.clear();
+  // Coarse plane indices onto the full lattice.
+  const double lattice_ratio =
+      static_cast<double>(lattice.planes - 1) / (coarse_lattice.planes - 1);
+  if (coarse_lattice.planes != lattice.planes) {
+    cv::Mat& p = coarse_selection.plane;
+    p.setTo(cv::Scalar(-1.0f / lattice_ratio), p < 0.0f);  // keeps "none" at -1
+    p.convertTo(p, CV_32F, lattice_ratio);
+  }
   timer.Lap("coarse_select");
 
   cv::Mat plane, confidence;
@@ -133,21 +180,27 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
                        full.width - covered.width, cv::BORDER_REPLICATE);
     cv::copyMakeBorder(coarse_confidence, coarse_confidence, 0, full.height - covered.height, 0,
                        full.width - covered.width, cv::BORDER_REPLICATE);
-    const int window = 2 * options.refine_radius + 1;
+    const int stride =
+        options.refine_stride > 0
+            ? options.refine_stride
+            : std::max(1, static_cast<int>(std::lround(kFinePlaneParallax / plane_parallax)));
+    const int window = std::min(2 * options.refine_radius + 1, (lattice.planes - 1) / stride + 1);
+    const int reach = (window - 1) / 2 * stride;
     cv::Mat first(full, CV_32SC1);
     for (int y = 0; y < full.height; ++y) {
       const float* c = centre.ptr<float>(y);
       int* f = first.ptr<int>(y);
       for (int x = 0; x < full.width; ++x)
-        f[x] = std::clamp(static_cast<int>(std::lround(c[x])) - options.refine_radius, 0,
-                          lattice.planes - window);
+        f[x] = std::clamp(static_cast<int>(std::lround(c[x])) - reach, 0,
+                          lattice.planes - 1 - (window - 1) * stride);
     }
     const SweepLevel fine = MakeSweepLevel(reference, frames, other_poses, camera, radial, 1);
     timer.Lap("upsample");
     cost.window_radius = options.fine_window_radius;
-    const std::vector<cv::Mat> fine_costs = SweepPlaneWindow(fine, lattice, first, window, cost);
+    const std::vector<cv::Mat> fine_costs =
+        SweepPlaneWindow(fine, lattice, first, window, stride, cost);
     timer.Lap("fine_sweep");
-    const PlaneSelection fine_selection = SelectPlanes(fine_costs, first);
+    const PlaneSelection fine_selection = SelectPlanes(fine_costs, first, stride);
     plane = fine_selection.plane;
     // A winner on the window's edge means the coarse seed was off by more than
     // the window: the true minimum lies outside what was searched.
@@ -157,7 +210,7 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
       const float* p = plane.ptr<float>(y);
       float* c = confidence.ptr<float>(y);
       for (int x = 0; x < full.width; ++x) {
-        const bool lattice_end = p[x] < 0.5f || p[x] > lattice.planes - 1.5f;
+        const bool lattice_end = p[x] < 0.5f * stride || p[x] > lattice.planes - 1 - 0.5f * stride;
         if (p[x] < 0.0f || (edge[x] && !lattice_end)) c[x] = 0.0f;
       }
     }

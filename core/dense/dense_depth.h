@@ -22,7 +22,16 @@ struct DenseOptions {
   // lattice around the upsampled coarse winner. coarse_scale 1 sweeps every
   // plane at full resolution (slow; for comparisons).
   int coarse_scale = 4;
-  int refine_radius = 4;
+  // Planes of the coarse sweep, spanning the same range. 0: as many as give
+  // 0.1 coarse pixels of parallax between neighbours (at most `planes`): at
+  // 1/4 resolution the planes of a 128-lattice are often only a few
+  // hundredths of a coarse pixel apart, and a denser coarse lattice gains nothing.
+  int coarse_planes = 0;
+  // The full-resolution window: 2 * refine_radius + 1 planes, refine_stride
+  // lattice planes apart (0: the stride that puts ~0.15 pixel of parallax
+  // between them), so the window spans a similar parallax at every lattice density.
+  int refine_radius = 3;
+  int refine_stride = 0;
   // Aggregation window half-widths (pixels of the respective level).
   int coarse_window_radius = 2;
   int fine_window_radius = 3;

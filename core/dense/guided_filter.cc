@@ -44,8 +44,14 @@ cv::Mat WeightedGuidedFilter(const cv::Mat& guide, const cv::Mat& input, const c
             guide.size() == input.size() && guide.size() == weight.size() && radius >= 1 &&
             eps > 0.0f);
   const GuideMoments moments(guide, radius, eps);
-  const cv::Mat numerator = Filter(guide, moments, input.mul(weight), radius);
-  const cv::Mat denominator = Filter(guide, moments, weight, radius);
+  // The two filters are independent: one per worker.
+  cv::Mat numerator, denominator;
+  cv::parallel_for_(cv::Range(0, 2), [&](const cv::Range& range) {
+    for (int n = range.start; n < range.end; ++n) {
+      if (n == 0) numerator = Filter(guide, moments, input.mul(weight), radius);
+      if (n == 1) denominator = Filter(guide, moments, weight, radius);
+    }
+  });
   cv::Mat result(input.size(), CV_32FC1);
   for (int y = 0; y < result.rows; ++y) {
     const float* n = numerator.ptr<float>(y);

@@ -6,7 +6,8 @@
 
 namespace dfsm {
 
-PlaneSelection SelectPlanes(const std::vector<cv::Mat>& costs, const cv::Mat& first_plane) {
+PlaneSelection SelectPlanes(const std::vector<cv::Mat>& costs, const cv::Mat& first_plane,
+                            int stride) {
   CV_Assert(!costs.empty());
   const int n = static_cast<int>(costs.size());
   const cv::Size size = costs[0].size();
@@ -57,7 +58,7 @@ PlaneSelection SelectPlanes(const std::vector<cv::Mat>& costs, const cv::Mat& fi
             offset =
                 std::clamp(0.5f * (curve[best - 1] - curve[best + 1]) / curvature, -0.5f, 0.5f);
         }
-        plane[x] = static_cast<float>((first ? first[x] : 0) + best) + offset;
+        plane[x] = static_cast<float>((first ? first[x] : 0) + (best + offset) * stride);
         at_edge[x] = (best == 0 || best == n - 1) ? 255 : 0;
       }
     }

@@ -13,12 +13,13 @@ struct PlaneSelection {
   cv::Mat at_edge;     // CV_8UC1, 255 where the winner is the first or last slice
 };
 
-// `costs[k]` is the slice of lattice plane first_plane + k (first_plane:
-// CV_32SC1, or empty for 0). The confidence is the distinctiveness of the
+// `costs[k]` is the slice of lattice plane first_plane + k * stride
+// (first_plane: CV_32SC1, or empty for 0). The confidence is the distinctiveness of the
 // winner's basin: 1 - c_best / c_rival, where c_rival is the lowest cost
 // outside the valley that descends to the winner (the cost of the most
 // competitive other depth). A flat or multi-modal curve scores near 0; a curve
 // with no rival valley scores against its largest cost.
-PlaneSelection SelectPlanes(const std::vector<cv::Mat>& costs, const cv::Mat& first_plane = {});
+PlaneSelection SelectPlanes(const std::vector<cv::Mat>& costs, const cv::Mat& first_plane = {},
+                            int stride = 1);
 
 }  // namespace dfsm

@@ -33,12 +33,12 @@ std::vector<cv::Mat> SweepAllPlanes(const SweepLevel& level, const InverseDepthL
                                     const PhotoCostOptions& options);
 
 // `count` slices: slice k holds, at each pixel, the cost of lattice plane
-// first_plane(pixel) + k (first_plane: CV_32SC1, level size, every window
-// inside the lattice). Neighbours in a window are aggregated slice by slice,
+// first_plane(pixel) + k * stride (first_plane: CV_32SC1, level size, every
+// window inside the lattice). Neighbours in a window are aggregated slice by slice,
 // i.e. at their own window's k-th plane: exact where first_plane is locally
 // constant, which the caller's smooth coarse estimate makes almost everywhere.
 std::vector<cv::Mat> SweepPlaneWindow(const SweepLevel& level, const InverseDepthLattice& lattice,
-                                      const cv::Mat& first_plane, int count,
+                                      const cv::Mat& first_plane, int count, int stride,
                                       const PhotoCostOptions& options);
 
 }  // namespace dfsm
