@@ -51,7 +51,7 @@ std::unique_ptr<CaptureService> CaptureService::Create(const CaptureConfig& conf
     } catch (const SourceError& e) {
       throw CaptureConfigError(std::string("source: ") + e.what());
     }
-    source = std::make_unique<ReplaySource>(uri.path, config.fps);
+    source = std::make_unique<ReplaySource>(uri.path, config.fps, config.keep_color);
   } else if (config.fps < 0) {
     throw CaptureConfigError("fps " + std::to_string(config.fps) +
                              " is negative: only a replay can run unpaced");

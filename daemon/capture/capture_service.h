@@ -45,6 +45,8 @@ struct CaptureConfig {
   double fps = 0.0;           // requested rate (0: default); replay: 0 = recorded rate,
                               // < 0 = as fast as frames are taken
   std::string pixel_format;   // V4L2 fourcc preference ("YUYV", "MJPG", ...); empty: automatic
+  bool keep_color = true;     // BGR frames where the source has colour; false: gray only
+                              // (cheaper: no chroma conversion, a third of the memory)
   int ring_frames = 64;       // ring capacity, frames
   int device_buffers = 4;     // V4L2 mmap buffers / libcamera requests in flight (>= 4)
   std::chrono::milliseconds frame_timeout{2000};  // no frame for this long: reopen

@@ -74,6 +74,10 @@ Arguments Parse(int argc, char** argv) {
   Arguments a;
   for (int i = 1; i < argc; ++i) {
     const std::string flag = argv[i];
+    if (flag == "--gray") {
+      a.config.keep_color = false;
+      continue;
+    }
     if (flag == "--help" || flag == "-h") {
       std::cout << kUsage;
       std::exit(0);

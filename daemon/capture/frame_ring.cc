@@ -32,11 +32,18 @@ void FrameRing::Preallocate(int width, int height, bool color) {
     buffers_.push_back(std::make_unique<Buffer>());
   for (auto& buffer : buffers_) {
     if (buffer->pins > 0 || buffer->in_ring) continue;  // being copied, or a valid frame
-    buffer->slot.gray.create(height, width, CV_8UC1);
-    if (color)
-      buffer->slot.color.create(height, width, CV_8UC3);
-    else
+    // Touch every page now, so capture does not pay the page faults frame by
+    // frame while the first pass through the ring fills it.
+    if (buffer->slot.gray.rows != height || buffer->slot.gray.cols != width) {
+      buffer->slot.gray.create(height, width, CV_8UC1);
+      buffer->slot.gray.setTo(0);
+    }
+    if (!color) {
       buffer->slot.color.release();
+    } else if (buffer->slot.color.rows != height || buffer->slot.color.cols != width) {
+      buffer->slot.color.create(height, width, CV_8UC3);
+      buffer->slot.color.setTo(0);
+    }
   }
 }
 

@@ -2,6 +2,7 @@
 
 #include <linux/videodev2.h>
 
+#include <opencv2/core/hal/intrin.hpp>
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
 #include <string>
@@ -61,6 +62,28 @@ size_t MinimumFrameBytes(const FrameLayout& layout) {
 
 namespace {
 
+// Luma of packed 4:2:2 is every other byte (offset 0 for YUYV, 1 for UYVY).
+// OpenCV's universal intrinsics compile to SSE2 on x86-64 and NEON on ARM64
+// (a two-way deinterleaving load); cv::extractChannel is a scalar loop.
+void ExtractPackedLuma(const uint8_t* data, size_t stride, int width, int height, int offset,
+                       cv::Mat& gray) {
+  gray.create(height, width, CV_8UC1);
+  for (int y = 0; y < height; ++y) {
+    const uint8_t* src = data + stride * static_cast<size_t>(y);
+    uint8_t* dst = gray.ptr<uint8_t>(y);
+    int x = 0;
+#if CV_SIMD
+    constexpr int kLanes = cv::v_uint8::nlanes;
+    for (; x + kLanes <= width; x += kLanes) {
+      cv::v_uint8 even, odd;
+      cv::v_load_deinterleave(src + 2 * x, even, odd);
+      cv::v_store(dst + x, offset == 0 ? even : odd);
+    }
+#endif
+    for (; x < width; ++x) dst[x] = src[2 * x + offset];
+  }
+}
+
 void CheckSize(size_t bytesused, const FrameLayout& layout) {
   const size_t needed = MinimumFrameBytes(layout);
   if (bytesused < needed)
@@ -80,11 +103,11 @@ void ConvertFrame(const uint8_t* data, size_t bytesused, const FrameLayout& layo
     case V4L2_PIX_FMT_UYVY: {
       CheckSize(bytesused, layout);
       const bool yuyv = layout.fourcc == V4L2_PIX_FMT_YUYV;
-      const cv::Mat packed(h, w, CV_8UC2, bytes, stride);
-      // Luma is every other byte: OpenCV's channel extraction, vectorized.
-      cv::extractChannel(packed, gray, yuyv ? 0 : 1);
-      if (color != nullptr)
+      ExtractPackedLuma(data, stride, w, h, yuyv ? 0 : 1, gray);
+      if (color != nullptr) {
+        const cv::Mat packed(h, w, CV_8UC2, bytes, stride);
         cv::cvtColor(packed, *color, yuyv ? cv::COLOR_YUV2BGR_YUYV : cv::COLOR_YUV2BGR_UYVY);
+      }
       return;
     }
     case V4L2_PIX_FMT_NV12: {

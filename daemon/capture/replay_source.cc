@@ -21,7 +21,8 @@ int64_t MonotonicNs(std::chrono::steady_clock::time_point t) {
 
 }  // namespace
 
-ReplaySource::ReplaySource(fs::path root, double fps) : root_(std::move(root)), fps_(fps) {}
+ReplaySource::ReplaySource(fs::path root, double fps, bool keep_color)
+    : root_(std::move(root)), fps_(fps), keep_color_(keep_color) {}
 
 std::vector<fs::path> ReplaySource::FindBursts(const fs::path& root) {
   std::error_code ec;
@@ -70,7 +71,7 @@ void ReplaySource::LoadBurst(size_t index) {
     if (image.depth() == CV_16U) image.convertTo(image, CV_8U, 1.0 / 257.0);
     if (image.channels() == 4) cv::cvtColor(image, image, cv::COLOR_BGRA2BGR);
     if (image.channels() == 3) {
-      frames[i].color = image;
+      if (keep_color_) frames[i].color = image;
       cv::cvtColor(image, frames[i].gray, cv::COLOR_BGR2GRAY);
     } else {
       frames[i].gray = image;

@@ -20,7 +20,7 @@ class ReplaySource : public FrameSource {
  public:
   // fps > 0: that rate; fps == 0: the recorded rate (30 fps where timestamps
   // are missing); fps < 0: no pacing at all.
-  ReplaySource(std::filesystem::path root, double fps);
+  ReplaySource(std::filesystem::path root, double fps, bool keep_color = true);
 
   // The bursts under `root`, in play order. Throws SourceError(kConfig) when
   // there are none.
@@ -41,6 +41,7 @@ class ReplaySource : public FrameSource {
 
   const std::filesystem::path root_;
   const double fps_;
+  const bool keep_color_;
   std::vector<std::filesystem::path> bursts_;
   size_t burst_index_ = 0;
   std::vector<Frame> frames_;

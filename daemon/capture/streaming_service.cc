@@ -44,6 +44,10 @@ void StreamingCaptureService::SleepUnlessStopped(std::chrono::milliseconds durat
 }
 
 bool StreamingCaptureService::OpenSource() {
+  // With a configured size the ring can be ready before the stream starts,
+  // so the first frames do not wait for its memory.
+  if (!ever_opened_ && config_.width > 0 && config_.height > 0)
+    ring_.Preallocate(config_.width, config_.height, config_.keep_color);
   try {
     source_->Open();
   } catch (const SourceError& e) {

@@ -44,6 +44,7 @@ V4l2Source::Options V4l2Source::Options::FromConfig(const std::string& path,
   options.fps = config.fps;
   options.fourcc = config.pixel_format;
   options.buffers = config.device_buffers;
+  options.keep_color = config.keep_color;
   return options;
 }
 
