@@ -41,8 +41,21 @@ RadialInverse::RadialInverse(const CameraModel& camera) {
   if (!std::isfinite(camera.k1) || !std::isfinite(camera.k2) || !std::isfinite(camera.cx) ||
       !std::isfinite(camera.cy))
     throw std::invalid_argument("dense: camera has a non-finite coefficient");
-  // The captured image's largest undistorted radius is at a corner (the
-  // Newton solve below rejects a D->U map that is not monotonic there).
+  // The D->U map must be monotonic in the radius over the whole captured
+  // image, or two captured pixels see the same ray.
+  const double corner_r_d = std::hypot(std::max(camera.cx + 1.0, camera.width - camera.cx),
+                                       std::max(camera.cy + 1.0, camera.height - camera.cy)) /
+                            camera.f;
+  for (int n = 1; n <= 256; ++n) {
+    const double r2 = std::pow(corner_r_d * n / 256.0, 2);
+    if (1.0 + 3.0 * camera.k1 * r2 + 5.0 * camera.k2 * r2 * r2 <= 0.0)
+      throw std::invalid_argument("dense: the radial model (k1 " + std::to_string(camera.k1) +
+                                  ", k2 " + std::to_string(camera.k2) +
+                                  ") is not invertible inside the image (it folds over at "
+                                  "distorted radius " +
+                                  std::to_string(std::sqrt(r2)) + ")");
+  }
+  // The captured image's largest undistorted radius is then at a corner.
   double max_r2 = 0.0;
   for (const double u : {-1.0, static_cast<double>(camera.width)})
     for (const double v : {-1.0, static_cast<double>(camera.height)})

@@ -1,0 +1,56 @@
+#include "core/dense/plane_selection.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "core/dense/plane_sweep.h"
+
+namespace dfsm {
+namespace {
+
+// A 1x1 cost volume from a cost curve.
+std::vector<cv::Mat> Volume(const std::vector<float>& curve) {
+  std::vector<cv::Mat> costs;
+  for (const float c : curve) costs.push_back(cv::Mat(1, 1, CV_32FC1, cv::Scalar(c)));
+  return costs;
+}
+
+TEST(PlaneSelectionTest, ParabolaRecoversTheSubPlaneMinimum) {
+  // Samples of (k - 5.3)^2 + 1: the parabola through the three best is exact.
+  std::vector<float> curve;
+  for (int k = 0; k < 12; ++k) curve.push_back(static_cast<float>((k - 5.3) * (k - 5.3) + 1.0));
+  const PlaneSelection selection = SelectPlanes(Volume(curve));
+  EXPECT_NEAR(selection.plane.at<float>(0, 0), 5.3f, 1e-4f);
+  EXPECT_GT(selection.confidence.at<float>(0, 0), 0.9f);
+  EXPECT_EQ(selection.at_edge.at<uchar>(0, 0), 0);
+}
+
+TEST(PlaneSelectionTest, WindowOffsetAndStrideMapBackToTheLattice) {
+  std::vector<float> curve = {5.0f, 2.0f, 1.0f, 2.0f, 5.0f};  // minimum at slice 2
+  const cv::Mat first(1, 1, CV_32SC1, cv::Scalar(40));
+  const PlaneSelection selection = SelectPlanes(Volume(curve), first, 3);
+  EXPECT_FLOAT_EQ(selection.plane.at<float>(0, 0), 46.0f);  // 40 + 2 * 3
+}
+
+TEST(PlaneSelectionTest, RivalValleyLowersTheConfidence) {
+  // Two valleys of nearly equal depth (a repetitive texture): low confidence.
+  const std::vector<float> ambiguous = {9, 5, 2.0f, 5, 9, 5, 2.1f, 5, 9};
+  const std::vector<float> unique = {9, 8, 7, 5, 2.0f, 5, 7, 8, 9};
+  const float low = SelectPlanes(Volume(ambiguous)).confidence.at<float>(0, 0);
+  const float high = SelectPlanes(Volume(unique)).confidence.at<float>(0, 0);
+  EXPECT_LT(low, 0.1f);
+  EXPECT_GT(high, 0.7f);
+}
+
+TEST(PlaneSelectionTest, MinimumOnTheFirstSliceIsFlaggedAndNoCostGivesNoPlane) {
+  const PlaneSelection edge = SelectPlanes(Volume({1, 2, 3, 4}));
+  EXPECT_EQ(edge.at_edge.at<uchar>(0, 0), 255);
+  EXPECT_FLOAT_EQ(edge.plane.at<float>(0, 0), 0.0f);
+  const PlaneSelection none = SelectPlanes(Volume({kNoCost, kNoCost, kNoCost}));
+  EXPECT_LT(none.plane.at<float>(0, 0), 0.0f);
+  EXPECT_EQ(none.confidence.at<float>(0, 0), 0.0f);
+}
+
+}  // namespace
+}  // namespace dfsm
