@@ -11,7 +11,7 @@
 #include "core/sparse/rank_one_init.h"
 #include "core/sparse/rotation_init.h"
 #include "core/sparse/track_simulator.h"
-#include "core/synth/synthetic_burst.h"
+#include "core/synth/burst_synthesizer.h"
 
 namespace dfsm {
 namespace {
@@ -56,9 +56,8 @@ void BM_FeaturesAndKlt(benchmark::State& state) {
   options.width = 1920;
   options.height = 1080;
   options.frames = 10;
-  const SyntheticBurst burst = RenderSyntheticBurst(options);
-  std::vector<cv::Mat> gray;
-  for (const cv::Mat& frame : burst.frames) gray.push_back(ToGray8(frame));
+  options.supersampling = 2;
+  const std::vector<cv::Mat> gray = ToBurst(SynthesizeBurst(options)).gray;
   GridedFeatureStats stats;
   for (auto _ : state) benchmark::DoNotOptimize(TrackGridedFeatures(gray, 0, {}, &stats));
   state.counters["tracks"] = stats.tracks;

@@ -3,6 +3,7 @@
 // adjustment, scored with the metrics of Ha et al.
 #include <gtest/gtest.h>
 
+#include <ostream>
 #include <string>
 
 #include "core/pipeline/evaluation.h"
@@ -26,6 +27,12 @@ struct Case {
 std::string Name(const ::testing::TestParamInfo<Case>& info) {
   return std::to_string(info.param.width) + "x" + std::to_string(info.param.height) + "_" +
          std::to_string(info.param.frames) + "frames_seed" + std::to_string(info.param.seed);
+}
+
+// Readable test names in ctest's list instead of the parameter's bytes.
+void PrintTo(const Case& c, std::ostream* os) {
+  *os << c.width << "x" << c.height << ", " << c.frames << " frames, " << c.rotation_deg
+      << " deg tremor";
 }
 
 class SyntheticSparse : public ::testing::TestWithParam<Case> {};

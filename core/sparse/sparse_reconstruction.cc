@@ -111,8 +111,12 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
       RunBundleAdjustment(sparse.tracks, use, &state, options.bundle_adjustment);
   // Judge every track again under the adjusted camera: tracks the initial
   // camera made look wrong come back, tracks that do not fit go, and a short
-  // re-run from the adjusted state settles the final set.
-  {
+  // re-run from the adjusted state settles the set. A track on a depth edge
+  // (a T-junction, not a point of the scene) fits to a few tenths of a pixel
+  // and still pulls f against k1/k2, so the bound is tight and the rounds
+  // repeat until the set stops changing.
+  const BundleAdjustmentSummary first = sparse.bundle_adjustment;
+  for (int round = 0; round < options.outlier_rounds; ++round) {
     const std::vector<double> errors = TrackReprojectionErrors(sparse.tracks, state);
     std::vector<double> used_errors;
     for (int j = 0; j < tracked; ++j)
@@ -121,14 +125,13 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
     std::vector<bool> kept(tracked);
     for (int j = 0; j < tracked; ++j)
       kept[j] = errors[j] <= threshold && state.inverse_depths[j] > 0.0;
-    if (kept != use && std::count(kept.begin(), kept.end(), true) >= options.min_tracks) {
-      use = kept;
-      const BundleAdjustmentSummary first = sparse.bundle_adjustment;
-      sparse.bundle_adjustment =
-          RunBundleAdjustment(sparse.tracks, use, &state, options.bundle_adjustment);
-      sparse.bundle_adjustment.iterations += first.iterations;
-      sparse.bundle_adjustment.initial_cost = first.initial_cost;
-    }
+    if (kept == use || std::count(kept.begin(), kept.end(), true) < options.min_tracks) break;
+    use = kept;
+    const int iterations = sparse.bundle_adjustment.iterations;
+    sparse.bundle_adjustment =
+        RunBundleAdjustment(sparse.tracks, use, &state, options.bundle_adjustment);
+    sparse.bundle_adjustment.iterations += iterations;
+    sparse.bundle_adjustment.initial_cost = first.initial_cost;
   }
   sparse.bundle_adjustment.init = InitModeName(options.init);
   sparse.inliers = use;
