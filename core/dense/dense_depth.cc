@@ -230,7 +230,8 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
     cv::Mat guide;
     burst.gray[burst.reference()].convertTo(guide, CV_32F, 1.0 / 255.0);
     plane = WeightedGuidedFilter(guide, plane, weight, options.guided_radius,
-                                 static_cast<float>(options.guided_eps));
+                                 static_cast<float>(options.guided_eps), nullptr,
+                                 plane.cols > 1000 ? options.guided_subsample : 1);
   }
 
   result.depth = cv::Mat::zeros(plane.size(), CV_32FC1);

@@ -38,13 +38,16 @@ struct DenseOptions {
   // Gaussian pre-filter of every frame (captured pixels): evens out the blur
   // of bilinear resampling and the sensor/JPEG noise. 0: none.
   double prefilter_sigma = 0.8;
-  float truncation = 24.0f;  // grey levels, see PhotoCostOptions
+  float truncation = 10.0f;  // grey levels, see PhotoCostOptions
   // Pixels whose confidence (distinctiveness of the cost minimum) is lower get no depth.
-  double min_confidence = 0.1;
+  double min_confidence = 0.05;
   // Edge-aware refinement: confidence-weighted guided filter on inverse depth,
   // guided by the reference image. radius 0: off.
   int guided_radius = 8;
   double guided_eps = 1e-3;  // on a [0, 1] guide
+  // The guided filter's linear models are fitted at 1/guided_subsample of the
+  // resolution (fast guided filter) once the image is wider than 1000 pixels.
+  int guided_subsample = 2;
 };
 
 struct DenseDepth {

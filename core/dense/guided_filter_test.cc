@@ -49,5 +49,19 @@ TEST(GuidedFilterTest, WeightedFormIgnoresZeroWeightOutliers) {
   EXPECT_GT(support.at<float>(22, 12), 0.5f);
 }
 
+// The fast form (models fitted at half resolution) matches the exact one
+// away from the edge and keeps the edge where the guide has it.
+TEST(GuidedFilterTest, SubsampledFitKeepsTheEdge) {
+  const StepImages images;
+  const cv::Mat weight(images.input.size(), CV_32FC1, cv::Scalar(1.0f));
+  const cv::Mat fast =
+      WeightedGuidedFilter(images.guide, images.input, weight, 6, 1e-3f, nullptr, 2);
+  for (int y = 10; y < 54; ++y) {
+    EXPECT_NEAR(fast.at<float>(y, 31), 1.0f, 0.15f);
+    EXPECT_NEAR(fast.at<float>(y, 32), 3.0f, 0.15f);
+    EXPECT_NEAR(fast.at<float>(y, 10), 1.0f, 0.1f);
+  }
+}
+
 }  // namespace
 }  // namespace dfsm

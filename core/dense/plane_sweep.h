@@ -18,7 +18,7 @@ inline constexpr float kNoCost = 1.0e9f;
 struct PhotoCostOptions {
   // Absolute intensity differences are truncated here (grey levels): an
   // occluded or specular frame costs at most this much.
-  float truncation = 24.0f;
+  float truncation = 10.0f;
   // Half-width of the square aggregation window (box filter), level pixels.
   int window_radius = 2;
   // Aggregated samples below this share of (frames x window) leave the cost
