@@ -1,0 +1,324 @@
+// End-to-end tests of the real dfsmd binary on a loopback port, capturing from
+// the replay source of a generated burst with ground truth (label "daemon").
+#include <gtest/gtest.h>
+
+#include <iostream>
+#include <opencv2/imgcodecs.hpp>
+
+#include "core/io/burst.h"
+#include "core/io/ground_truth.h"
+#include "core/pipeline/evaluation.h"
+#include "core/synth/burst_synthesizer.h"
+#include "daemon/service/ustar.h"
+#include "tests/daemon/dfsmd_process.h"
+
+namespace dfsm::test {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+class DfsmdTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    root_ = fs::temp_directory_path() / ("dfsmd-test-" + std::to_string(::getpid()));
+    fs::remove_all(root_);
+    SynthOptions options;
+    options.width = 320;
+    options.height = 240;
+    options.frames = 10;
+    options.seed = 3;
+    WriteSynthBurst(root_ / "burst", SynthesizeBurst(options));
+  }
+  static void TearDownTestSuite() { fs::remove_all(root_); }
+
+  void SetUp() override {
+    dir_ = root_ / ::testing::UnitTest::GetInstance()->current_test_info()->name();
+    fs::create_directories(dir_);
+  }
+
+  std::vector<std::string> Args(const std::vector<std::string>& extra = {}) const {
+    std::vector<std::string> args = {"--capture.source",  "replay:" + (root_ / "burst").string(),
+                                     "--jobs.state_dir",  (dir_ / "state").string(),
+                                     "--pipeline.planes", "64"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    return args;
+  }
+
+  std::unique_ptr<DfsmdProcess> Start(const std::vector<std::string>& extra = {}) {
+    auto daemon = std::make_unique<DfsmdProcess>(DFSMD_BINARY, Args(extra), dir_ / "dfsmd.log");
+    EXPECT_TRUE(daemon->ok()) << daemon->Log();
+    return daemon;
+  }
+
+  // Polls the job until it has finished; returns its record.
+  static json AwaitJob(httplib::Client& client, const std::string& location,
+                       std::chrono::seconds timeout = std::chrono::seconds(60)) {
+    const auto deadline = std::chrono::steady_clock::now() + timeout;
+    json job;
+    while (std::chrono::steady_clock::now() < deadline) {
+      auto result = client.Get(location.c_str());
+      if (result && result->status == 200) {
+        job = json::parse(result->body);
+        if (job["status"] == "succeeded" || job["status"] == "failed") return job;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    ADD_FAILURE() << "job " << location << " did not finish: " << job.dump();
+    return job;
+  }
+
+  static std::string Accepted(const httplib::Result& result) {
+    EXPECT_TRUE(result);
+    if (!result) return "";
+    EXPECT_EQ(result->status, 202) << result->body;
+    const json body = json::parse(result->body);
+    EXPECT_EQ(body["status"], "queued");
+    EXPECT_EQ(result->get_header_value("Location"), "/api/v1/jobs/" + body.value("id", ""));
+    return result->get_header_value("Location");
+  }
+
+  static void ExpectProblem(const httplib::Result& result, int status) {
+    ASSERT_TRUE(result);
+    EXPECT_EQ(result->status, status) << result->body;
+    EXPECT_EQ(result->get_header_value("Content-Type"), "application/problem+json");
+    EXPECT_FALSE(json::parse(result->body).value("detail", "").empty());
+  }
+
+  // The depth of a finished job against the burst's ground truth.
+  static DepthEvaluation ScoreDepth(httplib::Client& client, const std::string& location) {
+    auto tiff = client.Get((location + "/depth.tiff").c_str());
+    EXPECT_EQ(tiff->status, 200);
+    EXPECT_EQ(tiff->get_header_value("Content-Type"), "image/tiff");
+    const cv::Mat depth = cv::imdecode(std::vector<uchar>(tiff->body.begin(), tiff->body.end()),
+                                       cv::IMREAD_UNCHANGED);
+    EXPECT_EQ(depth.type(), CV_32FC1);
+    EXPECT_EQ(depth.size(), cv::Size(320, 240));
+    const GroundTruth truth = ReadGroundTruth(root_ / "burst");
+    const Burst burst = ReadBurst(root_ / "burst");
+    const DepthEvaluation score = EvaluateDepth(depth, truth.depth, TexturedMask(burst.gray[0]));
+    std::cout << "depth against ground truth: " << json(ToJson(score)).dump() << "\n";
+    return score;
+  }
+
+  static fs::path root_;
+  fs::path dir_;
+};
+
+fs::path DfsmdTest::root_;
+
+TEST_F(DfsmdTest, CaptureThenFetchEveryOutput) {
+  auto daemon = Start();
+  httplib::Client client = daemon->Client();
+  // "next" + the replayed burst's length: exactly one pass, frame 0 first, so
+  // the reference view is the one the ground truth describes.
+  const std::string location = Accepted(
+      client.Post("/api/v1/captures", R"({"frames":10,"when":"next"})", "application/json"));
+  const json job = AwaitJob(client, location);
+  ASSERT_EQ(job["status"], "succeeded") << job.dump(2);
+  EXPECT_EQ(job["origin"], "capture");
+  EXPECT_EQ(job["input"]["frames"], 10);
+  EXPECT_GT(job["timings_ms"]["total"].get<double>(), 0.0);
+
+  const std::map<std::string, std::string> types = {
+      {"result.json", "application/json"},
+      {"depth.tiff", "image/tiff"},
+      {"depth.png", "image/png"},
+      {"preview.png", "image/png"},
+      {"confidence.png", "image/png"},
+      {"points.ply", "application/octet-stream"},
+      {"sparse_points.ply", "application/octet-stream"},
+      {"calibration.json", "application/json"},
+      {"calibration.yaml", "application/yaml"},
+      {"burst.tar", "application/x-tar"}};
+  for (const auto& [file, type] : types) {
+    auto result = client.Get((location + "/" + file).c_str());
+    ASSERT_TRUE(result) << file;
+    EXPECT_EQ(result->status, 200) << file;
+    EXPECT_EQ(result->get_header_value("Content-Type"), type) << file;
+    const std::string& body = result->body;
+    if (type == "image/png") {
+      EXPECT_FALSE(
+          cv::imdecode(std::vector<uchar>(body.begin(), body.end()), cv::IMREAD_UNCHANGED).empty())
+          << file;
+    } else if (type == "application/octet-stream") {
+      EXPECT_EQ(body.rfind("ply\nformat binary_little_endian", 0), 0u) << file;
+    } else if (file == "calibration.yaml") {
+      EXPECT_EQ(body.rfind("%YAML", 0), 0u);
+    } else if (file == "burst.tar") {
+      const auto entries = service::ReadTar(body);
+      EXPECT_EQ(entries.size(), 11u);  // manifest + 10 frames
+      bool manifest = false;
+      for (const auto& entry : entries) {
+        if (entry.path == "manifest.json") {
+          manifest = true;
+          EXPECT_EQ(json::parse(entry.data)["source"]["source_sequence_first"], 0);
+        }
+      }
+      EXPECT_TRUE(manifest);
+    }
+  }
+  const json result = json::parse(client.Get((location + "/result.json").c_str())->body);
+  EXPECT_EQ(result["status"], "ok");
+  EXPECT_EQ(result["format"], "dfsm-result/1");
+  const DepthEvaluation score = ScoreDepth(client, location);
+  EXPECT_LT(score.abs_rel, 0.15) << json(ToJson(score)).dump();
+  EXPECT_GT(score.coverage, 0.5) << json(ToJson(score)).dump();
+
+  const json calibration = json::parse(client.Get("/api/v1/calibration")->body);
+  EXPECT_EQ("/api/v1/jobs/" + calibration["job"].get<std::string>(), location);
+  EXPECT_GT(calibration["calibration"]["fx"].get<double>(), 0.0);
+  const json camera = json::parse(client.Get("/api/v1/camera")->body);
+  EXPECT_EQ(camera["driver"], "replay");
+  EXPECT_GT(camera["frames_captured"].get<int>(), 10);
+  auto snapshot = client.Get("/api/v1/snapshot.jpg");
+  EXPECT_EQ(snapshot->get_header_value("Content-Type"), "image/jpeg");
+  EXPECT_EQ(cv::imdecode(std::vector<uchar>(snapshot->body.begin(), snapshot->body.end()),
+                         cv::IMREAD_UNCHANGED)
+                .size(),
+            cv::Size(320, 240));
+  const std::string metrics = client.Get("/metrics")->body;
+  EXPECT_NE(metrics.find("dfsmd_jobs_total{outcome=\"succeeded\"} 1"), std::string::npos);
+  EXPECT_NE(metrics.find("dfsmd_stage_duration_seconds_count{stage=\"dense\"} 1"),
+            std::string::npos);
+  EXPECT_EQ(client.Get("/readyz")->status, 200);
+  EXPECT_EQ(daemon->Stop(SIGTERM), 0) << daemon->Log();
+}
+
+TEST_F(DfsmdTest, UploadedBurstIsProcessedTheSameWay) {
+  auto daemon = Start();
+  httplib::Client client = daemon->Client();
+  // Our writer (top level) and GNU tar (one top-level directory) both work.
+  const std::string ours = service::WriteTar(service::CollectFiles(root_ / "burst"));
+  const std::string location =
+      Accepted(client.Post("/api/v1/jobs?keep_burst=false", ours, "application/x-tar"));
+  ASSERT_EQ(std::system(("tar -C " + root_.string() + " -cf " + (dir_ / "b.tar").string() +
+                         " --format=ustar burst")
+                            .c_str()),
+            0);
+  const std::string gnu = ReadFileToString(dir_ / "b.tar");
+  const std::string second =
+      Accepted(client.Post("/api/v1/jobs?frames=8", gnu, "application/x-tar"));
+  const json job = AwaitJob(client, location);
+  ASSERT_EQ(job["status"], "succeeded") << job.dump(2);
+  EXPECT_EQ(job["origin"], "upload");
+  EXPECT_FALSE(job["has_burst"]);
+  ExpectProblem(client.Get((location + "/burst.tar").c_str()), 410);
+  const DepthEvaluation score = ScoreDepth(client, location);
+  EXPECT_LT(score.abs_rel, 0.15) << json(ToJson(score)).dump();
+  const json other = AwaitJob(client, second);
+  EXPECT_EQ(other["status"], "succeeded") << other.dump(2);
+  EXPECT_EQ(other["input"]["frames"], 8);
+
+  // A burst with a frame missing: the upload is refused, naming the file.
+  std::vector<service::TarFile> files = service::CollectFiles(root_ / "burst");
+  files.erase(std::remove_if(files.begin(), files.end(),
+                             [](const auto& f) { return f.path == "frames/000003.png"; }),
+              files.end());
+  auto broken = client.Post("/api/v1/jobs", service::WriteTar(files), "application/x-tar");
+  ExpectProblem(broken, 422);
+  EXPECT_NE(broken->body.find("000003.png"), std::string::npos) << broken->body;
+  EXPECT_EQ(json::parse(client.Get("/api/v1/jobs")->body)["jobs"].size(), 2u);
+  EXPECT_EQ(daemon->Stop(SIGTERM), 0);
+}
+
+TEST_F(DfsmdTest, FullQueueAnswers503AndBadRequestsAreProblems) {
+  auto daemon = Start({"--jobs.queue", "1"});
+  httplib::Client client = daemon->Client();
+  int accepted = 0, refused = 0;
+  std::vector<std::string> locations;
+  for (int i = 0; i < 6; ++i) {
+    auto result = client.Post("/api/v1/captures", R"({"frames":5})", "application/json");
+    ASSERT_TRUE(result);
+    if (result->status == 202) {
+      ++accepted;
+      locations.push_back(result->get_header_value("Location"));
+    } else {
+      ExpectProblem(result, 503);
+      EXPECT_EQ(result->get_header_value("Retry-After"), "5");
+      ++refused;
+    }
+  }
+  EXPECT_GE(accepted, 1);
+  EXPECT_GE(refused, 3);  // one runs, one waits, the rest are refused
+  ExpectProblem(client.Post("/api/v1/captures", R"({"frames":"many"})", "application/json"), 400);
+  ExpectProblem(client.Post("/api/v1/captures", R"({"frames":500})", "application/json"), 400);
+  ExpectProblem(client.Post("/api/v1/captures", "{", "application/json"), 400);
+  ExpectProblem(client.Get("/api/v1/jobs/j0000000000000-0000"), 404);
+  ExpectProblem(client.Get("/api/v1/jobs/nonsense"), 404);
+  ExpectProblem(client.Delete("/api/v1/jobs/nonsense"), 404);
+  ExpectProblem(client.Get((locations[0] + "/..%2F..%2Fjob.json").c_str()), 404);
+  ExpectProblem(client.Get((locations[0] + "/job.json").c_str()), 404);
+  ExpectProblem(client.Get("/api/v1/jobs/..%2F..%2F..%2Fetc%2Fpasswd"), 404);
+  for (const std::string& location : locations) AwaitJob(client, location);
+  EXPECT_EQ(daemon->Stop(SIGTERM), 0);
+}
+
+TEST_F(DfsmdTest, KillDuringAJobThenRestartCompletesIt) {
+  auto daemon = Start({"--pipeline.planes", "256"});
+  httplib::Client client = daemon->Client();
+  const std::string first = Accepted(
+      client.Post("/api/v1/captures", R"({"frames":10,"when":"next"})", "application/json"));
+  ASSERT_EQ(AwaitJob(client, first)["status"], "succeeded");
+  const std::string depth_before = client.Get((first + "/depth.tiff").c_str())->body;
+
+  const std::string second = Accepted(
+      client.Post("/api/v1/captures", R"({"frames":10,"when":"next"})", "application/json"));
+  // Kill it mid-pipeline.
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  std::string status;
+  while (std::chrono::steady_clock::now() < deadline && status != "processing") {
+    status = json::parse(client.Get(second.c_str())->body)["status"];
+  }
+  ASSERT_EQ(status, "processing");
+  EXPECT_EQ(daemon->Stop(SIGKILL), 128 + SIGKILL);
+  daemon.reset();
+
+  auto restarted = Start({"--pipeline.planes", "256"});
+  httplib::Client again = restarted->Client();
+  const json job = AwaitJob(again, second);
+  EXPECT_EQ(job["status"], "succeeded") << job.dump(2);
+  EXPECT_EQ(job["attempts"], 2);
+  EXPECT_EQ(again.Get((first + "/depth.tiff").c_str())->body, depth_before);
+  EXPECT_EQ(json::parse(again.Get(first.c_str())->body)["status"], "succeeded");
+  EXPECT_NE(restarted->Log().find("re-queueing job"), std::string::npos);
+  EXPECT_EQ(restarted->Stop(SIGTERM), 0);
+}
+
+TEST_F(DfsmdTest, SigtermFinishesTheRunningJobAndExitsCleanly) {
+  auto daemon = Start();
+  httplib::Client client = daemon->Client();
+  const std::string location = Accepted(
+      client.Post("/api/v1/captures", R"({"frames":10,"when":"next"})", "application/json"));
+  while (json::parse(client.Get(location.c_str())->body)["status"] == "queued") {
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  EXPECT_EQ(daemon->Stop(SIGTERM), 0);
+  const std::string id = location.substr(location.rfind('/') + 1);
+  const json record = json::parse(ReadFileToString(dir_ / "state" / "jobs" / id / "job.json"));
+  EXPECT_EQ(record["status"], "succeeded");
+  EXPECT_NE(daemon->Log().find("SIGTERM, shutting down"), std::string::npos);
+  EXPECT_TRUE(fs::is_empty(dir_ / "state" / "tmp"));
+}
+
+TEST_F(DfsmdTest, InvalidConfigurationExits78AndBusyPortFails) {
+  EXPECT_EQ(RunDfsmd(DFSMD_BINARY, {"--server.port", "99999"}, dir_ / "bad.log"), 78);
+  EXPECT_NE(ReadFileToString(dir_ / "bad.log").find("server.port: must be in [0, 65535]"),
+            std::string::npos);
+  std::ofstream(dir_ / "bad.toml") << "[pipeline]\ninit = \"rank3\"\n";
+  EXPECT_EQ(RunDfsmd(DFSMD_BINARY, {"--config", (dir_ / "bad.toml").string()}, dir_ / "bad2.log"),
+            78);
+  EXPECT_NE(ReadFileToString(dir_ / "bad2.log").find("pipeline.init"), std::string::npos);
+
+  // A second daemon on a taken port must fail, not share it (no SO_REUSEPORT).
+  auto daemon = Start();
+  std::vector<std::string> args = Args();
+  args[3] = (dir_ / "state2").string();
+  args.insert(args.end(), {"--server.port", std::to_string(daemon->port())});
+  EXPECT_EQ(RunDfsmd(DFSMD_BINARY, args, dir_ / "second.log"), 1);
+  EXPECT_NE(ReadFileToString(dir_ / "second.log").find("cannot listen"), std::string::npos);
+  EXPECT_EQ(daemon->Stop(SIGTERM), 0);
+}
+
+}  // namespace
+}  // namespace dfsm::test
