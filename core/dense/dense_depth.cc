@@ -32,6 +32,10 @@ class StageTimer {
   std::chrono::steady_clock::time_point start_;
 };
 
+int CoarseScale(int width, const DenseOptions& options) {
+  return options.coarse_scale > 0 ? options.coarse_scale : std::clamp(width / 400, 2, 4);
+}
+
 void Require(bool condition, const std::string& message) {
   if (!condition) throw std::invalid_argument("dense: " + message);
 }
@@ -56,12 +60,13 @@ void ValidateInputs(const Burst& burst, const CameraModel& camera, const std::ve
     Require(poses[i].R.allFinite() && poses[i].T.allFinite(),
             "pose " + std::to_string(i) + " is not finite");
   }
-  Require(options.coarse_scale >= 1, "coarse_scale must be >= 1");
+  Require(options.coarse_scale >= 0, "coarse_scale must be >= 0 (0: from the image width)");
   Require(options.coarse_planes == 0 || options.coarse_planes >= 2,
           "coarse_planes must be 0 (all planes) or >= 2");
-  Require(burst.width() / options.coarse_scale >= 8 && burst.height() / options.coarse_scale >= 8,
+  const int scale = CoarseScale(burst.width(), options);
+  Require(burst.width() / scale >= 8 && burst.height() / scale >= 8,
           "image " + std::to_string(burst.width()) + "x" + std::to_string(burst.height()) +
-              " too small for coarse_scale " + std::to_string(options.coarse_scale));
+              " too small for coarse_scale " + std::to_string(scale));
   Require(options.refine_radius >= 1, "refine_radius must be >= 1");
   Require(options.refine_stride >= 0, "refine_stride must be >= 0 (0: chosen from the parallax)");
   Require(options.coarse_window_radius >= 0 && options.fine_window_radius >= 0,
@@ -130,7 +135,7 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
 
   PhotoCostOptions cost;
   cost.truncation = options.truncation;
-  const int scale = options.coarse_scale;
+  const int scale = CoarseScale(burst.width(), options);
   const SweepLevel coarse = MakeSweepLevel(reference, frames, other_poses, camera, radial, scale);
   cost.window_radius = options.coarse_window_radius;
   // Parallax (full-resolution pixels) between neighbouring lattice planes in
