@@ -10,6 +10,7 @@
 #include <fstream>
 #include <iostream>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <thread>
 
@@ -141,32 +142,69 @@ int main(int argc, char** argv) {
     const double cpu_start = CpuSeconds();
     service->Start();
 
-    // Stream, sampling the status to see outages (and how long they lasted).
-    nlohmann::json outage;
+    // The duration counts from the first frame (opening a device and filling
+    // the ring can take seconds on a slow machine). The status is sampled to
+    // see outages, how long they lasted, and every error shown meanwhile.
+    nlohmann::json outage = nlohmann::json::object();
+    nlohmann::json errors = nlohmann::json::array();
     Clock::time_point lost_at{};
     bool lost = false, recovered = false;
-    const auto stream_until = start + std::chrono::duration<double>(args.duration_s);
+    const auto first_frame_limit = start + std::chrono::seconds(60);
+    while (service->Status().frames_captured == 0 && Clock::now() < first_frame_limit) {
+      const CaptureStatus s = service->Status();
+      if (!s.last_error.empty() && (errors.empty() || errors.back() != s.last_error))
+        errors.push_back(s.last_error);
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    const auto first_frame = Clock::now();
+    report["first_frame_s"] = std::chrono::duration<double>(first_frame - start).count();
+    const CaptureStatus at_first = service->Status();
+    // Steady state: after one second of streaming.
+    const auto warm = first_frame + std::chrono::seconds(1);
+    std::optional<CaptureStatus> at_warm;
+    double cpu_warm = 0.0;
+    Clock::time_point warm_at{};
+    const auto stream_until = first_frame + std::chrono::duration<double>(args.duration_s);
     const auto give_up = stream_until + std::chrono::duration<double>(args.until_reconnected_s);
     while (Clock::now() < give_up) {
       const CaptureStatus s = service->Status();
+      if (!s.last_error.empty() && (errors.empty() || errors.back() != s.last_error))
+        errors.push_back(s.last_error);
+      if (!at_warm && Clock::now() >= warm) {
+        at_warm = s;
+        cpu_warm = CpuSeconds();
+        warm_at = Clock::now();
+      }
       if (!lost && s.frames_captured > 0 && !s.streaming) {
         lost = true;
         lost_at = Clock::now();
-        outage["first_error"] = s.last_error;
       }
       if (lost && !recovered && s.streaming && s.reconnects > 0) {
         recovered = true;
         outage["recovery_s"] = std::chrono::duration<double>(Clock::now() - lost_at).count();
-        outage["error_while_lost"] = outage["first_error"];
       }
       if (Clock::now() >= stream_until && (args.until_reconnected_s <= 0 || recovered)) break;
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      // Coarse: the sampling must not compete with capture for the CPU.
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
     }
+    report["errors_seen"] = errors;
     const CaptureStatus streamed = service->Status();
     const double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
     report["after_streaming"] = ToJson(streamed);
     report["elapsed_s"] = elapsed;
     report["cpu_s"] = CpuSeconds() - cpu_start;
+    if (at_warm && streamed.frames_captured > at_warm->frames_captured) {
+      const double seconds = std::chrono::duration<double>(Clock::now() - warm_at).count();
+      const uint64_t frames = streamed.frames_captured - at_warm->frames_captured;
+      report["steady"] = {
+          {"seconds", seconds},
+          {"frames", frames},
+          {"dropped", streamed.frames_dropped - at_warm->frames_dropped},
+          {"fps", static_cast<double>(frames) / seconds},
+          {"cpu_ms_per_frame", 1000.0 * (CpuSeconds() - cpu_warm) / static_cast<double>(frames)}};
+    }
+    report["dropped_before_first_frame"] = at_first.frames_dropped;
+
     report["mean_fps"] =
         elapsed > 0 ? static_cast<double>(streamed.frames_captured) / elapsed : 0.0;
     if (args.until_reconnected_s > 0) {
