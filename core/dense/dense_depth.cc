@@ -82,7 +82,7 @@ void ValidateInputs(const Burst& burst, const CameraModel& camera, const std::ve
 // the data): well below the matching precision of either level, so the
 // parabola through three neighbours still resolves the minimum.
 constexpr double kCoarsePlaneParallax = 0.1;
-constexpr double kFinePlaneParallax = 0.15;
+constexpr double kFinePlaneParallax = 0.35;
 
 // Largest image motion (pixels) per unit of inverse depth over the frames: a
 // point at inverse depth w moves by about f |T_xy + x T_z| w.

@@ -31,9 +31,9 @@ struct DenseOptions {
   // hundredths of a coarse pixel apart, and a denser coarse lattice gains nothing.
   int coarse_planes = 0;
   // The full-resolution window: 2 * refine_radius + 1 planes, refine_stride
-  // lattice planes apart (0: the stride that puts ~0.15 pixel of parallax
+  // lattice planes apart (0: the stride that puts ~0.35 pixel of parallax
   // between them), so the window spans a similar parallax at every lattice density.
-  int refine_radius = 3;
+  int refine_radius = 2;
   int refine_stride = 0;
   // Aggregation window half-widths (pixels of the respective level).
   int coarse_window_radius = 2;
