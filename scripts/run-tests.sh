@@ -27,3 +27,19 @@ if [ "${DFSM_SANITIZE:-1}" != 0 ]; then
     ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 \
       ctest --output-on-failure --timeout 900 -j "$jobs" -L unit)
 fi
+
+# --- capture: VM tests against the kernel's vivid driver (ctest label vm) ---
+# Boots Debian's kernel under qemu (no KVM needed, ~3 min under emulation).
+# Skipped, with the reason, where qemu or the kernel package cannot be had.
+# DFSM_TEST_VM=0 skips it; the vm test skips itself unless DFSM_TEST_VM=1, so
+# the default ctest run above does not boot the VM a second time.
+if [ "${DFSM_TEST_VM:-1}" != 0 ]; then
+  echo "== VM tests (vivid under qemu)"
+  if command -v qemu-system-x86_64 >/dev/null && [ -x /bin/busybox ]; then
+    (cd "$root/build" && DFSM_TEST_VM=1 ctest --output-on-failure --timeout 900 -L vm)
+  else
+    echo "VM tests skipped: qemu-system-x86_64 or busybox-static is not installed" \
+      "(scripts/capture-deps.txt lists them; install-deps.sh could not install them here)"
+  fi
+fi
+# --- end capture ---

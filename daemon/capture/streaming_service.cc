@@ -53,7 +53,8 @@ bool StreamingCaptureService::OpenSource() {
   } catch (const SourceError& e) {
     std::lock_guard<std::mutex> lock(status_mutex_);
     status_.last_error = e.what();
-    gone_ = true;
+    gone_ = e.kind() == SourceError::Kind::kGone;
+    open_failed_ = true;
     return false;
   }
   const SourceDescription description = source_->Describe();
@@ -70,6 +71,7 @@ bool StreamingCaptureService::OpenSource() {
   if (ever_opened_) ++status_.reconnects;
   ever_opened_ = true;
   gone_ = false;
+  open_failed_ = false;
   return true;
 }
 
@@ -229,13 +231,19 @@ CaptureService::Burst StreamingCaptureService::GrabBurst(int count, BurstWhen wh
   std::vector<CapturedFrame> got;
   got.reserve(static_cast<size_t>(count));
   int gaps = 0;
-  const auto abort = [this] { return stop_.load() || (gone_.load() && !streaming_.load()); };
+  // A device that cannot even be opened will not deliver before the timeout
+  // is likely to pass: say so at once.
+  const auto abort = [this] {
+    return stop_.load() || (!streaming_.load() && (gone_.load() || open_failed_.load()));
+  };
   while (static_cast<int>(got.size()) < count) {
     std::optional<CapturedFrame> frame = ring_.CopyAtOrAfter(next, deadline, abort);
     if (!frame) {
       if (stop_) throw CaptureUnavailable("capture stopped while taking a burst");
       const std::string error = last_error();
-      if (gone_ && !streaming_) throw CaptureUnavailable("capture device gone: " + error);
+      if (!streaming_ && gone_) throw CaptureUnavailable("capture device gone: " + error);
+      if (!streaming_ && open_failed_)
+        throw CaptureUnavailable("capture device unavailable: " + error);
       throw CaptureUnavailable(
           "timed out after " + std::to_string(timeout.count()) + " ms waiting for " +
           std::to_string(count) + " consecutive frames (had " + std::to_string(got.size()) +

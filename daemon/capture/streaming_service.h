@@ -61,7 +61,8 @@ class StreamingCaptureService : public CaptureService {
   bool ever_opened_ = false;       // capture thread only
   int64_t next_sequence_ = 0;      // capture thread only
   std::atomic<bool> streaming_{false};
-  std::atomic<bool> gone_{false};  // the last failure was a device that went away
+  std::atomic<bool> gone_{false};         // the last failure was a device that went away
+  std::atomic<bool> open_failed_{false};  // the last attempt to open failed
 };
 
 }  // namespace dfsm::capture

@@ -5,6 +5,11 @@
 #
 #   run_vivid_suite.sh DFSM_CAPTURE VM_REPORT_TEST OUT_DIR
 set -euo pipefail
+if [ "${DFSM_TEST_VM:-0}" != 1 ]; then
+  echo "run_vivid_suite: SKIP: the VM tests boot a kernel under qemu (~3 min); set DFSM_TEST_VM=1" \
+    "to run them (scripts/run-tests.sh does)" >&2
+  exit 77
+fi
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 capture="$(realpath "$1")"
 checker="$(realpath "$2")"

@@ -101,30 +101,37 @@ TEST_F(VividVm, EveryFormatNegotiatesAndDecodesTheSameLuma) {
   }
 }
 
-void CheckHdmi(const json& r, bool expect_no_steady_drops) {
+void CheckStream(const json& r, int width, int height, double fps, int burst) {
   ASSERT_TRUE(r.is_object()) << "no report";
   ASSERT_TRUE(r["ok"].get<bool>()) << r.value("error", "");
   EXPECT_EQ(r["final"]["format"], "YUYV");
-  EXPECT_EQ(r["final"]["width"], 1920);
-  EXPECT_EQ(r["final"]["height"], 1080);
-  EXPECT_DOUBLE_EQ(r["final"]["fps"].get<double>(), 30.0);
-  ExpectConsecutive(r["burst"], 10);
-  ASSERT_TRUE(r.contains("steady"));
-  if (expect_no_steady_drops) {
-    EXPECT_EQ(r["steady"]["dropped"], 0);
-  }
+  EXPECT_EQ(r["final"]["width"], width);
+  EXPECT_EQ(r["final"]["height"], height);
+  EXPECT_DOUBLE_EQ(r["final"]["fps"].get<double>(), fps);
+  ExpectConsecutive(r["burst"], burst);
+  ASSERT_TRUE(r.contains("steady")) << "streamed less than a second";
 }
 
-TEST_F(VividVm, Hdmi1080p30) {
+// Under emulation the capture thread cannot convert 30 frames of 1080p a
+// second (see docs/capture.md): drops happen, and must be seen and counted.
+TEST_F(VividVm, Hdmi1080p30DropsAreCountedNeverHidden) {
   const json r = Report("hdmi-1080p30");
-  CheckHdmi(r, false);
-  if (r.contains("steady")) std::cout << "1080p30: " << r["steady"].dump() << "\n";
+  CheckStream(r, 1920, 1080, 30.0, 5);
+  std::cout << "1080p30: " << r["steady"].dump() << "\n";
+  RecordProperty("steady_fps", std::to_string(r["steady"]["fps"].get<double>()));
+  RecordProperty("steady_dropped", std::to_string(r["steady"]["dropped"].get<int>()));
+  // Every frame the driver produced is either captured or counted as dropped.
+  const json& source = r["burst"]["manifest"]["source"];
+  EXPECT_GE(
+      r["final"]["frames_captured"].get<int64_t>() + r["final"]["frames_dropped"].get<int64_t>(),
+      source["source_sequence_last"].get<int64_t>() + 1);
 }
 
-TEST_F(VividVm, Hdmi1080p30UnderCpuLoad) {
-  const json r = Report("hdmi-1080p30-load");
-  CheckHdmi(r, false);
-  if (r.contains("steady")) std::cout << "1080p30 + load: " << r["steady"].dump() << "\n";
+TEST_F(VividVm, Webcam1080pNoDropsUnderCpuLoad) {
+  const json r = Report("webcam-1080p5-load");
+  CheckStream(r, 1920, 1080, 5.0, 5);
+  std::cout << "1080p5 + load: " << r["steady"].dump() << "\n";
+  EXPECT_EQ(r["steady"]["dropped"], 0);
 }
 
 TEST_F(VividVm, BurstRecordedAndReplayedIsBitExact) {

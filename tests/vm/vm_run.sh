@@ -10,7 +10,7 @@
 # binaries and ARGS must not live under the host's /tmp). The VM kernel's
 # modules load with `$VM_MODPROBE vivid ...` (modprobe -d /run/vm). Exit codes: the script's, 77 when qemu, busybox or the kernel
 # package cannot be had (the caller skips), 124 when the VM ran past
-# DFSM_VM_TIMEOUT seconds (default 300).
+# DFSM_VM_TIMEOUT seconds (default 600).
 #
 # The kernel is the one Debian's linux-image-amd64 depends on, fetched with
 # apt-get download and cached in DFSM_VM_CACHE (default ~/.cache/dfsm-vm).
@@ -22,7 +22,7 @@ shift 2
 case "$script" in /tmp/*) echo "vm_run: $script lies under /tmp, which the VM does not see" >&2; exit 2 ;; esac
 [ -d /mnt ] || { echo "vm_run: the host has no /mnt to mount the output share on" >&2; exit 2; }
 cache="${DFSM_VM_CACHE:-${XDG_CACHE_HOME:-$HOME/.cache}/dfsm-vm}"
-timeout_s="${DFSM_VM_TIMEOUT:-300}"
+timeout_s="${DFSM_VM_TIMEOUT:-600}"
 
 skip() {
   echo "vm_run: SKIP: $*" >&2
