@@ -9,6 +9,7 @@
 
 #include "core/dense/guided_filter.h"
 #include "core/dense/inverse_depth_lattice.h"
+#include "core/dense/parallel_rows.h"
 #include "core/dense/plane_selection.h"
 #include "core/dense/plane_sweep.h"
 #include "core/dense/radial_inverse.h"
@@ -33,7 +34,7 @@ class StageTimer {
 };
 
 int CoarseScale(int width, const DenseOptions& options) {
-  return options.coarse_scale > 0 ? options.coarse_scale : std::clamp(width / 400, 2, 4);
+  return options.coarse_scale > 0 ? options.coarse_scale : std::clamp(width / 320, 2, 4);
 }
 
 void Require(bool condition, const std::string& message) {
@@ -192,13 +193,13 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
     const int window = std::min(2 * options.refine_radius + 1, (lattice.planes - 1) / stride + 1);
     const int reach = (window - 1) / 2 * stride;
     cv::Mat first(full, CV_32SC1);
-    for (int y = 0; y < full.height; ++y) {
+    ParallelRows(full.height, [&](int y) {
       const float* c = centre.ptr<float>(y);
       int* f = first.ptr<int>(y);
       for (int x = 0; x < full.width; ++x)
         f[x] = std::clamp(static_cast<int>(std::lround(c[x])) - reach, 0,
                           lattice.planes - 1 - (window - 1) * stride);
-    }
+    });
     const SweepLevel fine = MakeSweepLevel(reference, frames, other_poses, camera, radial, 1);
     timer.Lap("upsample");
     cost.window_radius = options.fine_window_radius;
@@ -210,7 +211,7 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
     // A winner on the window's edge means the coarse seed was off by more than
     // the window: the true minimum lies outside what was searched.
     confidence = coarse_confidence;
-    for (int y = 0; y < full.height; ++y) {
+    ParallelRows(full.height, [&](int y) {
       const uchar* edge = fine_selection.at_edge.ptr<uchar>(y);
       const float* p = plane.ptr<float>(y);
       float* c = confidence.ptr<float>(y);
@@ -218,19 +219,19 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
         const bool lattice_end = p[x] < 0.5f * stride || p[x] > lattice.planes - 1 - 0.5f * stride;
         if (p[x] < 0.0f || (edge[x] && !lattice_end)) c[x] = 0.0f;
       }
-    }
+    });
     timer.Lap("fine_select");
   }
 
   const float min_confidence = static_cast<float>(options.min_confidence);
   cv::Mat weight(plane.size(), CV_32FC1);
-  for (int y = 0; y < plane.rows; ++y) {
+  ParallelRows(plane.rows, [&](int y) {
     const float* p = plane.ptr<float>(y);
     const float* c = confidence.ptr<float>(y);
     float* wt = weight.ptr<float>(y);
     for (int x = 0; x < plane.cols; ++x)
       wt[x] = (p[x] >= 0.0f && c[x] >= min_confidence) ? c[x] : 0.0f;
-  }
+  });
   if (options.guided_radius > 0) {
     cv::Mat guide;
     burst.gray[burst.reference()].convertTo(guide, CV_32F, 1.0 / 255.0);
@@ -241,20 +242,17 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
 
   result.depth = cv::Mat::zeros(plane.size(), CV_32FC1);
   result.confidence = confidence;
-  int valid = 0;
-  for (int y = 0; y < plane.rows; ++y) {
+  ParallelRows(plane.rows, [&](int y) {
     const float* p = plane.ptr<float>(y);
     const float* wt = weight.ptr<float>(y);
     float* d = result.depth.ptr<float>(y);
     for (int x = 0; x < plane.cols; ++x) {
       if (wt[x] <= 0.0f) continue;
       const double w = lattice.At(p[x]);
-      if (!(w > 0.0)) continue;
-      d[x] = static_cast<float>(1.0 / w);
-      ++valid;
+      if (w > 0.0) d[x] = static_cast<float>(1.0 / w);
     }
-  }
-  result.valid_fraction = static_cast<double>(valid) / plane.total();
+  });
+  result.valid_fraction = static_cast<double>(cv::countNonZero(result.depth)) / plane.total();
   timer.Lap("refine");
   return result;
 }

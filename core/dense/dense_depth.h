@@ -20,8 +20,8 @@ struct DenseOptions {
   // Coarse-to-fine: every plane is swept at 1/coarse_scale of the resolution;
   // full resolution then searches 2 * refine_radius + 1 planes of the same
   // lattice around the upsampled coarse winner. coarse_scale 1 sweeps every
-  // plane at full resolution (slow; for comparisons). 0: width / 400 within
-  // [2, 4] (4 at 1080p; 2 below 1200 px, where a 1/4 level is too small to
+  // plane at full resolution (slow; for comparisons). 0: width / 320 within
+  // [2, 4] (4 at 1080p, 3 at 960, 2 below 960 px, where a 1/4 level is too small to
   // seed the narrow window: on the 512x288 flower burst 47 % of the pixels got
   // a depth at 1/4, 85 % at 1/2).
   int coarse_scale = 0;

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <opencv2/imgproc.hpp>
 
+#include "core/dense/parallel_rows.h"
+
 namespace dfsm {
 namespace {
 
@@ -85,12 +87,12 @@ cv::Mat WeightedGuidedFilter(const cv::Mat& guide, const cv::Mat& input, const c
     }
   });
   cv::Mat result(input.size(), CV_32FC1);
-  for (int y = 0; y < result.rows; ++y) {
+  ParallelRows(result.rows, [&](int y) {
     const float* n = numerator.ptr<float>(y);
     const float* d = denominator.ptr<float>(y);
     float* r = result.ptr<float>(y);
     for (int x = 0; x < result.cols; ++x) r[x] = d[x] > 1e-3f ? n[x] / d[x] : 0.0f;
-  }
+  });
   if (support) *support = denominator;
   return result;
 }

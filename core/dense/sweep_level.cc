@@ -2,6 +2,8 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "core/dense/parallel_rows.h"
+
 namespace dfsm {
 namespace {
 
@@ -26,7 +28,7 @@ SweepLevel MakeSweepLevel(const cv::Mat& reference, const std::vector<cv::Mat>& 
   const double offset = 0.5 * (scale - 1);
   level.ray_x.create(level.reference.size(), CV_32FC1);
   level.ray_y.create(level.reference.size(), CV_32FC1);
-  for (int y = 0; y < level.reference.rows; ++y) {
+  ParallelRows(level.reference.rows, [&](int y) {
     float* rx = level.ray_x.ptr<float>(y);
     float* ry = level.ray_y.ptr<float>(y);
     for (int x = 0; x < level.reference.cols; ++x) {
@@ -36,7 +38,7 @@ SweepLevel MakeSweepLevel(const cv::Mat& reference, const std::vector<cv::Mat>& 
       rx[x] = static_cast<float>(xu);
       ry[x] = static_cast<float>(yu);
     }
-  }
+  });
   level.radial = &radial;
   level.focal = static_cast<float>(camera.f / scale);
   level.centre_x = static_cast<float>((camera.cx - offset) / scale);
