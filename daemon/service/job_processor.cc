@@ -42,7 +42,7 @@ void JobProcessor::Process(const std::string& id, std::shared_ptr<const Burst> p
     }
     const auto on_stage = [&](const std::string& stage) {
       job.stage = stage;
-      store_->Update(job);
+      store_->SetStage(id, stage);
     };
     PipelineOutput output = RunPipeline(*burst, ToPipelineOptions(job.options), on_stage);
     on_stage("writing");

@@ -141,6 +141,12 @@ void JobStore::Update(const Job& job) {
   it->second = job;
 }
 
+void JobStore::SetStage(const std::string& id, const std::string& stage) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const auto it = jobs_.find(id);
+  if (it != jobs_.end()) it->second.stage = stage;
+}
+
 void JobStore::CommitOutput(const std::string& id, const fs::path& staged_output) {
   const fs::path target = OutputDir(id);
   std::error_code error;

@@ -60,6 +60,10 @@ class JobStore {
   // Replaces the stored record (same id). Throws JobStoreError for an unknown id.
   void Update(const Job& job);
 
+  // Sets the job's current stage in memory only: a stage is progress news for
+  // clients, not state worth an fsync (a restarted job starts over anyway).
+  void SetStage(const std::string& id, const std::string& stage);
+
   // Replaces <job>/output with `staged_output` (a directory from NewStagingDir()).
   void CommitOutput(const std::string& id, const std::filesystem::path& staged_output);
   // Deletes <job>/burst (keep_burst false, after success).
