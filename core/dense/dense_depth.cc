@@ -152,6 +152,8 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
                              1,
                          std::min(16, lattice.planes), lattice.planes);
   }
+  result.coarse_scale = scale;
+  result.coarse_planes = coarse_lattice.planes;
   std::vector<cv::Mat> coarse_costs = SweepAllPlanes(coarse, coarse_lattice, cost);
   timer.Lap("coarse_sweep");
   PlaneSelection coarse_selection = SelectPlanes(coarse_costs);
@@ -192,6 +194,8 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
             : std::max(1, static_cast<int>(std::lround(kFinePlaneParallax / plane_parallax)));
     const int window = std::min(2 * options.refine_radius + 1, (lattice.planes - 1) / stride + 1);
     const int reach = (window - 1) / 2 * stride;
+    result.fine_planes = window;
+    result.fine_stride = stride;
     cv::Mat first(full, CV_32SC1);
     ParallelRows(full.height, [&](int y) {
       const float* c = centre.ptr<float>(y);

@@ -33,7 +33,7 @@ struct DenseOptions {
   // The full-resolution window: 2 * refine_radius + 1 planes, refine_stride
   // lattice planes apart (0: the stride that puts ~0.35 pixel of parallax
   // between them), so the window spans a similar parallax at every lattice density.
-  int refine_radius = 2;
+  int refine_radius = 3;
   int refine_stride = 0;
   // Aggregation window half-widths (pixels of the respective level).
   int coarse_window_radius = 2;
@@ -59,7 +59,11 @@ struct DenseDepth {
   double min_inverse_depth = 0.0;  // the swept range
   double max_inverse_depth = 0.0;
   int planes = 0;
-  double valid_fraction = 0.0;                             // share of pixels with depth > 0
+  int coarse_scale = 0;         // captured pixels per coarse pixel
+  int coarse_planes = 0;        // planes of the coarse sweep
+  int fine_planes = 0;          // planes per pixel at full resolution ...
+  int fine_stride = 0;          // ... this many lattice planes apart
+  double valid_fraction = 0.0;  // share of pixels with depth > 0
   std::vector<std::pair<std::string, double>> timings_ms;  // sub-stages, in order
 };
 
