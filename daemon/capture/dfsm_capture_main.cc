@@ -30,7 +30,7 @@ constexpr const char* kUsage =
     "                    [--ring N] [--buffers N] [--frame-timeout-ms T] [--backoff-ms T]\n"
     "                    [--duration S] [--until-reconnected S]\n"
     "                    [--burst N [--when last|next] [--timeout-ms T] [--out DIR]]\n"
-    "                    [--report FILE]\n"
+    "                    [--report FILE] [--ready-file FILE]\n"
     "Streams for --duration seconds (and, with --until-reconnected, until the source\n"
     "has been lost and found again), then optionally grabs a burst and writes it as\n"
     "dfsm-burst/1, and prints (or writes) a JSON report.\n";
@@ -69,6 +69,7 @@ struct Arguments {
   BurstWhen when = BurstWhen::kNext;
   int timeout_ms = 5000;
   std::string out, report;
+  std::string ready_file;  // created once the first frame has arrived
 };
 
 Arguments Parse(int argc, char** argv) {
@@ -116,6 +117,8 @@ Arguments Parse(int argc, char** argv) {
       a.timeout_ms = std::stoi(value);
     else if (flag == "--out")
       a.out = value;
+    else if (flag == "--ready-file")
+      a.ready_file = value;
     else if (flag == "--report")
       a.report = value;
     else
@@ -157,6 +160,7 @@ int main(int argc, char** argv) {
       std::this_thread::sleep_for(std::chrono::milliseconds(5));
     }
     const auto first_frame = Clock::now();
+    if (!args.ready_file.empty()) std::ofstream(args.ready_file) << "streaming\n";
     report["first_frame_s"] = std::chrono::duration<double>(first_frame - start).count();
     const CaptureStatus at_first = service->Status();
     // Steady state: after one second of streaming.

@@ -26,6 +26,7 @@ void StreamingCaptureService::Start() {
   if (thread_.joinable()) return;
   stop_ = false;
   thread_ = std::thread([this] { Run(); });
+  running_ = true;
 }
 
 void StreamingCaptureService::Stop() {
@@ -36,6 +37,7 @@ void StreamingCaptureService::Stop() {
   stop_cv_.notify_all();
   ring_.Wake();
   if (thread_.joinable()) thread_.join();
+  running_ = false;
 }
 
 void StreamingCaptureService::SleepUnlessStopped(std::chrono::milliseconds duration) {
@@ -207,7 +209,8 @@ CaptureService::Burst StreamingCaptureService::GrabBurst(int count, BurstWhen wh
     std::lock_guard<std::mutex> lock(status_mutex_);
     return status_.last_error;
   };
-  if (stop_ || !thread_.joinable()) throw CaptureUnavailable("capture is not running");
+  if (stop_ || !running_)
+    throw CaptureUnavailable("capture is not running (Start() was not called)");
   if (when == BurstWhen::kLast && !streaming_) {
     const std::string error = last_error();
     throw CaptureUnavailable("capture is not streaming" + (error.empty() ? "" : ": " + error));

@@ -45,7 +45,8 @@ class StreamingCaptureService : public CaptureService {
   // Logically const readers copy out of the ring; the ring has its own lock.
   mutable FrameRing ring_;
 
-  std::thread thread_;
+  std::thread thread_;  // touched by Start() and Stop() only
+  std::atomic<bool> running_{false};
   std::atomic<bool> stop_{false};
   std::mutex stop_mutex_;
   std::condition_variable stop_cv_;

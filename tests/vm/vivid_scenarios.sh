@@ -27,6 +27,16 @@ load_vivid() {
   exit 1
 }
 
+wait_ready() {  # FILE PID: until dfsm-capture has its first frame (it creates FILE)
+  for _ in $(seq 600); do
+    [ -e "$1" ] && return 0
+    kill -0 "$2" 2>/dev/null || break
+    sleep 0.1
+  done
+  log "capture did not start streaming"
+  return 1
+}
+
 log "start"
 load_vivid
 v4l2-ctl -d $device --info >"$out/v4l2-info.txt" 2>&1
@@ -74,9 +84,10 @@ timed burst-replayed "$capture" --source replay:"$out/burst-v4l2" --fps -1 --rin
 # 5. Faults the real driver injects: a buffer flagged with an error, then a
 #    fatal streaming error (DQBUF answers EIO).
 "$capture" --source v4l2:$device --width 640 --height 480 --fps 25 --duration 8 --burst 5 \
-  --when next --report "$out/injected-errors.json" &
+  --when next --report "$out/injected-errors.json" --ready-file /tmp/injected.ready &
 pid=$!
-sleep 4
+wait_ready /tmp/injected.ready $pid
+sleep 1
 v4l2-ctl -d $device --set-ctrl inject_v4l2_buf_flag_error=1 && log "injected V4L2_BUF_FLAG_ERROR"
 sleep 1
 v4l2-ctl -d $device --set-ctrl inject_fatal_streaming_error=1 && log "injected a fatal streaming error"
@@ -90,9 +101,11 @@ echo "$?" >"$out/injected-errors.exit"
 #    the module is then loaded again. Capture must report the loss, keep
 #    retrying, and deliver bursts again.
 "$capture" --source v4l2:$device --width 640 --height 480 --fps 25 --backoff-ms 3000 \
-  --duration 2 --until-reconnected 60 --burst 5 --when next --report "$out/removal.json" &
+  --duration 2 --until-reconnected 60 --burst 5 --when next --report "$out/removal.json" \
+  --ready-file /tmp/removal.ready &
 pid=$!
-sleep 4
+wait_ready /tmp/removal.ready $pid
+sleep 1
 v4l2-ctl -d $device --set-ctrl disconnect=1 && log "disconnected"
 removed=0
 for _ in $(seq 100); do
