@@ -146,6 +146,7 @@ class FakeV4l2Device : public V4l2Device {
       case VIDIOC_QBUF: {
         auto* b = static_cast<v4l2_buffer*>(arg);
         if (b->index >= buffers_.size() || buffers_[b->index].queued) return Errno(EINVAL);
+        if (d_->error_state) return Errno(EIO);
         if (buffers_[b->index].out) --d_->outstanding;
         buffers_[b->index].out = false;
         buffers_[b->index].queued = true;
@@ -234,6 +235,7 @@ class FakeV4l2Device : public V4l2Device {
     if (!d_->streaming) return Errno(EINVAL);
     if (d_->error_state) return Errno(EIO);
     bool error_flag = false;
+    bool fatal_after = false;
     if (!d_->faults.empty()) {
       const FakeFault fault = d_->faults.front();
       switch (fault) {
@@ -248,6 +250,10 @@ class FakeV4l2Device : public V4l2Device {
           d_->faults.pop_front();
           d_->present = false;
           return Errno(ENODEV);
+        case FakeFault::kFatalAfter:
+          d_->faults.pop_front();
+          fatal_after = true;
+          break;
         case FakeFault::kErrorFlag:
           d_->faults.pop_front();
           error_flag = true;
@@ -289,6 +295,7 @@ class FakeV4l2Device : public V4l2Device {
     out->bytesused = static_cast<uint32_t>(used);
     out->sequence = sequence;
     out->flags = V4L2_BUF_FLAG_TIMESTAMP_MONOTONIC | (error_flag ? V4L2_BUF_FLAG_ERROR : 0);
+    if (fatal_after) d_->error_state = true;
     const uint64_t ns = 1000000000ull + sequence * 33333333ull;
     out->timestamp.tv_sec = static_cast<time_t>(ns / 1000000000ull);
     out->timestamp.tv_usec = static_cast<suseconds_t>((ns % 1000000000ull) / 1000);

@@ -22,6 +22,7 @@ enum class FakeFault {
   kEagain,        // poll says readable, DQBUF answers EAGAIN
   kErrorFlag,     // the next buffer comes back with V4L2_BUF_FLAG_ERROR
   kEio,           // DQBUF answers EIO until the stream is restarted
+  kFatalAfter,    // a buffer is delivered, then the queue fails: QBUF answers EIO
   kUnplug,        // the device disappears (ENODEV); see unplugged_open_failures
   kTimeout,       // poll times out once
   kSkip2,         // the driver loses two frames (sequence jumps by 3)

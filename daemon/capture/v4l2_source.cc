@@ -239,6 +239,20 @@ void V4l2Source::QueueBuffer(uint32_t index) {
   Xioctl(VIDIOC_QBUF, &buffer, "VIDIOC_QBUF");
 }
 
+bool V4l2Source::Requeue(uint32_t index) {
+  v4l2_buffer buffer{};
+  buffer.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+  buffer.memory = V4L2_MEMORY_MMAP;
+  buffer.index = index;
+  if (device_->Ioctl(fd_, VIDIOC_QBUF, &buffer) == 0) return true;
+  const int error = errno;
+  // A queue in its error state (vb2_queue_error: a fatal driver error) refuses
+  // buffers with EIO until streaming restarts.
+  if (error != EIO) FailIoctl("VIDIOC_QBUF", error);
+  RestartStreaming();
+  return false;
+}
+
 void V4l2Source::StartStreaming() {
   v4l2_requestbuffers request{};
   request.count = static_cast<uint32_t>(options_.buffers);
@@ -430,7 +444,7 @@ ReadResult V4l2Source::Read(FrameSlot& slot, std::chrono::milliseconds timeout) 
     last_sequence_ = buffer.sequence;
 
     if (buffer.flags & V4L2_BUF_FLAG_ERROR) {
-      QueueBuffer(buffer.index);
+      Requeue(buffer.index);
       ++dropped_pending_;
       continue;
     }
@@ -448,12 +462,14 @@ ReadResult V4l2Source::Read(FrameSlot& slot, std::chrono::milliseconds timeout) 
       converted = false;
       conversion_error = e.what();
     }
-    // The buffer goes back to the driver before anything else can fail.
-    QueueBuffer(buffer.index);
+    // The buffer goes back to the driver before anything else can fail. If
+    // that restarted the stream, this frame is still good; the next is not
+    // its neighbour (RestartStreaming marks the discontinuity).
+    const bool restarted = !Requeue(buffer.index);
     if (!converted) {
       ++dropped_pending_;
       // A short frame usually means the driver switched formats under us.
-      CheckFormatUnchanged();
+      if (!restarted) CheckFormatUnchanged();
       continue;
     }
     if (!color) slot.color.release();
@@ -465,9 +481,9 @@ ReadResult V4l2Source::Read(FrameSlot& slot, std::chrono::milliseconds timeout) 
                                   : MonotonicNowNs();
     slot.source_sequence = buffer.sequence;
     slot.dropped_before = dropped_pending_;
-    slot.discontinuity = discontinuity_pending_;
+    slot.discontinuity = discontinuity_pending_ && !restarted;
     dropped_pending_ = 0;
-    discontinuity_pending_ = false;
+    discontinuity_pending_ = restarted;
     return ReadResult::kFrame;
   }
 }

@@ -7,7 +7,7 @@
 //   EAGAIN after poll        spurious wake-up: poll again
 //   V4L2_BUF_FLAG_ERROR      queue the buffer again, count one dropped frame
 //   sequence gap             count the missing frames as dropped
-//   EIO                      restart streaming in place (STREAMOFF/STREAMON);
+//   EIO (DQBUF or QBUF)      restart streaming in place (STREAMOFF/STREAMON);
 //                            SourceError(kIo) if that fails too
 //   ENODEV / POLLERR         SourceError(kGone): the device was unplugged
 //   source-change event, or  SourceError(kIo): the driver changed the format;
@@ -72,7 +72,8 @@ class V4l2Source : public FrameSource {
   void StartStreaming();
   void StopStreaming();
   void RestartStreaming();
-  void QueueBuffer(uint32_t index);
+  void QueueBuffer(uint32_t index);  // throws on any failure (setting up)
+  bool Requeue(uint32_t index);      // false: EIO, the stream was restarted
   void CheckFormatUnchanged();
   void HandleEvents();
 

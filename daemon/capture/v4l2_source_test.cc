@@ -148,6 +148,20 @@ TEST_F(V4l2SourceTest, EioRestartsTheStreamInPlace) {
   EXPECT_EQ(driver_->mapped, 4);
 }
 
+TEST_F(V4l2SourceTest, QbufEioAfterAFatalErrorRestartsTheStream) {
+  auto source = MakeSource();
+  source->Open();
+  ASSERT_EQ(Read(*source), ReadResult::kFrame);
+  driver_->faults = {FakeFault::kFatalAfter};
+  ASSERT_EQ(Read(*source), ReadResult::kFrame);  // delivered before the queue failed
+  EXPECT_TRUE(HasPattern(slot_.gray, 1));
+  EXPECT_FALSE(slot_.discontinuity);
+  EXPECT_EQ(source->stream_restarts(), 1);
+  ASSERT_EQ(Read(*source), ReadResult::kFrame);
+  EXPECT_TRUE(slot_.discontinuity);  // the stream restarted in between
+  EXPECT_EQ(driver_->streamons, 2);
+}
+
 TEST_F(V4l2SourceTest, UnplugIsGoneUntilTheDeviceReturns) {
   auto source = MakeSource();
   source->Open();
