@@ -138,7 +138,7 @@ TEST_P(DenseDepthPlaneTest, AccurateAndAlignedWithTheCapturedGrid) {
   const bool along_x = GetParam() == 0;
   const Eigen::Vector3d normal = along_x ? Eigen::Vector3d(-0.5, 0.0, 0.6)   // Z 1.2 .. 2.4 m
                                          : Eigen::Vector3d(0.0, -0.6, 0.6);  // Z 1.2 .. 2.5 m
-  const PlaneScene scene = RenderPlaneScene(normal, 8);
+  const PlaneScene scene = RenderPlaneScene(normal, 6);
   const DenseDepth dense =
       ComputeDenseDepth(scene.burst, scene.camera, scene.poses, scene.sparse_inverse_depths);
   ASSERT_EQ(dense.depth.type(), CV_32FC1);
