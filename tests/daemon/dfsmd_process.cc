@@ -10,7 +10,7 @@ namespace dfsm::test {
 namespace {
 
 pid_t Spawn(const std::string& binary, const std::vector<std::string>& args,
-            const std::filesystem::path& log) {
+            const std::filesystem::path& log, const std::map<std::string, std::string>& env) {
   std::vector<char*> argv;
   argv.push_back(const_cast<char*>(binary.c_str()));
   for (const std::string& arg : args) argv.push_back(const_cast<char*>(arg.c_str()));
@@ -25,6 +25,7 @@ pid_t Spawn(const std::string& binary, const std::vector<std::string>& args,
     // Not under systemd: no readiness or watchdog socket.
     ::unsetenv("NOTIFY_SOCKET");
     ::unsetenv("WATCHDOG_USEC");
+    for (const auto& [name, value] : env) ::setenv(name.c_str(), value.c_str(), 1);
     ::execv(binary.c_str(), argv.data());
     ::_exit(127);
   }
@@ -64,11 +65,12 @@ int FreeLoopbackPort() {
 }
 
 DfsmdProcess::DfsmdProcess(const std::string& binary, std::vector<std::string> args,
-                           const std::filesystem::path& log)
+                           const std::filesystem::path& log,
+                           const std::map<std::string, std::string>& env, bool wait_streaming)
     : port_(FreeLoopbackPort()), log_(log) {
   args.push_back("--server.port");
   args.push_back(std::to_string(port_));
-  pid_ = Spawn(binary, args, log);
+  pid_ = Spawn(binary, args, log, env);
   httplib::Client client = Client();
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
   while (std::chrono::steady_clock::now() < deadline) {
@@ -77,7 +79,12 @@ DfsmdProcess::DfsmdProcess(const std::string& binary, std::vector<std::string> a
       pid_ = -1;
       return;
     }
-    if (auto camera = client.Get("/api/v1/camera"); camera && camera->status == 200) {
+    if (!wait_streaming) {
+      if (auto health = client.Get("/healthz"); health && health->status == 200) {
+        ready_ = true;
+        return;
+      }
+    } else if (auto camera = client.Get("/api/v1/camera"); camera && camera->status == 200) {
       if (nlohmann::json::parse(camera->body).value("streaming", false)) {
         ready_ = true;
         return;
@@ -116,7 +123,7 @@ int DfsmdProcess::Stop(int signal, std::chrono::seconds timeout) {
 
 int RunDfsmd(const std::string& binary, const std::vector<std::string>& args,
              const std::filesystem::path& log) {
-  const pid_t pid = Spawn(binary, args, log);
+  const pid_t pid = Spawn(binary, args, log, {});
   const int status = WaitExit(pid, std::chrono::seconds(20));
   if (status < 0) {
     ::kill(pid, SIGKILL);

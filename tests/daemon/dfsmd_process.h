@@ -9,6 +9,7 @@
 
 #include <chrono>
 #include <filesystem>
+#include <map>
 #include <string>
 #include <thread>
 #include <vector>
@@ -22,10 +23,12 @@ int FreeLoopbackPort();
 
 class DfsmdProcess {
  public:
-  // Starts `binary` with `args` plus --server.port; waits until /healthz answers
-  // and the camera streams (at most 20 s). ok() tells whether it came up.
+  // Starts `binary` with `args` plus --server.port and `env` added to its
+  // environment; waits until the camera streams (or, with wait_streaming
+  // false, until /healthz answers), at most 20 s. ok() tells whether it came up.
   DfsmdProcess(const std::string& binary, std::vector<std::string> args,
-               const std::filesystem::path& log);
+               const std::filesystem::path& log, const std::map<std::string, std::string>& env = {},
+               bool wait_streaming = true);
   ~DfsmdProcess();  // SIGKILL if still running
 
   bool ok() const { return ready_; }
