@@ -185,11 +185,12 @@ void DeleteJob(const ApiContext& context, const httplib::Request& request,
   const std::string id = request.matches[1];
   const std::optional<Job> job = context.store->Get(id);
   if (!job) return NoSuchJob(response, id);
-  if (context.scheduler->IsRunning(id)) {
+  // An unfinished job is deleted only if it can be taken out of the queue: one
+  // a worker has just picked up is in progress.
+  if (!IsFinished(job->status) && !context.scheduler->RemoveQueued(id)) {
     return SetProblem(response, 409, "job-in-progress", "Job in progress",
                       "job " + id + " is being processed; delete it once it has finished");
   }
-  context.scheduler->RemoveQueued(id);
   context.store->Remove(id);
   response.status = 204;
 }

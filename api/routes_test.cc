@@ -151,7 +151,13 @@ TEST_F(RoutesTest, FullQueueAnswers503WithRetryAfter) {
 
 TEST_F(RoutesTest, DeleteRemovesQueuedAndFinishedJobs) {
   const std::string queued = AddJob(service::JobStatus::kQueued);
+  scheduler_->SubmitRecovered(queued);
+  const std::string processing = AddJob(service::JobStatus::kProcessing);
   const std::string failed = AddJob(service::JobStatus::kFailed);
+  EXPECT_NE(
+      Problem(client_->Delete(("/api/v1/jobs/" + processing).c_str()), 409).find("being processed"),
+      std::string::npos);
+  store_->Remove(processing);
   EXPECT_EQ(client_->Delete(("/api/v1/jobs/" + queued).c_str())->status, 204);
   EXPECT_EQ(client_->Delete(("/api/v1/jobs/" + failed).c_str())->status, 204);
   Problem(client_->Delete(("/api/v1/jobs/" + failed).c_str()), 404);
