@@ -1,0 +1,60 @@
+// Accuracy of the dense stage on generated bursts (core/synth) with the true
+// camera and poses: the project's targets at 1080p, looser bounds at 640x480
+// (see docs/dense.md for the measured table). Renders 1080p bursts, so it
+// carries the ctest label `accuracy` and is not part of the default run.
+#include <gtest/gtest.h>
+
+#include "core/dense/dense_depth.h"
+#include "core/pipeline/evaluation.h"
+#include "core/synth/burst_synthesizer.h"
+
+namespace dfsm {
+namespace {
+
+struct Case {
+  int width, height, frames, jpeg_quality;
+  double max_abs_rel, min_within_5, min_coverage;
+};
+
+class DenseAccuracyTest : public ::testing::TestWithParam<Case> {};
+
+TEST_P(DenseAccuracyTest, MeetsTheBoundsWithTruePoses) {
+  const Case c = GetParam();
+  SynthOptions options;
+  options.width = c.width;
+  options.height = c.height;
+  options.frames = c.frames;
+  options.jpeg_quality = c.jpeg_quality;
+  const SynthBurst synth = SynthesizeBurst(options);
+  // The sparse stage's inverse depths, stood in for by the truth on a grid.
+  std::vector<double> sparse;
+  const cv::Mat& truth = synth.truth.depth;
+  for (int v = truth.rows / 40; v < truth.rows; v += truth.rows / 20)
+    for (int u = truth.cols / 40; u < truth.cols; u += truth.cols / 20)
+      if (truth.at<float>(v, u) > 0.0f) sparse.push_back(1.0 / truth.at<float>(v, u));
+  const Burst burst = ToBurst(synth);
+  const DenseDepth dense = ComputeDenseDepth(burst, synth.truth.camera, synth.truth.poses, sparse);
+  const DepthEvaluation e =
+      EvaluateDepth(dense.depth, truth, TexturedMask(burst.gray[burst.reference()]));
+  EXPECT_NEAR(e.scale, 1.0, 0.01);
+  EXPECT_LE(e.abs_rel, c.max_abs_rel);
+  EXPECT_GE(e.within_5_percent, c.min_within_5);
+  EXPECT_GE(e.coverage, c.min_coverage);
+  RecordProperty("abs_rel", std::to_string(e.abs_rel));
+  RecordProperty("within_5_percent", std::to_string(e.within_5_percent));
+  RecordProperty("coverage", std::to_string(e.coverage));
+}
+
+INSTANTIATE_TEST_SUITE_P(Synth, DenseAccuracyTest,
+                         ::testing::Values(
+                             // 640x480 misses the project targets (measured ~3.2-3.8 %, 87-90 %):
+                             // honest looser bounds.
+                             Case{640, 480, 10, 0, 0.045, 0.85, 0.90},
+                             Case{640, 480, 15, 90, 0.045, 0.83, 0.90},
+                             // 1080p: the targets (measured 1.1-1.3 %, 97.4-97.6 %, 94.5-95.6 %).
+                             Case{1920, 1080, 10, 0, 0.02, 0.95, 0.90},
+                             Case{1920, 1080, 10, 90, 0.02, 0.95, 0.90},
+                             Case{1920, 1080, 15, 90, 0.02, 0.95, 0.90}));
+
+}  // namespace
+}  // namespace dfsm
