@@ -82,7 +82,7 @@ void ValidateInputs(const Burst& burst, const CameraModel& camera, const std::ve
 // windows this far in full-resolution pixels (when the options leave them to
 // the data): well below the matching precision of either level, so the
 // parabola through three neighbours still resolves the minimum.
-constexpr double kCoarsePlaneParallax = 0.1;
+constexpr double kCoarsePlaneParallax = 0.2;
 constexpr double kFinePlaneParallax = 0.35;
 
 // Largest image motion (pixels) per unit of inverse depth over the frames: a
