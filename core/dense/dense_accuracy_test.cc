@@ -4,6 +4,8 @@
 // carries the ctest label `accuracy` and is not part of the default run.
 #include <gtest/gtest.h>
 
+#include <string>
+
 #include "core/dense/dense_depth.h"
 #include "core/pipeline/evaluation.h"
 #include "core/synth/burst_synthesizer.h"
@@ -54,7 +56,13 @@ INSTANTIATE_TEST_SUITE_P(Synth, DenseAccuracyTest,
                              // 1080p: the targets (measured 1.1-1.3 %, 97.4-97.6 %, 94.5-95.6 %).
                              Case{1920, 1080, 10, 0, 0.02, 0.95, 0.90},
                              Case{1920, 1080, 10, 90, 0.02, 0.95, 0.90},
-                             Case{1920, 1080, 15, 90, 0.02, 0.95, 0.90}));
+                             Case{1920, 1080, 15, 90, 0.02, 0.95, 0.90}),
+                         [](const ::testing::TestParamInfo<Case>& info) {
+                           const Case& c = info.param;
+                           return std::to_string(c.width) + "x" + std::to_string(c.height) + "_" +
+                                  std::to_string(c.frames) + "frames_jpeg" +
+                                  std::to_string(c.jpeg_quality);
+                         });
 
 }  // namespace
 }  // namespace dfsm
