@@ -28,6 +28,9 @@ const std::vector<FormatChoice>& Choices() {
       {libcamera::formats::NV12, V4L2_PIX_FMT_NV12},
       {libcamera::formats::YUV420, V4L2_PIX_FMT_YUV420},
       {libcamera::formats::R8, V4L2_PIX_FMT_GREY},
+      // libcamera names packed RGB after DRM: RGB888 is B, G, R in memory.
+      {libcamera::formats::RGB888, V4L2_PIX_FMT_BGR24},
+      {libcamera::formats::BGR888, V4L2_PIX_FMT_RGB24},
       {libcamera::formats::MJPEG, V4L2_PIX_FMT_MJPEG},
   };
   return choices;

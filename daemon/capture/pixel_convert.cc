@@ -16,6 +16,8 @@ bool IsSupportedFourcc(uint32_t fourcc) {
     case V4L2_PIX_FMT_NV12:
     case V4L2_PIX_FMT_YUV420:
     case V4L2_PIX_FMT_GREY:
+    case V4L2_PIX_FMT_RGB24:
+    case V4L2_PIX_FMT_BGR24:
     case V4L2_PIX_FMT_MJPEG:
     case V4L2_PIX_FMT_JPEG:
       return true;
@@ -26,7 +28,8 @@ bool IsSupportedFourcc(uint32_t fourcc) {
 
 bool HasCheapColor(uint32_t fourcc) {
   return fourcc == V4L2_PIX_FMT_YUYV || fourcc == V4L2_PIX_FMT_UYVY ||
-         fourcc == V4L2_PIX_FMT_NV12 || fourcc == V4L2_PIX_FMT_YUV420;
+         fourcc == V4L2_PIX_FMT_NV12 || fourcc == V4L2_PIX_FMT_YUV420 ||
+         fourcc == V4L2_PIX_FMT_RGB24 || fourcc == V4L2_PIX_FMT_BGR24;
 }
 
 size_t MinimumFrameBytes(const FrameLayout& layout) {
@@ -37,6 +40,10 @@ size_t MinimumFrameBytes(const FrameLayout& layout) {
     case V4L2_PIX_FMT_YUYV:
     case V4L2_PIX_FMT_UYVY:
       row = 2 * w;
+      break;
+    case V4L2_PIX_FMT_RGB24:
+    case V4L2_PIX_FMT_BGR24:
+      row = 3 * w;
       break;
     case V4L2_PIX_FMT_NV12:
     case V4L2_PIX_FMT_YUV420:
@@ -147,6 +154,21 @@ void ConvertFrame(const uint8_t* data, size_t bytesused, const FrameLayout& layo
           }
           cv::cvtColor(yuv, *color, cv::COLOR_YUV2BGR);
         }
+      }
+      return;
+    }
+    case V4L2_PIX_FMT_RGB24:
+    case V4L2_PIX_FMT_BGR24: {
+      // Packed 8-bit RGB (vimc, some USB grabbers): gray through OpenCV.
+      CheckSize(bytesused, layout);
+      const bool rgb = layout.fourcc == V4L2_PIX_FMT_RGB24;
+      const cv::Mat packed(h, w, CV_8UC3, bytes, stride);
+      cv::cvtColor(packed, gray, rgb ? cv::COLOR_RGB2GRAY : cv::COLOR_BGR2GRAY);
+      if (color != nullptr) {
+        if (rgb)
+          cv::cvtColor(packed, *color, cv::COLOR_RGB2BGR);
+        else
+          packed.copyTo(*color);
       }
       return;
     }

@@ -63,6 +63,26 @@ TEST(PixelConvert, Nv12AndYu12UseTheFirstPlaneWithItsStride) {
   }
 }
 
+TEST(PixelConvert, PackedRgbAndBgrWithPaddedRows) {
+  const cv::Mat bgr = TestImage(10, 6);
+  cv::Mat expected_gray;
+  cv::cvtColor(bgr, expected_gray, cv::COLOR_BGR2GRAY);
+  for (uint32_t fourcc : {V4L2_PIX_FMT_BGR24, V4L2_PIX_FMT_RGB24}) {
+    const int stride = 3 * 10 + 4;
+    std::vector<uint8_t> data(static_cast<size_t>(stride * 6), 0);
+    for (int y = 0; y < 6; ++y)
+      for (int x = 0; x < 10; ++x)
+        for (int c = 0; c < 3; ++c)
+          data[y * stride + 3 * x + c] =
+              bgr.at<cv::Vec3b>(y, x)[fourcc == V4L2_PIX_FMT_BGR24 ? c : 2 - c];
+    cv::Mat gray, color;
+    ConvertFrame(data.data(), data.size(), {fourcc, 10, 6, stride, data.size()}, gray, &color,
+                 nullptr);
+    EXPECT_EQ(cv::norm(color, bgr, cv::NORM_INF), 0.0);
+    EXPECT_EQ(cv::norm(gray, expected_gray, cv::NORM_INF), 0.0);
+  }
+}
+
 TEST(PixelConvert, ShortFramesAndNarrowRowsAreErrors) {
   std::vector<uint8_t> data(100);
   cv::Mat gray;

@@ -17,9 +17,9 @@ namespace fs = std::filesystem;
 namespace {
 
 // Cheapest conversion first; MJPEG last because decoding costs the most CPU.
-constexpr uint32_t kPreference[] = {V4L2_PIX_FMT_YUYV,   V4L2_PIX_FMT_UYVY, V4L2_PIX_FMT_NV12,
-                                    V4L2_PIX_FMT_YUV420, V4L2_PIX_FMT_GREY, V4L2_PIX_FMT_MJPEG,
-                                    V4L2_PIX_FMT_JPEG};
+constexpr uint32_t kPreference[] = {V4L2_PIX_FMT_YUYV,   V4L2_PIX_FMT_UYVY,  V4L2_PIX_FMT_NV12,
+                                    V4L2_PIX_FMT_YUV420, V4L2_PIX_FMT_GREY,  V4L2_PIX_FMT_BGR24,
+                                    V4L2_PIX_FMT_RGB24,  V4L2_PIX_FMT_MJPEG, V4L2_PIX_FMT_JPEG};
 
 int64_t MonotonicNowNs() {
   timespec ts{};
@@ -158,7 +158,7 @@ void V4l2Source::NegotiateFormat() {
     if (wanted == 0 || !IsSupportedFourcc(wanted))
       Fail(SourceError::Kind::kConfig,
            "pixel format \"" + options_.fourcc +
-               "\" is not one dfsm converts (YUYV, UYVY, NV12, YU12, GREY, MJPG)",
+               "\" is not one dfsm converts (YUYV, UYVY, NV12, YU12, GREY, BGR3, RGB3, MJPG)",
            0);
     if (!is_offered(wanted))
       Fail(SourceError::Kind::kConfig,
