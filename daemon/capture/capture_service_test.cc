@@ -73,7 +73,7 @@ CaptureConfig FlowerReplay(double fps) {
 }
 
 TEST(CaptureServiceReplay, RecordedBurstIsBitExactWithTheOriginal) {
-  auto service = CaptureService::Create(FlowerReplay(400.0));
+  auto service = CaptureService::Create(FlowerReplay(100.0));
   service->Start();
   // 31 frames of a 31-frame loop: the grab restarts at the loop's seam, so it
   // returns the recorded burst exactly once, in order.
@@ -203,6 +203,22 @@ CaptureConfig SmallConfig() {
   config.reconnect_backoff = milliseconds(5);
   config.frame_timeout = milliseconds(200);
   return config;
+}
+
+TEST(CaptureServiceReplay, AReaderSlowerThanTheWriterTimesOut) {
+  // Unpaced replay into a 3-frame ring: the copies cannot keep up, every
+  // attempt meets a gap, and the grab must still end at its deadline.
+  CaptureConfig config = FlowerReplay(-1.0);
+  config.ring_frames = 3;
+  auto service = CaptureService::Create(config);
+  service->Start();
+  const auto start = std::chrono::steady_clock::now();
+  try {
+    service->GrabBurst(3, BurstWhen::kNext, milliseconds(300));
+  } catch (const CaptureUnavailable& e) {
+    EXPECT_NE(std::string(e.what()).find("timed out"), std::string::npos) << e.what();
+  }
+  EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(5));
 }
 
 TEST(CaptureServiceGaps, ABurstNeverSpansAGap) {

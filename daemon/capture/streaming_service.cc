@@ -240,7 +240,11 @@ CaptureService::Burst StreamingCaptureService::GrabBurst(int count, BurstWhen wh
     return stop_.load() || (!streaming_.load() && (gone_.load() || open_failed_.load()));
   };
   while (static_cast<int>(got.size()) < count) {
-    std::optional<CapturedFrame> frame = ring_.CopyAtOrAfter(next, deadline, abort);
+    // Checked here too: a reader slower than the writer finds a frame at once
+    // every time (after a gap) and would never wait for the deadline.
+    std::optional<CapturedFrame> frame;
+    if (std::chrono::steady_clock::now() < deadline)
+      frame = ring_.CopyAtOrAfter(next, deadline, abort);
     if (!frame) {
       if (stop_) throw CaptureUnavailable("capture stopped while taking a burst");
       const std::string error = last_error();

@@ -20,8 +20,16 @@ case "$out" in /tmp/*)
 esac
 rm -rf "$out"
 mkdir -p "$out"
+# libcamera's scenario needs vimc, built out of tree for the VM's kernel.
+cache="${DFSM_VM_CACHE:-${XDG_CACHE_HOME:-$HOME/.cache}/dfsm-vm}"
+package="$(apt-cache depends linux-image-amd64 2>/dev/null | awk '/Depends: linux-image-[0-9]/ {print $2; exit}')"
+vimc=""
+if [ -n "$package" ]; then
+  vimc="$("$here/build_vimc.sh" "${package#linux-image-}" "$cache")" ||
+    echo "run_vivid_suite: no vimc module: the libcamera scenario will be skipped" >&2
+fi
 status=0
-"$here/vm_run.sh" "$here/vivid_scenarios.sh" "$out" "$capture" || status=$?
+"$here/vm_run.sh" "$here/vivid_scenarios.sh" "$out" "$capture" "$vimc" || status=$?
 [ "$status" = 77 ] && exit 77
 echo "run_vivid_suite: the VM's script exited $status; its log:"
 cat "$out/vm-console.log" 2>/dev/null || true

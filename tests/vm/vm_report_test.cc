@@ -185,4 +185,20 @@ TEST_F(VividVm, RemovedDeviceIsReportedAndReopened) {
   std::cout << "outage: " << r["outage"].dump() << "\nerrors seen: " << errors << "\n";
 }
 
+TEST_F(VividVm, LibcameraOnVimc) {
+  if (fs::exists(OutDir() / "libcamera-vimc.skipped"))
+    GTEST_SKIP() << ReadText("libcamera-vimc.skipped");
+  const json r = Report("libcamera-vimc");
+  ASSERT_TRUE(r.is_object()) << "no report";
+  ASSERT_TRUE(r["ok"].get<bool>()) << r.value("error", "");
+  EXPECT_EQ(r["final"]["driver"].get<std::string>().rfind("libcamera", 0), 0u);
+  EXPECT_GT(r["final"]["width"].get<int>(), 0);
+  EXPECT_GE(r["burst"]["manifest"]["source"]["details"]["requests"].get<int>(), 4);
+  ExpectConsecutive(r["burst"], 5);
+  const dfsm::Burst burst = dfsm::ReadBurst(OutDir() / "libcamera-burst");
+  EXPECT_EQ(burst.size(), 5);
+  EXPECT_EQ(burst.manifest.pixel_format, "bgr8");
+  std::cout << "libcamera on vimc: " << r["final"].dump() << "\n";
+}
+
 }  // namespace
