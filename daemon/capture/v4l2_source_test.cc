@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <filesystem>
+#include <fstream>
 #include <thread>
 
 #include "daemon/capture/fake_v4l2_device.h"
@@ -83,6 +85,27 @@ TEST_F(V4l2SourceTest, OddBytesPerLineNv12AndGrey) {
     EXPECT_TRUE(HasPattern(slot_.gray, slot_.source_sequence)) << fourcc;
     EXPECT_EQ(slot_.color.empty(), std::string(fourcc) == "GREY");
   }
+}
+
+TEST_F(V4l2SourceTest, RemembersTheStableByIdNameOfItsNode) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / ("dfsm_byid_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir / "by-id");
+  std::ofstream(dir / "video7").put('x');  // stands in for the device node
+  fs::create_symlink(dir / "video7", dir / "by-id" / "usb-Cam_123-video-index0");
+  V4l2Source::Options options;
+  options.path = (dir / "video7").string();
+  options.by_id_dir = (dir / "by-id").string();
+  V4l2Source source(options, MakeFakeV4l2Device(driver_));
+  source.Open();
+  EXPECT_EQ(source.Describe().details["stable_path"],
+            (dir / "by-id" / "usb-Cam_123-video-index0").string());
+  source.Close();
+  source.Open();  // reopens through the stable name
+  EXPECT_EQ(source.Describe().device, (dir / "by-id" / "usb-Cam_123-video-index0").string());
+  source.Close();
+  fs::remove_all(dir);
 }
 
 TEST_F(V4l2SourceTest, TooSlowUncompressedFallsBackToMjpegOnlyWhenFaster) {
