@@ -7,6 +7,7 @@
 #include <array>
 #include <cmath>
 
+#include "core/sparse/intrinsics_prior.h"
 #include "core/sparse/undistorted_reprojection_error.h"
 
 namespace dfsm {
@@ -77,6 +78,10 @@ BundleAdjustmentSummary RunBundleAdjustment(const FeatureTracks& tracks,
     // system over the poses and intrinsics.
     ordering->AddElementToGroup(&inverse_depths[j], 0);
   }
+  if (options.log_f_prior_sigma > 0.0)
+    problem.AddResidualBlock(IntrinsicsPrior::Create(state->camera, options.log_f_prior_sigma,
+                                                     options.corner_shift_prior_sigma),
+                             nullptr, intrinsics);
   for (int i = 0; i < n; ++i)
     if (i != tracks.reference) ordering->AddElementToGroup(poses[i].data(), 1);
   ordering->AddElementToGroup(intrinsics, 1);

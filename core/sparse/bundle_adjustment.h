@@ -18,6 +18,11 @@ struct BundleAdjustmentOptions {
   double function_tolerance = 1e-6;
   int num_threads = 1;
   bool refine_distortion = true;
+  // The weak intrinsics prior (intrinsics_prior.h): sigma of log(f / max(w, h))
+  // and of the distortion's shift of the image corner, as a fraction of the
+  // corner's distance from the centre. 0 disables the prior.
+  double log_f_prior_sigma = 0.5;
+  double corner_shift_prior_sigma = 0.1;
 };
 
 // The state the adjustment refines; the principal point stays at its value.

@@ -133,9 +133,42 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
     sparse.bundle_adjustment.iterations += iterations;
     sparse.bundle_adjustment.initial_cost = first.initial_cost;
   }
+  // The residual depends on w_j T_i only, so (w, T) -> (-w, -T) is an exact
+  // symmetry the adjustment may cross: choose the sign that puts most tracks
+  // in front of the camera. A track still behind it is no point of the scene,
+  // whatever its reprojection error.
+  int behind = 0, used = 0;
+  for (int j = 0; j < tracked; ++j)
+    if (use[j]) ++used, behind += state.inverse_depths[j] < 0.0;
+  if (2 * behind > used) {
+    for (double& w : state.inverse_depths) w = -w;
+    for (Pose& pose : state.poses) pose.T = -pose.T;
+  }
+  for (int j = 0; j < tracked; ++j)
+    if (use[j] && !(state.inverse_depths[j] > 0.0)) use[j] = false;
+  if (std::count(use.begin(), use.end(), true) < options.min_tracks)
+    throw ReconstructionError("too few consistent tracks after bundle adjustment: " +
+                              std::to_string(std::count(use.begin(), use.end(), true)) +
+                              " in front of the camera (median track motion " + Format(parallax) +
+                              " px: too little baseline to separate depths)");
   sparse.bundle_adjustment.init = InitModeName(options.init);
   sparse.inliers = use;
   timer.Lap("bundle_adjustment");
+
+  // A burst that does not observe the camera can still leave a distortion that
+  // folds the image over itself: no depth map can be made through it.
+  const CameraModel& camera = state.camera;
+  const double corner_px = std::hypot(std::max(camera.cx, camera.width - camera.cx),
+                                      std::max(camera.cy, camera.height - camera.cy));
+  for (int step = 1; step <= 64; ++step) {
+    const double r = corner_px * step / 64.0 / camera.f;
+    const double r2 = r * r;
+    if (1.0 + 3.0 * camera.k1 * r2 + 5.0 * camera.k2 * r2 * r2 <= 0.0)
+      throw ReconstructionError(
+          "camera not observable: the estimated distortion (k1 " + Format(camera.k1, 4) + ", k2 " +
+          Format(camera.k2, 4) + ") folds the image over " + Format(corner_px * step / 64.0) +
+          " px from the centre; the burst needs more hand rotation or more texture");
+  }
 
   // A global scale is free: report depths with median inverse depth 1.
   std::vector<double> inverse_depths = sparse.InlierInverseDepths();

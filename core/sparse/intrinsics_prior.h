@@ -1,0 +1,67 @@
+// A weak prior on the intrinsics of the self-calibrating adjustment.
+//
+// The focal length shows only through second-order terms of the rotational
+// flow, so a burst with little rotation leaves f and k1/k2 in a flat valley of
+// the reprojection cost; unchecked, the adjustment then drifts to cameras such
+// as f = 17 max(w, h) with k2 = 5e4, which fit the tracks no better and ruin
+// the dense stage. The prior holds f near the paper's initial guess in log
+// scale and the distortion's displacement of image points near zero, both
+// with widths far larger than any real lens needs, so a burst that does
+// observe the camera is not moved by it (its cost curvature is orders of
+// magnitude larger).
+#pragma once
+
+#include <ceres/ceres.h>
+
+#include <cmath>
+
+#include "core/camera/camera_model.h"
+
+namespace dfsm {
+
+class IntrinsicsPrior {
+ public:
+  // nominal_f: the centre of the focal prior (max(width, height));
+  // corner_radius_px: distance from the principal point to the farthest corner.
+  IntrinsicsPrior(double nominal_f, double corner_radius_px, double log_f_sigma,
+                  double corner_shift_sigma_px)
+      : nominal_f_(nominal_f),
+        corner_radius_px_(corner_radius_px),
+        log_f_sigma_(log_f_sigma),
+        corner_shift_sigma_px_(corner_shift_sigma_px) {}
+
+  // intrinsics = {f, k1, k2}
+  template <typename T>
+  bool operator()(const T* intrinsics, T* residuals) const {
+    using std::log;
+    const T& f = intrinsics[0];
+    residuals[0] = log(f / T(nominal_f_)) / T(log_f_sigma_);
+    // How far the D->U model moves a pixel halfway to the corner and the
+    // corner pixel itself, in pixels: two radii, so that k1 and k2 cannot
+    // cancel at the corner while folding the image in between.
+    for (int k = 0; k < 2; ++k) {
+      const T radius_px = T(corner_radius_px_ * (k + 1) / 2.0);
+      const T r = radius_px / f;
+      residuals[1 + k] = radius_px * (RadialFactor(intrinsics[1], intrinsics[2], r * r) - T(1.0)) /
+                         T(corner_shift_sigma_px_);
+    }
+    return true;
+  }
+
+  static ceres::CostFunction* Create(const CameraModel& camera, double log_f_sigma,
+                                     double corner_shift_sigma_fraction) {
+    const double corner = std::hypot(std::max(camera.cx, camera.width - camera.cx),
+                                     std::max(camera.cy, camera.height - camera.cy));
+    return new ceres::AutoDiffCostFunction<IntrinsicsPrior, 3, 3>(
+        new IntrinsicsPrior(std::max(camera.width, camera.height), corner, log_f_sigma,
+                            corner_shift_sigma_fraction * corner));
+  }
+
+ private:
+  double nominal_f_;
+  double corner_radius_px_;
+  double log_f_sigma_;
+  double corner_shift_sigma_px_;
+};
+
+}  // namespace dfsm
