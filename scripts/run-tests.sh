@@ -35,11 +35,22 @@ fi
 # the default ctest run above does not boot the VM a second time.
 if [ "${DFSM_TEST_VM:-1}" != 0 ]; then
   echo "== VM tests (vivid under qemu)"
+  vm_packages=()
+  while read -r line; do
+    line="${line%%#*}"
+    line="$(echo "$line" | xargs)"
+    [ -z "$line" ] || dpkg-query -W -f='${Status}' "$line" 2>/dev/null | grep -q "install ok installed" ||
+      vm_packages+=("$line")
+  done <"$root/scripts/vm-packages.txt"
+  if [ ${#vm_packages[@]} -gt 0 ] && [ "$(id -u)" -eq 0 ]; then
+    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends \
+      "${vm_packages[@]}" || echo "VM packages could not be installed: ${vm_packages[*]}"
+  fi
   if command -v qemu-system-x86_64 >/dev/null && [ -x /bin/busybox ]; then
     (cd "$root/build" && DFSM_TEST_VM=1 ctest --output-on-failure --timeout 900 -L vm)
   else
     echo "VM tests skipped: qemu-system-x86_64 or busybox-static is not installed" \
-      "(scripts/capture-deps.txt lists them; install-deps.sh could not install them here)"
+      "(scripts/vm-packages.txt lists them; they could not be installed here)"
   fi
 fi
 # --- end capture ---
