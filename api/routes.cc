@@ -71,26 +71,6 @@ void QueueFull(const ApiContext& context, httplib::Response& response, const std
              what + "; retry after " + std::to_string(context.config->jobs.retry_after_s) + " s");
 }
 
-nlohmann::json CameraJson(const capture::CaptureStatus& s) {
-  return {
-      {"source", s.source},
-      {"device", s.device},
-      {"driver", s.driver},
-      {"card", s.card},
-      {"format", s.format},
-      {"width", s.width},
-      {"height", s.height},
-      {"fps", s.fps},
-      {"streaming", s.streaming},
-      {"frames_captured", s.frames_captured},
-      {"frames_dropped", s.frames_dropped},
-      {"reconnects", s.reconnects},
-      {"ring_fill", s.ring_fill},
-      {"ring_capacity", s.ring_capacity},
-      {"last_error", s.last_error.empty() ? nlohmann::json(nullptr) : nlohmann::json(s.last_error)},
-      {"last_frame_monotonic_ns", s.last_frame_monotonic_ns}};
-}
-
 // --- handlers --------------------------------------------------------------
 
 void PostCapture(const ApiContext& context, const httplib::Request& request,
@@ -267,7 +247,7 @@ void GetCamera(const ApiContext& context, httplib::Response& response) {
     return SetProblem(response, 404, "no-capture", "No capture source",
                       "this daemon runs without a capture source");
   }
-  SetJson(response, 200, CameraJson(context.capture->Status()));
+  SetJson(response, 200, capture::ToJson(context.capture->Status()));
 }
 
 void GetSnapshot(const ApiContext& context, httplib::Response& response) {

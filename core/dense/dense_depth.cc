@@ -14,24 +14,10 @@
 #include "core/dense/plane_sweep.h"
 #include "core/dense/radial_inverse.h"
 #include "core/dense/sweep_level.h"
+#include "core/io/stage_timer.h"
 
 namespace dfsm {
 namespace {
-
-class StageTimer {
- public:
-  explicit StageTimer(std::vector<std::pair<std::string, double>>* timings)
-      : timings_(timings), start_(std::chrono::steady_clock::now()) {}
-  void Lap(const std::string& stage) {
-    const auto now = std::chrono::steady_clock::now();
-    timings_->emplace_back(stage, std::chrono::duration<double, std::milli>(now - start_).count());
-    start_ = now;
-  }
-
- private:
-  std::vector<std::pair<std::string, double>>* timings_;
-  std::chrono::steady_clock::time_point start_;
-};
 
 int CoarseScale(int width, const DenseOptions& options) {
   return options.coarse_scale > 0 ? options.coarse_scale : std::clamp(width / 320, 2, 4);

@@ -6,23 +6,10 @@
 #include <random>
 #include <sstream>
 
+#include "core/io/stage_timer.h"
+
 namespace dfsm {
 namespace {
-
-class StageTimer {
- public:
-  explicit StageTimer(std::vector<std::pair<std::string, double>>* timings)
-      : timings_(timings), start_(std::chrono::steady_clock::now()) {}
-  void Lap(const std::string& stage) {
-    const auto now = std::chrono::steady_clock::now();
-    timings_->emplace_back(stage, std::chrono::duration<double, std::milli>(now - start_).count());
-    start_ = now;
-  }
-
- private:
-  std::vector<std::pair<std::string, double>>* timings_;
-  std::chrono::steady_clock::time_point start_;
-};
 
 std::string Format(double value, int precision = 2) {
   std::ostringstream out;

@@ -80,4 +80,24 @@ std::unique_ptr<CaptureService> CaptureService::Create(const CaptureConfig& conf
   return std::make_unique<StreamingCaptureService>(config, std::move(source));
 }
 
+nlohmann::json ToJson(const CaptureStatus& s) {
+  return {
+      {"source", s.source},
+      {"device", s.device},
+      {"driver", s.driver},
+      {"card", s.card},
+      {"format", s.format},
+      {"width", s.width},
+      {"height", s.height},
+      {"fps", s.fps},
+      {"streaming", s.streaming},
+      {"frames_captured", s.frames_captured},
+      {"frames_dropped", s.frames_dropped},
+      {"reconnects", s.reconnects},
+      {"ring_fill", s.ring_fill},
+      {"ring_capacity", s.ring_capacity},
+      {"last_error", s.last_error.empty() ? nlohmann::json(nullptr) : nlohmann::json(s.last_error)},
+      {"last_frame_monotonic_ns", s.last_frame_monotonic_ns}};
+}
+
 }  // namespace dfsm::capture

@@ -12,6 +12,7 @@
 #include <chrono>
 #include <cstdint>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <optional>
 #include <stdexcept>
@@ -67,6 +68,10 @@ struct CaptureStatus {
   std::string last_error;  // empty when none
   int64_t last_frame_monotonic_ns = 0;
 };
+
+// The status as the REST API and dfsm-capture report it; last_error is null
+// when there is none.
+nlohmann::json ToJson(const CaptureStatus& status);
 
 enum class BurstWhen { kLast, kNext };
 

@@ -35,25 +35,6 @@ constexpr const char* kUsage =
     "has been lost and found again), then optionally grabs a burst and writes it as\n"
     "dfsm-burst/1, and prints (or writes) a JSON report.\n";
 
-nlohmann::json ToJson(const CaptureStatus& s) {
-  return {{"source", s.source},
-          {"device", s.device},
-          {"driver", s.driver},
-          {"card", s.card},
-          {"format", s.format},
-          {"width", s.width},
-          {"height", s.height},
-          {"fps", s.fps},
-          {"streaming", s.streaming},
-          {"frames_captured", s.frames_captured},
-          {"frames_dropped", s.frames_dropped},
-          {"reconnects", s.reconnects},
-          {"ring_fill", s.ring_fill},
-          {"ring_capacity", s.ring_capacity},
-          {"last_error", s.last_error},
-          {"last_frame_monotonic_ns", s.last_frame_monotonic_ns}};
-}
-
 double CpuSeconds() {
   rusage usage{};
   getrusage(RUSAGE_SELF, &usage);
