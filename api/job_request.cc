@@ -1,6 +1,9 @@
 #include "api/job_request.h"
 
 #include <nlohmann/json.hpp>
+#include <optional>
+
+#include "daemon/service/number_text.h"
 
 namespace dfsm::api {
 namespace {
@@ -22,17 +25,9 @@ void CheckChoice(const std::string& field, const std::string& value, const char*
 }
 
 int64_t ParseIntegerText(const std::string& field, const std::string& text) {
-  size_t used = 0;
-  int64_t value = 0;
-  try {
-    value = std::stoll(text, &used, 10);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (text.empty() || used != text.size()) {
-    throw RequestError("'" + field + "' must be an integer, got '" + text + "'");
-  }
-  return value;
+  const std::optional<int64_t> value = service::ParseInteger(text);
+  if (!value) throw RequestError("'" + field + "' must be an integer, got '" + text + "'");
+  return *value;
 }
 
 bool ParseBoolText(const std::string& field, const std::string& text) {

@@ -6,7 +6,10 @@
 #include <fstream>
 #include <functional>
 #include <limits>
+#include <optional>
 #include <sstream>
+
+#include "daemon/service/number_text.h"
 
 namespace dfsm::service {
 namespace {
@@ -167,31 +170,15 @@ void SetFromText(const Key& key, const std::string& text, DaemonConfig* config) 
       return;
     case KeyType::kInt:
     case KeyType::kInt64: {
-      size_t used = 0;
-      int64_t value = 0;
-      try {
-        value = std::stoll(text, &used, 10);
-      } catch (const std::exception&) {
-        used = 0;
-      }
-      if (text.empty() || used != text.size()) {
-        throw KeyError(key.name, "expected an integer, got '" + text + "'");
-      }
-      SetInteger(key, value, config);
+      const std::optional<int64_t> value = ParseInteger(text);
+      if (!value) throw KeyError(key.name, "expected an integer, got '" + text + "'");
+      SetInteger(key, *value, config);
       return;
     }
     case KeyType::kDouble: {
-      size_t used = 0;
-      double value = 0;
-      try {
-        value = std::stod(text, &used);
-      } catch (const std::exception&) {
-        used = 0;
-      }
-      if (text.empty() || used != text.size()) {
-        throw KeyError(key.name, "expected a number, got '" + text + "'");
-      }
-      *static_cast<double*>(field) = value;
+      const std::optional<double> value = ParseReal(text);
+      if (!value) throw KeyError(key.name, "expected a number, got '" + text + "'");
+      *static_cast<double*>(field) = *value;
       return;
     }
     case KeyType::kBool:
