@@ -239,7 +239,7 @@ TEST_F(V4l2SourceTest, FormatChangedUnderUsIsDetected) {
 TEST_F(V4l2SourceTest, ServiceRecoversFromAnUnplugAndNeverBridgesTheGap) {
   CaptureConfig config;
   config.source = "v4l2:/dev/video-fake";
-  config.ring_frames = 16;
+  config.ring_frames = 256;  // the fake driver is unpaced: slack for slow (sanitized) readers
   config.reconnect_backoff = milliseconds(5);
   V4l2Source::Options options;
   options.path = "/dev/video-fake";
