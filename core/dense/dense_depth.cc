@@ -82,10 +82,19 @@ double MaxParallaxPerInverseDepth(const CameraModel& camera, const std::vector<P
   return std::max(largest, 1e-12);
 }
 
+// The 8-bit frame as float, Gaussian-filtered: one separable pass straight
+// from 8 bits into the float image, with the kernel GaussianBlur picks for
+// float images (size 8 sigma + 1, odd), so no converted copy is made first.
 cv::Mat Prefiltered(const cv::Mat& gray, double sigma) {
   cv::Mat image;
-  gray.convertTo(image, CV_32F);
-  if (sigma > 0.0) cv::GaussianBlur(image, image, cv::Size(), sigma, sigma, cv::BORDER_REPLICATE);
+  if (sigma <= 0.0) {
+    gray.convertTo(image, CV_32F);
+    return image;
+  }
+  const int size = cvRound(sigma * 8 + 1) | 1;
+  const cv::Mat kernel = cv::getGaussianKernel(size, sigma, CV_32F);
+  cv::sepFilter2D(gray, image, CV_32F, kernel, kernel, cv::Point(-1, -1), 0.0,
+                  cv::BORDER_REPLICATE);
   return image;
 }
 
@@ -140,10 +149,8 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
   }
   result.coarse_scale = scale;
   result.coarse_planes = coarse_lattice.planes;
-  std::vector<cv::Mat> coarse_costs = SweepAllPlanes(coarse, coarse_lattice, cost);
+  PlaneSelection coarse_selection = SweepAllPlanes(coarse, coarse_lattice, cost);
   timer.Lap("coarse_sweep");
-  PlaneSelection coarse_selection = SelectPlanes(coarse_costs);
-  coarse_costs.clear();
   // Coarse plane indices onto the full lattice.
   const double lattice_ratio =
       static_cast<double>(lattice.planes - 1) / (coarse_lattice.planes - 1);
@@ -152,7 +159,7 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
     p.setTo(cv::Scalar(-1.0f / lattice_ratio), p < 0.0f);  // keeps "none" at -1
     p.convertTo(p, CV_32F, lattice_ratio);
   }
-  timer.Lap("coarse_select");
+  timer.Lap("coarse_lattice");
 
   cv::Mat plane, confidence;
   if (scale == 1) {
@@ -193,10 +200,9 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
     const SweepLevel fine = MakeSweepLevel(reference, frames, other_poses, camera, radial, 1);
     timer.Lap("upsample");
     cost.window_radius = options.fine_window_radius;
-    const std::vector<cv::Mat> fine_costs =
+    const PlaneSelection fine_selection =
         SweepPlaneWindow(fine, lattice, first, window, stride, cost);
     timer.Lap("fine_sweep");
-    const PlaneSelection fine_selection = SelectPlanes(fine_costs, first, stride);
     plane = fine_selection.plane;
     // A winner on the window's edge means the coarse seed was off by more than
     // the window: the true minimum lies outside what was searched.
@@ -210,7 +216,7 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
         if (p[x] < 0.0f || (edge[x] && !lattice_end)) c[x] = 0.0f;
       }
     });
-    timer.Lap("fine_select");
+    timer.Lap("fine_confidence");
   }
 
   const float min_confidence = static_cast<float>(options.min_confidence);

@@ -9,12 +9,25 @@ namespace dfsm {
 PlaneSelection SelectPlanes(const std::vector<cv::Mat>& costs, const cv::Mat& first_plane,
                             int stride) {
   CV_Assert(!costs.empty());
-  const int n = static_cast<int>(costs.size());
   const cv::Size size = costs[0].size();
   PlaneSelection selection;
   selection.plane.create(size, CV_32FC1);
   selection.confidence.create(size, CV_32FC1);
   selection.at_edge.create(size, CV_8UC1);
+  SelectPlanesInto(costs, first_plane, stride, &selection);
+  return selection;
+}
+
+void SelectPlanesInto(const std::vector<cv::Mat>& costs, const cv::Mat& first_plane, int stride,
+                      PlaneSelection* out) {
+  CV_Assert(!costs.empty());
+  const int n = static_cast<int>(costs.size());
+  const cv::Size size = costs[0].size();
+  CV_Assert(out->plane.size() == size && out->plane.type() == CV_32FC1);
+  CV_Assert(out->confidence.size() == size && out->confidence.type() == CV_32FC1);
+  CV_Assert(out->at_edge.size() == size && out->at_edge.type() == CV_8UC1);
+  CV_Assert(first_plane.empty() || (first_plane.size() == size && first_plane.type() == CV_32SC1));
+  PlaneSelection& selection = *out;
   cv::parallel_for_(cv::Range(0, size.height), [&](const cv::Range& rows) {
     std::vector<const float*> slice(n);
     std::vector<float> curve(n);
@@ -63,7 +76,6 @@ PlaneSelection SelectPlanes(const std::vector<cv::Mat>& costs, const cv::Mat& fi
       }
     }
   });
-  return selection;
 }
 
 }  // namespace dfsm

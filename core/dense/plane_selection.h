@@ -22,4 +22,10 @@ struct PlaneSelection {
 PlaneSelection SelectPlanes(const std::vector<cv::Mat>& costs, const cv::Mat& first_plane = {},
                             int stride = 1);
 
+// The same into `selection`, whose three Mats already have the slices' size
+// and types (views into larger images are fine): the plane sweep selects band
+// by band into the full-size result, so no band needs a copy.
+void SelectPlanesInto(const std::vector<cv::Mat>& costs, const cv::Mat& first_plane, int stride,
+                      PlaneSelection* selection);
+
 }  // namespace dfsm

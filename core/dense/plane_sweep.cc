@@ -7,32 +7,36 @@
 namespace dfsm {
 namespace {
 
-// Per-worker row buffers of AccumulateRow.
-struct RowScratch {
-  explicit RowScratch(int cols) : x(cols), y(cols), valid(cols) {}
+// Sample positions of one reference row in one frame: the captured-grid
+// position (px, py) and whether the ray met the plane in front of the frame
+// inside the range where the U->D polynomial holds (1 or 0).
+struct RowSamples {
+  explicit RowSamples(int cols) : px(cols), py(cols), usable(cols) {}
+  std::vector<float> px, py, usable;
+};
+
+// Per-worker row buffers of the gather: positions clamped inside the frame
+// and the validity of each sample.
+struct GatherScratch {
+  explicit GatherScratch(int cols) : x(cols), y(cols), valid(cols) {}
   std::vector<float> x, y, valid;
 };
 
-// Adds, for one row of the reference and one frame, the truncated absolute
-// difference at inverse depth w[x] to sum/count. Two passes so that the
-// first, all arithmetic (homography, U->D polynomial, bounds), vectorizes;
-// the second is the bilinear gather, branch-free on clamped coordinates.
-inline void AccumulateRow(const SweepLevel& level, int frame, int y, const float* w,
-                          float truncation, RowScratch* scratch, float* sum, float* count) {
+// Projects reference row y onto `frame` at inverse depth w[x]: homography,
+// then the U->D polynomial. All arithmetic, so it vectorizes (with
+// -fno-trapping-math, set for this file); positions stay finite where the
+// sample is not usable.
+inline void ProjectRow(const SweepLevel& level, int frame, int y, const float* w, RowSamples* out) {
   const PlaneHomography& h = level.warps[frame];
-  const cv::Mat& image = level.frames[frame];
   const int cols = level.reference.cols;
   const float* rx = level.ray_x.ptr<float>(y);
   const float* ry = level.ray_y.ptr<float>(y);
-  const float* ref = level.reference.ptr<float>(y);
   const RadialInverse& radial = *level.radial;
   const float max_r2 = radial.max_r2();
-  // Bilinear needs (x0 + 1, y0 + 1) inside: clamp to just below the last pixel.
-  const float max_x = image.cols - 1.001f, max_y = image.rows - 1.001f;
   const float focal = level.focal, centre_x = level.centre_x, centre_y = level.centre_y;
-  float* sx = scratch->x.data();
-  float* sy = scratch->y.data();
-  float* valid = scratch->valid.data();
+  float* px = out->px.data();
+  float* py = out->py.data();
+  float* usable = out->usable.data();
   // Locals, so the compiler need not fear that the stores below alias them.
   const float r0 = h.r[0], r1 = h.r[1], r2_ = h.r[2], r3 = h.r[3], r4 = h.r[4], r5 = h.r[5];
   const float r6 = h.r[6], r7 = h.r[7], r8 = h.r[8], t0 = h.t[0], t1 = h.t[1], t2 = h.t[2];
@@ -40,19 +44,58 @@ inline void AccumulateRow(const SweepLevel& level, int frame, int y, const float
     const float X = r0 * rx[x] + r1 * ry[x] + r2_ + w[x] * t0;
     const float Y = r3 * rx[x] + r4 * ry[x] + r5 + w[x] * t1;
     const float Z = r6 * rx[x] + r7 * ry[x] + r8 + w[x] * t2;
-    // (Vectorizes only with -fno-trapping-math, set for this file.)
     const float inv = 1.0f / (Z > 1e-6f ? Z : 1.0f);
     const float x_u = X * inv, y_u = Y * inv;
     const float r2 = x_u * x_u + y_u * y_u;
     const float scaled = focal * radial.Ratio(std::min(r2, max_r2));
-    const float px = centre_x + scaled * x_u, py = centre_y + scaled * y_u;
+    px[x] = centre_x + scaled * x_u;
+    py[x] = centre_y + scaled * y_u;
     // Bitwise & (no short circuit) keeps the loop free of branches.
+    usable[x] = ((Z > 1e-6f) & (r2 <= max_r2)) ? 1.0f : 0.0f;
+  }
+}
+
+// Positions of the samples of one row, clamped for the gather, and their
+// validity: usable and inside the frame. `t` interpolates between two
+// projections of the row (samples b unused when t == 0).
+inline void BoundRow(const RowSamples& a, const RowSamples& b, float t, int cols,
+                     const cv::Mat& image, GatherScratch* out) {
+  // Bilinear needs (x0 + 1, y0 + 1) inside: clamp to just below the last pixel.
+  const float max_x = image.cols - 1.001f, max_y = image.rows - 1.001f;
+  const float* ax = a.px.data();
+  const float* ay = a.py.data();
+  const float* au = a.usable.data();
+  const float* bx = b.px.data();
+  const float* by = b.py.data();
+  const float* bu = b.usable.data();
+  float* sx = out->x.data();
+  float* sy = out->y.data();
+  float* valid = out->valid.data();
+  if (t == 0.0f) {
+    bx = ax;
+    by = ay;
+    bu = au;
+  }
+  for (int x = 0; x < cols; ++x) {
+    const float px = ax[x] + t * (bx[x] - ax[x]), py = ay[x] + t * (by[x] - ay[x]);
     const bool inside =
-        (Z > 1e-6f) & (r2 <= max_r2) & (px >= 0.0f) & (py >= 0.0f) & (px <= max_x) & (py <= max_y);
+        (au[x] * bu[x] > 0.0f) & (px >= 0.0f) & (py >= 0.0f) & (px <= max_x) & (py <= max_y);
     valid[x] = inside ? 1.0f : 0.0f;
     sx[x] = std::min(std::max(px, 0.0f), max_x);
     sy[x] = std::min(std::max(py, 0.0f), max_y);
   }
+}
+
+// Adds the truncated absolute difference between the reference row y and the
+// bilinear samples of `image` to sum/count: the gather, branch-free on
+// clamped coordinates.
+inline void GatherRow(const SweepLevel& level, const cv::Mat& image, int y,
+                      const GatherScratch& samples, float truncation, float* sum, float* count) {
+  const int cols = level.reference.cols;
+  const float* ref = level.reference.ptr<float>(y);
+  const float* sx = samples.x.data();
+  const float* sy = samples.y.data();
+  const float* valid = samples.valid.data();
   const float* data = image.ptr<float>(0);
   const size_t stride = image.step1();
   for (int x = 0; x < cols; ++x) {
@@ -68,74 +111,153 @@ inline void AccumulateRow(const SweepLevel& level, int frame, int y, const float
   }
 }
 
-// Box-aggregates sum and count in place and turns them into the mean cost.
-void AggregateSlice(cv::Mat& sum, cv::Mat& count, int frames, const PhotoCostOptions& options) {
+// Box-aggregates sum and count (count in place) into the mean cost `cost`
+// (which may be `sum`).
+void AggregateSlice(const cv::Mat& sum, cv::Mat& count, int frames, const PhotoCostOptions& options,
+                    cv::Mat& cost) {
   const cv::Size window(2 * options.window_radius + 1, 2 * options.window_radius + 1);
-  cv::boxFilter(sum, sum, -1, window, cv::Point(-1, -1), false, cv::BORDER_REPLICATE);
+  cv::boxFilter(sum, cost, -1, window, cv::Point(-1, -1), false, cv::BORDER_REPLICATE);
   cv::boxFilter(count, count, -1, window, cv::Point(-1, -1), false, cv::BORDER_REPLICATE);
   const float min_count = options.min_valid_share * frames * window.area();
-  for (int y = 0; y < sum.rows; ++y) {
-    float* s = sum.ptr<float>(y);
+  for (int y = 0; y < cost.rows; ++y) {
+    float* s = cost.ptr<float>(y);
     const float* c = count.ptr<float>(y);
-    for (int x = 0; x < sum.cols; ++x) s[x] = c[x] >= min_count ? s[x] / c[x] : kNoCost;
+    for (int x = 0; x < cost.cols; ++x) s[x] = c[x] >= min_count ? s[x] / c[x] : kNoCost;
   }
+}
+
+// Rows [first, last) of the level, swept with `halo` more rows on each side:
+// band row j is level row Row(j). Clamping the halo into the image repeats
+// the edge rows, so aggregating the band with a replicated border gives its
+// inner rows exactly what aggregating the whole image would.
+struct Band {
+  int first = 0, last = 0, halo = 0, level_rows = 0;
+  int rows() const { return last - first + 2 * halo; }
+  int Row(int j) const { return std::clamp(first - halo + j, 0, level_rows - 1); }
+  // The inner rows of a band-sized image.
+  cv::Mat Inner(const cv::Mat& band_image) const {
+    return band_image.rowRange(halo, halo + last - first);
+  }
+};
+
+// Calls sweep_band(band) for bands covering the level's rows, in parallel.
+// Bands are small enough that every core gets several (balance) and large
+// enough that the halo adds little (16-64 rows against 2 x window radius).
+template <typename SweepBand>
+void ForEachBand(int level_rows, int halo, const SweepBand& sweep_band) {
+  const int threads = std::max(1, cv::getNumThreads());
+  const int band_rows = std::clamp(level_rows / (4 * threads), 16, 64);
+  const int bands = (level_rows + band_rows - 1) / band_rows;
+  cv::parallel_for_(cv::Range(0, bands), [&](const cv::Range& range) {
+    for (int b = range.start; b < range.end; ++b) {
+      Band band;
+      band.first = b * band_rows;
+      band.last = std::min(level_rows, band.first + band_rows);
+      band.halo = halo;
+      band.level_rows = level_rows;
+      sweep_band(band);
+    }
+  });
+}
+
+// Views of the rows [first, last) of a full-level selection.
+PlaneSelection SelectionRows(PlaneSelection& selection, const Band& band) {
+  return {selection.plane.rowRange(band.first, band.last),
+          selection.confidence.rowRange(band.first, band.last),
+          selection.at_edge.rowRange(band.first, band.last)};
+}
+
+PlaneSelection MakeSelection(const cv::Size& size) {
+  return {cv::Mat(size, CV_32FC1), cv::Mat(size, CV_32FC1), cv::Mat(size, CV_8UC1)};
 }
 
 }  // namespace
 
-std::vector<cv::Mat> SweepAllPlanes(const SweepLevel& level, const InverseDepthLattice& lattice,
-                                    const PhotoCostOptions& options) {
+PlaneSelection SweepAllPlanes(const SweepLevel& level, const InverseDepthLattice& lattice,
+                              const PhotoCostOptions& options) {
   const int frames = static_cast<int>(level.frames.size());
   const cv::Size size = level.reference.size();
-  std::vector<cv::Mat> costs(lattice.planes);
-  cv::parallel_for_(cv::Range(0, lattice.planes), [&](const cv::Range& planes) {
+  PlaneSelection selection = MakeSelection(size);
+  ForEachBand(size.height, options.window_radius, [&](const Band& band) {
+    const cv::Size band_size(size.width, band.rows());
     std::vector<float> w(size.width);
-    RowScratch scratch(size.width);
-    for (int plane = planes.start; plane < planes.end; ++plane) {
+    RowSamples samples(size.width);
+    GatherScratch scratch(size.width);
+    cv::Mat sum(band_size, CV_32FC1), count(band_size, CV_32FC1);
+    std::vector<cv::Mat> costs(lattice.planes);
+    for (int plane = 0; plane < lattice.planes; ++plane) {
       std::fill(w.begin(), w.end(), static_cast<float>(lattice.At(plane)));
-      cv::Mat sum = cv::Mat::zeros(size, CV_32FC1), count = cv::Mat::zeros(size, CV_32FC1);
-      for (int i = 0; i < frames; ++i)
-        for (int y = 0; y < size.height; ++y)
-          AccumulateRow(level, i, y, w.data(), options.truncation, &scratch, sum.ptr<float>(y),
-                        count.ptr<float>(y));
-      AggregateSlice(sum, count, frames, options);
-      costs[plane] = sum;
+      sum.setTo(0.0f);
+      count.setTo(0.0f);
+      for (int j = 0; j < band.rows(); ++j) {
+        for (int i = 0; i < frames; ++i) {
+          ProjectRow(level, i, band.Row(j), w.data(), &samples);
+          BoundRow(samples, samples, 0.0f, size.width, level.frames[i], &scratch);
+          GatherRow(level, level.frames[i], band.Row(j), scratch, options.truncation,
+                    sum.ptr<float>(j), count.ptr<float>(j));
+        }
+      }
+      AggregateSlice(sum, count, frames, options, costs[plane]);
+      costs[plane] = band.Inner(costs[plane]);
     }
+    PlaneSelection rows = SelectionRows(selection, band);
+    SelectPlanesInto(costs, {}, 1, &rows);
   });
-  return costs;
+  return selection;
 }
 
-std::vector<cv::Mat> SweepPlaneWindow(const SweepLevel& level, const InverseDepthLattice& lattice,
-                                      const cv::Mat& first_plane, int count, int stride,
-                                      const PhotoCostOptions& options) {
+PlaneSelection SweepPlaneWindow(const SweepLevel& level, const InverseDepthLattice& lattice,
+                                const cv::Mat& first_plane, int count, int stride,
+                                const PhotoCostOptions& options) {
   CV_Assert(first_plane.type() == CV_32SC1 && first_plane.size() == level.reference.size());
   const int frames = static_cast<int>(level.frames.size());
   const cv::Size size = level.reference.size();
-  std::vector<cv::Mat> sums(count), counts(count);
-  for (int k = 0; k < count; ++k) {
-    sums[k] = cv::Mat::zeros(size, CV_32FC1);
-    counts[k] = cv::Mat::zeros(size, CV_32FC1);
-  }
   const float w0 = static_cast<float>(lattice.min_inverse_depth);
   const float dw = static_cast<float>(lattice.step());
-  cv::parallel_for_(cv::Range(0, size.height), [&](const cv::Range& rows) {
-    std::vector<float> w(size.width);
-    RowScratch scratch(size.width);
-    for (int y = rows.start; y < rows.end; ++y) {
+  PlaneSelection selection = MakeSelection(size);
+  ForEachBand(size.height, options.window_radius, [&](const Band& band) {
+    const cv::Size band_size(size.width, band.rows());
+    std::vector<float> w_first(size.width), w_last(size.width);
+    RowSamples first_samples(size.width), last_samples(size.width);
+    GatherScratch scratch(size.width);
+    std::vector<cv::Mat> sums(count), counts(count);
+    for (int k = 0; k < count; ++k) {
+      sums[k] = cv::Mat::zeros(band_size, CV_32FC1);
+      counts[k] = cv::Mat::zeros(band_size, CV_32FC1);
+    }
+    // The window's planes are evenly spaced in w, and along them a sample
+    // moves on a straight line to within ~0.02 pixel: the homography is
+    // linear in w up to the division by Z, which changes by well under 1 %
+    // across a window of a few pixels of parallax, and the U->D polynomial is
+    // smooth at that scale. So only the window's two end planes are projected
+    // and the planes between are interpolated, which takes the arithmetic
+    // (about half of the sweep) off every plane but two.
+    const float last_t = count > 1 ? 1.0f / (count - 1) : 0.0f;
+    for (int j = 0; j < band.rows(); ++j) {
+      const int y = band.Row(j);
       const int* first = first_plane.ptr<int>(y);
-      for (int k = 0; k < count; ++k) {
-        for (int x = 0; x < size.width; ++x) w[x] = w0 + (first[x] + k * stride) * dw;
-        for (int i = 0; i < frames; ++i)
-          AccumulateRow(level, i, y, w.data(), options.truncation, &scratch, sums[k].ptr<float>(y),
-                        counts[k].ptr<float>(y));
+      for (int x = 0; x < size.width; ++x) {
+        w_first[x] = w0 + first[x] * dw;
+        w_last[x] = w0 + (first[x] + (count - 1) * stride) * dw;
+      }
+      for (int i = 0; i < frames; ++i) {
+        ProjectRow(level, i, y, w_first.data(), &first_samples);
+        if (count > 1) ProjectRow(level, i, y, w_last.data(), &last_samples);
+        for (int k = 0; k < count; ++k) {
+          BoundRow(first_samples, last_samples, k * last_t, size.width, level.frames[i], &scratch);
+          GatherRow(level, level.frames[i], y, scratch, options.truncation, sums[k].ptr<float>(j),
+                    counts[k].ptr<float>(j));
+        }
       }
     }
+    for (int k = 0; k < count; ++k) {
+      AggregateSlice(sums[k], counts[k], frames, options, sums[k]);
+      sums[k] = band.Inner(sums[k]);
+    }
+    PlaneSelection rows = SelectionRows(selection, band);
+    SelectPlanesInto(sums, first_plane.rowRange(band.first, band.last), stride, &rows);
   });
-  cv::parallel_for_(cv::Range(0, count), [&](const cv::Range& slices) {
-    for (int k = slices.start; k < slices.end; ++k)
-      AggregateSlice(sums[k], counts[k], frames, options);
-  });
-  return sums;
+  return selection;
 }
 
 }  // namespace dfsm

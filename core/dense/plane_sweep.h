@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "core/dense/inverse_depth_lattice.h"
+#include "core/dense/plane_selection.h"
 #include "core/dense/sweep_level.h"
 
 namespace dfsm {
@@ -26,19 +27,29 @@ struct PhotoCostOptions {
   float min_valid_share = 0.5f;
 };
 
-// One CV_32FC1 slice per lattice plane: the mean truncated absolute
-// difference over frames and window. Planes run in parallel; memory is one
-// slice per plane plus two per worker.
-std::vector<cv::Mat> SweepAllPlanes(const SweepLevel& level, const InverseDepthLattice& lattice,
-                                    const PhotoCostOptions& options);
+// The cost volume is streamed: the level is swept in bands of rows (plus
+// the aggregation window's halo above and below, clamped into the image,
+// which is what a replicated border aggregates), and each band's winners are
+// selected before the next band is swept. The volume never exists in full;
+// memory is one band of slices per worker (a 1080p window sweep held 14 full
+// slices, 116 MB, and the page faults of touching them cost more than a
+// fifth of the stage).
 
-// `count` slices: slice k holds, at each pixel, the cost of lattice plane
-// first_plane(pixel) + k * stride (first_plane: CV_32SC1, level size, every
-// window inside the lattice). Neighbours in a window are aggregated slice by slice,
-// i.e. at their own window's k-th plane: exact where first_plane is locally
-// constant, which the caller's smooth coarse estimate makes almost everywhere.
-std::vector<cv::Mat> SweepPlaneWindow(const SweepLevel& level, const InverseDepthLattice& lattice,
-                                      const cv::Mat& first_plane, int count, int stride,
-                                      const PhotoCostOptions& options);
+// Sweeps every plane of the lattice (coarse level): the per-slice cost is the
+// mean truncated absolute difference over frames and window. Returns the
+// winner, its confidence and edge flag per pixel (SelectPlanes).
+PlaneSelection SweepAllPlanes(const SweepLevel& level, const InverseDepthLattice& lattice,
+                              const PhotoCostOptions& options);
+
+// Sweeps `count` planes per pixel: slice k holds, at each pixel, the cost of
+// lattice plane first_plane(pixel) + k * stride (first_plane: CV_32SC1, level
+// size, every window inside the lattice). Neighbours in a window are
+// aggregated slice by slice, i.e. at their own window's k-th plane: exact
+// where first_plane is locally constant, which the caller's smooth coarse
+// estimate makes almost everywhere. Returns the winners as SelectPlanes(costs,
+// first_plane, stride) would.
+PlaneSelection SweepPlaneWindow(const SweepLevel& level, const InverseDepthLattice& lattice,
+                                const cv::Mat& first_plane, int count, int stride,
+                                const PhotoCostOptions& options);
 
 }  // namespace dfsm

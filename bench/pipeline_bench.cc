@@ -1,0 +1,100 @@
+// The whole method on one burst, warm, as the daemon runs it: sparse
+// reconstruction (features + KLT, rotations, rank-1, bundle adjustment) and
+// dense depth, from frames in memory to the depth map (no file I/O).
+// Operating point: 1920x1080, 10 frames, 128 planes; target on the 2-core CI
+// machine: <= 1.5 s wall, <= 600 MB peak RSS.
+//
+// Counters: the stage timings (ms) of the last iteration, the dense
+// sub-stages, and peak_rss_mb, the process's peak resident set while the
+// pipeline ran (the peak is reset after the burst is rendered, so the
+// renderer's own memory is not counted).
+// Run: build/bench/pipeline_bench --benchmark_format=json
+#include <benchmark/benchmark.h>
+
+#include <fstream>
+#include <map>
+#include <memory>
+#include <string>
+#include <tuple>
+
+#include "core/pipeline/pipeline.h"
+#include "core/synth/burst_synthesizer.h"
+
+namespace dfsm {
+namespace {
+
+// Rendering a 1080p burst takes seconds: one per size, kept for every run.
+const Burst& RenderedBurst(int width, int height, int frames) {
+  static std::map<std::tuple<int, int, int>, std::unique_ptr<Burst>> cache;
+  auto& burst = cache[{width, height, frames}];
+  if (!burst) {
+    SynthOptions options;
+    options.width = width;
+    options.height = height;
+    options.frames = frames;
+    burst = std::make_unique<Burst>(ToBurst(SynthesizeBurst(options)));
+  }
+  return *burst;
+}
+
+// VmHWM of this process in MB; -1 where /proc cannot tell.
+double PeakRssMb() {
+  std::ifstream status("/proc/self/status");
+  std::string line;
+  while (std::getline(status, line))
+    if (line.rfind("VmHWM:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;
+  return -1.0;
+}
+
+// Writing 5 to clear_refs resets VmHWM to the current RSS (Linux >= 4.0).
+void ResetPeakRss() { std::ofstream("/proc/self/clear_refs") << "5"; }
+
+void RunWholePipeline(benchmark::State& state, int width, int height) {
+  const Burst& burst = RenderedBurst(width, height, static_cast<int>(state.range(0)));
+  PipelineOptions options;
+  options.dense.planes = static_cast<int>(state.range(1));
+  ResetPeakRss();
+  const double rss_before = PeakRssMb();
+  PipelineOutput output;
+  for (auto _ : state) {
+    output = RunPipeline(burst, options);
+    if (!output.result.ok) {
+      state.SkipWithError(("pipeline failed: " + output.result.error).c_str());
+      return;
+    }
+  }
+  for (const auto& [stage, ms] : output.sparse->timings_ms) state.counters[stage + "_ms"] = ms;
+  double dense_ms = 0.0;
+  for (const auto& [stage, ms] : output.dense->timings_ms) {
+    state.counters["dense_" + stage + "_ms"] = ms;
+    dense_ms += ms;
+  }
+  state.counters["dense_ms"] = dense_ms;
+  state.counters["tracks"] = output.sparse->tracks.num_tracks();
+  state.counters["valid_fraction"] = output.dense->valid_fraction;
+  state.counters["rss_before_mb"] = rss_before;
+  state.counters["peak_rss_mb"] = PeakRssMb();
+}
+
+// The operating point (target <= 1.5 s wall, <= 600 MB), then frames and planes.
+void BM_Pipeline1080p(benchmark::State& state) { RunWholePipeline(state, 1920, 1080); }
+BENCHMARK(BM_Pipeline1080p)
+    ->ArgNames({"frames", "planes"})
+    ->Args({10, 128})
+    ->Args({15, 128})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->MinTime(3.0);
+
+void BM_PipelineVga(benchmark::State& state) { RunWholePipeline(state, 640, 480); }
+BENCHMARK(BM_PipelineVga)
+    ->ArgNames({"frames", "planes"})
+    ->Args({10, 128})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->MinTime(2.0);
+
+}  // namespace
+}  // namespace dfsm
+
+BENCHMARK_MAIN();
