@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "core/dense/bilinear_upsample.h"
 #include "core/dense/guided_filter.h"
 #include "core/dense/inverse_depth_lattice.h"
 #include "core/dense/parallel_rows.h"
@@ -171,16 +172,10 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
     cv::medianBlur(coarse_selection.plane, coarse_plane, 3);
     const cv::Size full(burst.width(), burst.height());
     // Level pixel x sits at captured scale * x + (scale - 1) / 2, which is
-    // exactly the pixel-centre alignment of cv::resize.
-    const cv::Size covered(coarse_plane.cols * scale, coarse_plane.rows * scale);
-    cv::Mat centre, coarse_confidence;
-    cv::resize(coarse_plane, centre, covered, 0, 0, cv::INTER_LINEAR);
-    cv::resize(coarse_selection.confidence, coarse_confidence, covered, 0, 0, cv::INTER_LINEAR);
-    // Rows/columns lost to the integer downsampling copy their neighbours.
-    cv::copyMakeBorder(centre, centre, 0, full.height - covered.height, 0,
-                       full.width - covered.width, cv::BORDER_REPLICATE);
-    cv::copyMakeBorder(coarse_confidence, coarse_confidence, 0, full.height - covered.height, 0,
-                       full.width - covered.width, cv::BORDER_REPLICATE);
+    // exactly the pixel-centre alignment of cv::resize; rows and columns lost
+    // to the integer downsampling repeat their neighbours.
+    const UpsampleAxis rows(coarse_plane.rows, coarse_plane.rows * scale, full.height);
+    const UpsampleAxis columns(coarse_plane.cols, coarse_plane.cols * scale, full.width);
     const int stride =
         options.refine_stride > 0
             ? options.refine_stride
@@ -189,13 +184,22 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
     const int reach = (window - 1) / 2 * stride;
     result.fine_planes = window;
     result.fine_stride = stride;
-    cv::Mat first(full, CV_32SC1);
+    cv::Mat first(full, CV_32SC1), coarse_confidence(full, CV_32FC1);
     ParallelRows(full.height, [&](int y) {
-      const float* c = centre.ptr<float>(y);
+      const int r0 = rows.lower[y], r1 = r0 + rows.step[y];
+      const float ty = rows.t[y];
+      const float* p0 = coarse_plane.ptr<float>(r0);
+      const float* p1 = coarse_plane.ptr<float>(r1);
+      const float* c0 = coarse_selection.confidence.ptr<float>(r0);
+      const float* c1 = coarse_selection.confidence.ptr<float>(r1);
       int* f = first.ptr<int>(y);
-      for (int x = 0; x < full.width; ++x)
-        f[x] = std::clamp(static_cast<int>(std::lround(c[x])) - reach, 0,
+      float* c = coarse_confidence.ptr<float>(y);
+      for (int x = 0; x < full.width; ++x) {
+        const float centre = Upsampled(p0, p1, ty, columns, x);
+        f[x] = std::clamp(static_cast<int>(std::lround(centre)) - reach, 0,
                           lattice.planes - 1 - (window - 1) * stride);
+        c[x] = Upsampled(c0, c1, ty, columns, x);
+      }
     });
     const SweepLevel fine = MakeSweepLevel(reference, frames, other_poses, camera, radial, 1);
     timer.Lap("upsample");

@@ -4,6 +4,7 @@
 #include <opencv2/imgproc.hpp>
 #include <vector>
 
+#include "core/dense/bilinear_upsample.h"
 #include "core/dense/parallel_rows.h"
 
 namespace dfsm {
@@ -47,35 +48,6 @@ cv::Mat Apply(const LinearModel& model, const cv::Mat& guide) {
 // WeightedGuidedFilter applies models fitted at 1/subsample of the
 // resolution to the full-resolution guide (the "fast guided filter" of He and
 // Sun, 2015): a and b vary smoothly, the edges come from I itself.
-// Bilinear upsampling along one axis with cv::resize's INTER_LINEAR
-// alignment (pixel centres, edges replicated): full index i reads small
-// indices lower[i] and lower[i] + step[i] (step 0 at the last one) with
-// weight t[i] on the second.
-struct UpsampleAxis {
-  std::vector<int> lower, step;
-  std::vector<float> t;
-  UpsampleAxis(int small, int full) : lower(full), step(full), t(full) {
-    const double scale = static_cast<double>(small) / full;
-    for (int i = 0; i < full; ++i) {
-      const double s = std::max(0.0, (i + 0.5) * scale - 0.5);
-      const int i0 = std::min(static_cast<int>(s), small - 1);
-      lower[i] = i0;
-      step[i] = i0 < small - 1 ? 1 : 0;
-      t[i] = step[i] ? static_cast<float>(s - i0) : 0.0f;
-    }
-  }
-};
-
-// Bilinear sample of a small map at full-resolution column x, between small rows r0 and r1.
-inline float Upsampled(const float* r0, const float* r1, float ty, const UpsampleAxis& columns,
-                       int x) {
-  const int c0 = columns.lower[x], c1 = c0 + columns.step[x];
-  const float tx = columns.t[x];
-  const float top = r0[c0] + tx * (r0[c1] - r0[c0]);
-  const float bottom = r1[c0] + tx * (r1[c1] - r1[c0]);
-  return top + ty * (bottom - top);
-}
-
 cv::Mat Subsampled(const cv::Mat& image, int subsample) {
   if (subsample == 1) return image;
   cv::Mat small;
