@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <opencv2/imgproc.hpp>
 #include <random>
 #include <sstream>
 
@@ -22,6 +23,44 @@ std::string Format(double value, int precision = 2) {
 double RobustSigma(std::vector<double> values) {
   std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
   return 1.4826 * values[values.size() / 2];
+}
+
+// Contrast of the scene, not of the sensor: the grey-level spread of the
+// reference frame after a blur that averages sensor noise away (noise of
+// sigma 1.5 leaves ~0.2 grey levels; any photographed scene leaves tens).
+double SceneContrast(const cv::Mat& gray) {
+  cv::Mat blurred;
+  cv::GaussianBlur(gray, blurred, cv::Size(), 2.0);
+  cv::Scalar mean, stddev;
+  cv::meanStdDev(blurred, mean, stddev);
+  return stddev[0];
+}
+
+// Below this scene contrast (grey levels) the corners found are sensor noise.
+constexpr double kMinSceneContrast = 2.0;
+
+// Why fewer than min_tracks corners were tracked through the burst, in
+// measured terms: no texture at all, too little of it, or texture that the
+// tracker lost (motion beyond small motion, blur).
+ReconstructionError TooFewTracks(const cv::Mat& reference, const SparseReconstruction& sparse,
+                                 const SparseOptions& options) {
+  const GridedFeatureStats& stats = sparse.feature_stats;
+  const double contrast = SceneContrast(reference);
+  const std::string need = " (need >= " + std::to_string(options.min_tracks) + ")";
+  const std::string measured = "; scene contrast " + Format(contrast, 1) + " grey levels";
+  if (contrast < kMinSceneContrast || stats.corners == 0)
+    return ReconstructionError("too few tracks: no texture: " + std::to_string(stats.corners) +
+                               " of " + std::to_string(stats.cells) + " cells hold a corner, " +
+                               std::to_string(stats.tracks) + " tracked" + need + measured +
+                               " (need >= " + Format(kMinSceneContrast, 1) + ")");
+  if (stats.corners < options.min_tracks)
+    return ReconstructionError(
+        "too few tracks: too little texture: " + std::to_string(stats.corners) + " of " +
+        std::to_string(stats.cells) + " cells hold a corner, " + std::to_string(stats.tracks) +
+        " tracked" + need + measured);
+  return ReconstructionError("too few tracks: " + std::to_string(stats.tracks) + " of " +
+                             std::to_string(stats.corners) + " corners survived tracking" + need +
+                             ": motion too large or blur" + measured);
 }
 
 }  // namespace
@@ -53,18 +92,11 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
   sparse.tracks = TrackGridedFeatures(frames, reference, options.features, &sparse.feature_stats);
   timer.Lap("features");
   const int tracked = sparse.tracks.num_tracks();
-  if (tracked < options.min_tracks)
-    throw ReconstructionError(
-        "too few tracks: " + std::to_string(tracked) + " of " +
-        std::to_string(sparse.feature_stats.corners) + " corners (in " +
-        std::to_string(sparse.feature_stats.cells) + " cells) survived tracking, need " +
-        std::to_string(options.min_tracks) +
-        (sparse.feature_stats.corners < options.min_tracks ? " (too little texture)"
-                                                           : " (motion too large or blur)"));
+  if (tracked < options.min_tracks) throw TooFewTracks(frames[reference], sparse, options);
   const double parallax = sparse.tracks.MedianMaxDisplacement();
   if (parallax < options.min_parallax_px)
     throw ReconstructionError("insufficient parallax: median track motion " + Format(parallax) +
-                              " px (need " + Format(options.min_parallax_px) + " px)");
+                              " px (need >= " + Format(options.min_parallax_px) + " px)");
 
   const CameraModel initial = CameraModel::Initial(width, height);
   SparseState& state = sparse.state;
@@ -92,7 +124,8 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
   }
   if (std::count(use.begin(), use.end(), true) < options.min_tracks)
     throw ReconstructionError("too few consistent tracks after outlier rejection: " +
-                              std::to_string(std::count(use.begin(), use.end(), true)));
+                              std::to_string(std::count(use.begin(), use.end(), true)) +
+                              " (need >= " + std::to_string(options.min_tracks) + ")");
 
   sparse.bundle_adjustment =
       RunBundleAdjustment(sparse.tracks, use, &state, options.bundle_adjustment);
@@ -136,8 +169,9 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
   if (std::count(use.begin(), use.end(), true) < options.min_tracks)
     throw ReconstructionError("too few consistent tracks after bundle adjustment: " +
                               std::to_string(std::count(use.begin(), use.end(), true)) +
-                              " in front of the camera (median track motion " + Format(parallax) +
-                              " px: too little baseline to separate depths)");
+                              " in front of the camera, need >= " +
+                              std::to_string(options.min_tracks) + " (median track motion " +
+                              Format(parallax) + " px: too little baseline to separate depths)");
   sparse.bundle_adjustment.init = InitModeName(options.init);
   sparse.inliers = use;
   timer.Lap("bundle_adjustment");
