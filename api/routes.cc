@@ -71,6 +71,12 @@ void QueueFull(const ApiContext& context, httplib::Response& response, const std
              what + "; retry after " + std::to_string(context.config->jobs.retry_after_s) + " s");
 }
 
+// The request was fine; the state directory could not take the burst (full,
+// read-only, gone). Nothing was stored.
+void StorageFailed(httplib::Response& response, const std::string& what) {
+  SetProblem(response, 507, "storage-failed", "Cannot store the burst", what);
+}
+
 // --- handlers --------------------------------------------------------------
 
 void PostCapture(const ApiContext& context, const httplib::Request& request,
@@ -90,6 +96,8 @@ void PostCapture(const ApiContext& context, const httplib::Request& request,
   } catch (const capture::CaptureUnavailable& e) {
     response.set_header("Retry-After", "1");
     SetProblem(response, 503, "capture-unavailable", "No burst available", e.what());
+  } catch (const service::JobStoreError& e) {
+    StorageFailed(response, e.what());
   }
 }
 
@@ -118,6 +126,8 @@ void PostJob(const ApiContext& context, const httplib::Request& request,
     QueueFull(context, response, e.what());
   } catch (const service::BadUpload& e) {
     SetProblem(response, 422, "invalid-burst", "Upload is not a usable burst", e.what());
+  } catch (const service::JobStoreError& e) {
+    StorageFailed(response, e.what());
   }
 }
 

@@ -47,7 +47,11 @@ Job JobIntake::FromCapture(const JobOptions& options, std::chrono::milliseconds 
 
   StagingGuard staging{store_->NewStagingDir()};
   const fs::path burst_dir = staging.dir / "burst";
-  WriteBurst(burst_dir, grabbed.manifest, grabbed.frames);
+  try {
+    WriteBurst(burst_dir, grabbed.manifest, grabbed.frames);
+  } catch (const BurstError& e) {
+    throw JobStoreError(std::string("cannot store the burst: ") + e.what());
+  }
 
   auto burst = std::make_shared<Burst>();
   burst->manifest = ReadBurstManifest(burst_dir);
@@ -70,8 +74,13 @@ Job JobIntake::FromArchive(std::string_view archive, const JobOptions& options) 
   }
   StagingGuard staging{store_->NewStagingDir()};
   const fs::path extracted = staging.dir / "upload";
-  fs::create_directories(extracted);
-  ExtractTar(entries, extracted);
+  try {
+    fs::create_directories(extracted);
+    // ReadTar refused every escaping name: what fails here is the disk.
+    ExtractTar(entries, extracted);
+  } catch (const std::exception& e) {
+    throw JobStoreError(std::string("cannot store the burst: ") + e.what());
+  }
 
   // The burst is the archive's top level, or its single top-level directory.
   fs::path root = extracted;

@@ -47,8 +47,17 @@ void JobProcessor::Process(const std::string& id, std::shared_ptr<const Burst> p
     PipelineOutput output = RunPipeline(*burst, ToPipelineOptions(job.options), on_stage);
     on_stage("writing");
     const std::filesystem::path staged = store_->NewStagingDir();
-    WritePipelineOutputs(staged, *burst, &output);
-    store_->CommitOutput(id, staged);
+    try {
+      WritePipelineOutputs(staged, *burst, &output);
+      store_->CommitOutput(id, staged);
+    } catch (const std::exception& e) {
+      // A full disk must not stay full because of our own leftovers: without
+      // the half-written output, the record of the failure still fits.
+      std::error_code ignored;
+      std::filesystem::remove_all(staged, ignored);
+      Finish(&job, false, std::string("cannot store the result: ") + e.what());
+      return;
+    }
     job.timings_ms = output.result.timings_ms;
     Finish(&job, output.result.ok, output.result.error);
   } catch (const std::exception& e) {

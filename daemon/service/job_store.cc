@@ -41,6 +41,11 @@ JobStore::JobStore(fs::path state_dir) : state_dir_(std::move(state_dir)) {
       Job job = JobFromJson(nlohmann::json::parse(ReadFileToString(entry.path() / kRecordFile)));
       if (job.id != name) throw std::invalid_argument("record names job " + job.id);
       job.has_burst = fs::exists(entry.path() / "burst" / "manifest.json");
+      // A record being replaced when the previous run died (job.json.tmp.<pid>).
+      for (const auto& file : fs::directory_iterator(entry.path())) {
+        if (file.path().filename().string().rfind(std::string(kRecordFile) + ".tmp.", 0) == 0)
+          fs::remove(file.path(), error);
+      }
       jobs_.emplace(job.id, job);
     } catch (const std::exception& e) {
       const fs::path aside = state_dir_ / "damaged" / name;
@@ -57,7 +62,9 @@ fs::path JobStore::NewStagingDir() {
   const fs::path dir =
       state_dir_ / "tmp" /
       ("stage-" + std::to_string(::getpid()) + "-" + std::to_string(++staging_counter_));
-  fs::create_directories(dir);
+  std::error_code error;
+  fs::create_directories(dir, error);
+  if (error) throw JobStoreError("cannot create '" + dir.string() + "': " + error.message());
   return dir;
 }
 
@@ -77,7 +84,14 @@ Job JobStore::Create(const std::string& origin, const JobOptions& options,
   // The job directory is assembled in tmp/ (record + burst) and appears in
   // jobs/ with one rename.
   const fs::path assembly = NewStagingDir();
-  fs::rename(staged_burst, assembly / "burst");
+  std::error_code moved;
+  fs::rename(staged_burst, assembly / "burst", moved);
+  if (moved) {
+    std::error_code ignored;
+    fs::remove_all(assembly, ignored);
+    throw JobStoreError("cannot store the burst in '" + assembly.string() +
+                        "': " + moved.message());
+  }
   std::lock_guard<std::mutex> lock(mutex_);
   Job job;
   job.id = NewIdLocked();
@@ -86,7 +100,14 @@ Job JobStore::Create(const std::string& origin, const JobOptions& options,
   job.created_ms = NowUnixMs();
   job.has_burst = true;
   job.input = input;
-  WriteRecord(assembly, job);
+  try {
+    WriteRecord(assembly, job);
+  } catch (const JobStoreError&) {
+    // Disk full: the staged burst must not keep the space until the next start.
+    std::error_code ignored;
+    fs::remove_all(assembly, ignored);
+    throw;
+  }
   std::error_code error;
   fs::rename(assembly, JobDir(job.id), error);
   if (error) {
@@ -137,7 +158,15 @@ void JobStore::Update(const Job& job) {
   std::lock_guard<std::mutex> lock(mutex_);
   const auto it = jobs_.find(job.id);
   if (it == jobs_.end()) throw JobStoreError("unknown job " + job.id);
-  WriteRecord(JobDir(job.id), job);
+  try {
+    WriteRecord(JobDir(job.id), job);
+  } catch (const JobStoreError&) {
+    // Clients see the job as it is (failed, say, because the disk is full)
+    // rather than a stage that never ends; the record on disk still says what
+    // it said before, so a restart re-runs the job.
+    it->second = job;
+    throw;
+  }
   it->second = job;
 }
 

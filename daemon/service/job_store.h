@@ -57,7 +57,9 @@ class JobStore {
   // The newest job that succeeded (by finish time), if any.
   std::optional<Job> LatestSucceeded() const;
 
-  // Replaces the stored record (same id). Throws JobStoreError for an unknown id.
+  // Replaces the stored record (same id). Throws JobStoreError for an unknown
+  // id, or when the record cannot be written (then the job is updated in
+  // memory only).
   void Update(const Job& job);
 
   // Sets the job's current stage in memory only: a stage is progress news for

@@ -1,6 +1,7 @@
 #include "daemon/service/ustar.h"
 
 #include <algorithm>
+#include <cerrno>
 #include <cstring>
 #include <fstream>
 #include <set>
@@ -198,7 +199,9 @@ void ExtractTar(const std::vector<TarEntry>& entries, const std::filesystem::pat
     std::filesystem::create_directories(path.parent_path());
     std::ofstream out(path, std::ios::binary | std::ios::trunc);
     out.write(entry.data.data(), static_cast<std::streamsize>(entry.data.size()));
-    if (!out) throw TarError("cannot write '" + path.string() + "'");
+    // A full disk often shows only when the buffer is flushed at close.
+    out.close();
+    if (!out) throw TarError("cannot write '" + path.string() + "': " + std::strerror(errno));
   }
 }
 
