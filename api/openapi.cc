@@ -132,7 +132,8 @@ nlohmann::json OpenApiDocument() {
         {"400", Problem("Invalid options or empty body")},
         {"413", Problem("Body larger than server.max_body_bytes")},
         {"415", Problem("Not a tar upload")},
-        {"422", Problem("Not a valid ustar archive of a dfsm-burst/1 directory")},
+        {"422", Problem("Not a valid ustar archive of a dfsm-burst/1 directory, or over a "
+                        "[limits] key (entries, file size, frames, pixels)")},
         {"503", QueueFull()}}}};
   paths["/api/v1/jobs"]["get"] = {
       {"summary", "List jobs, newest first"},
@@ -193,6 +194,22 @@ nlohmann::json OpenApiDocument() {
   paths["/metrics"]["get"] = {
       {"summary", "Prometheus metrics"},
       {"responses", {{"200", {{"description", "text/plain; version=0.0.4"}}}}}};
+  // Bearer authentication (bearer_auth.h): required wherever a token is
+  // configured, which is always when dfsmd listens beyond loopback; the probes
+  // and this document stay public.
+  for (auto& [path, operations] : paths.items()) {
+    const bool is_public =
+        path == "/healthz" || path == "/readyz" || path == "/api/v1/openapi.json";
+    for (auto& [method, operation] : operations.items()) {
+      if (method == "parameters") continue;
+      if (is_public) {
+        operation["security"] = json::array();
+      } else {
+        operation["responses"]["401"] =
+            Problem("Missing or wrong bearer token (WWW-Authenticate: Bearer realm=\"dfsmd\")");
+      }
+    }
+  }
   return {{"openapi", "3.0.3"},
           {"info",
            {{"title", "dfsmd"},
@@ -200,7 +217,16 @@ nlohmann::json OpenApiDocument() {
             {"description",
              "Depth from small motion camera daemon: bursts in, depth maps and calibration out."}}},
           {"paths", paths},
-          {"components", {{"schemas", Schemas()}}}};
+          {"security", {{{"bearer", json::array()}}}},
+          {"components",
+           {{"schemas", Schemas()},
+            {"securitySchemes",
+             {{"bearer",
+               {{"type", "http"},
+                {"scheme", "bearer"},
+                {"description",
+                 "server.token_file or the systemd credential dfsmd-token; required when "
+                 "server.listen is not loopback"}}}}}}}};
 }
 
 }  // namespace dfsm::api

@@ -2,9 +2,11 @@
 
 #include <opencv2/imgcodecs.hpp>
 
+#include "api/bearer_auth.h"
 #include "api/job_request.h"
 #include "api/openapi.h"
 #include "api/problem.h"
+#include "api/request_body.h"
 #include "core/io/file_util.h"
 #include "daemon/service/ustar.h"
 
@@ -319,6 +321,7 @@ const char* JobFileContentType(const std::string& file) {
 
 void RegisterRoutes(const ApiContext& context, httplib::Server* server) {
   const ApiContext c = context;
+  BearerAuth(context.config->server.token).Install(server);
   const std::string id = "([^/]+)";
   server->Get("/healthz", [](const httplib::Request&, httplib::Response& response) {
     SetJson(response, 200, {{"status", "alive"}});
@@ -334,20 +337,28 @@ void RegisterRoutes(const ApiContext& context, httplib::Server* server) {
               [c](const httplib::Request&, httplib::Response& r) { GetSnapshot(c, r); });
   server->Get("/api/v1/calibration",
               [c](const httplib::Request&, httplib::Response& r) { GetCalibration(c, r); });
+  // Routes that may carry a body read it through BoundedBody (request_body.h).
+  const size_t max_body = static_cast<size_t>(context.config->server.max_body_bytes);
   server->Post("/api/v1/captures",
-               [c](const httplib::Request& q, httplib::Response& r) { PostCapture(c, q, r); });
+               BoundedBody(max_body, [c](const httplib::Request& q, httplib::Response& r) {
+                 PostCapture(c, q, r);
+               }));
   server->Post("/api/v1/jobs",
-               [c](const httplib::Request& q, httplib::Response& r) { PostJob(c, q, r); });
+               BoundedBody(max_body, [c](const httplib::Request& q, httplib::Response& r) {
+                 PostJob(c, q, r);
+               }));
   server->Get("/api/v1/jobs",
               [c](const httplib::Request& q, httplib::Response& r) { ListJobs(c, q, r); });
   server->Get("/api/v1/jobs/" + id,
               [c](const httplib::Request& q, httplib::Response& r) { GetJob(c, q, r); });
   server->Delete("/api/v1/jobs/" + id,
-                 [c](const httplib::Request& q, httplib::Response& r) { DeleteJob(c, q, r); });
+                 BoundedBody(max_body, [c](const httplib::Request& q, httplib::Response& r) {
+                   DeleteJob(c, q, r);
+                 }));
   server->Get("/api/v1/jobs/" + id + "/" + id,
               [c](const httplib::Request& q, httplib::Response& r) { GetJobFile(c, q, r); });
 
-  const size_t max_body = static_cast<size_t>(context.config->server.max_body_bytes);
+  RegisterBodyCatchAlls(max_body, server);
   server->set_error_handler(
       [max_body](const httplib::Request& request, httplib::Response& response) {
         if (response.body.empty()) SetDefaultProblem(request, response, max_body);
@@ -372,7 +383,7 @@ void RegisterRoutes(const ApiContext& context, httplib::Server* server) {
         });
     server->Options(".*", [origin](const httplib::Request&, httplib::Response& response) {
       response.set_header("Access-Control-Allow-Methods", "GET, POST, DELETE, OPTIONS");
-      response.set_header("Access-Control-Allow-Headers", "Content-Type");
+      response.set_header("Access-Control-Allow-Headers", "Authorization, Content-Type");
       response.set_header("Access-Control-Max-Age", "600");
       response.status = 204;
     });

@@ -9,6 +9,7 @@
 #include <optional>
 #include <sstream>
 
+#include "daemon/service/access_token.h"
 #include "daemon/service/number_text.h"
 
 namespace dfsm::service {
@@ -39,6 +40,10 @@ const std::vector<Key>& Keys() {
                "largest request body (uploads), bytes"),
       DFSM_KEY("server.cors_origin", KeyType::kString, server.cors_origin,
                "Access-Control-Allow-Origin value; empty: CORS off"),
+      DFSM_KEY("server.token_file", KeyType::kPath, server.token_file,
+               "bearer token file (required unless listen is loopback)"),
+      DFSM_KEY("server.token_credential", KeyType::kString, server.token_credential,
+               "systemd credential holding the token when token_file is unset"),
       DFSM_KEY("capture.source", KeyType::kString, capture.source,
                "v4l2:/dev/videoN | libcamera:<id> | replay:<burst dir> | synthetic:"),
       DFSM_KEY("capture.width", KeyType::kInt, capture.width, "requested width (0: driver's)"),
@@ -79,6 +84,16 @@ const std::vector<Key>& Keys() {
                "bytes of finished jobs kept at most (0: no limit)"),
       DFSM_KEY("retention.max_age_s", KeyType::kInt64, retention.max_age_s,
                "finished jobs older than this are removed (0: never)"),
+      DFSM_KEY("limits.max_upload_entries", KeyType::kInt, limits.max_upload_entries,
+               "files and directories in one uploaded tar"),
+      DFSM_KEY("limits.max_upload_file_bytes", KeyType::kInt64, limits.max_upload_file_bytes,
+               "largest file in an uploaded tar, bytes"),
+      DFSM_KEY("limits.max_burst_frames", KeyType::kInt, limits.max_burst_frames,
+               "frames in an uploaded burst's manifest"),
+      DFSM_KEY("limits.max_frame_pixels", KeyType::kInt64, limits.max_frame_pixels,
+               "width x height of one uploaded frame"),
+      DFSM_KEY("limits.max_burst_pixels", KeyType::kInt64, limits.max_burst_pixels,
+               "width x height x frames decoded for one uploaded burst"),
   };
   return keys;
 }
@@ -210,6 +225,10 @@ void Validate(const DaemonConfig& c) {
   if (c.server.cors_origin.find_first_of("\r\n") != std::string::npos) {
     throw KeyError("server.cors_origin", "must not contain line breaks");
   }
+  const std::string& credential = c.server.token_credential;
+  if (credential.find('/') != std::string::npos || credential == "." || credential == "..") {
+    throw KeyError("server.token_credential", "must be a credential name, not a path");
+  }
   const std::string& source = c.capture.source;
   const size_t colon = source.find(':');
   const std::string scheme = colon == std::string::npos ? "" : source.substr(0, colon);
@@ -249,6 +268,11 @@ void Validate(const DaemonConfig& c) {
                std::numeric_limits<int64_t>::max());
   RequireRange("retention.max_age_s", c.retention.max_age_s, 0,
                std::numeric_limits<int64_t>::max());
+  RequireRange("limits.max_upload_entries", c.limits.max_upload_entries, 3, 1000000);
+  RequireRange("limits.max_upload_file_bytes", c.limits.max_upload_file_bytes, 1024, 16LL << 30);
+  RequireRange("limits.max_burst_frames", c.limits.max_burst_frames, 3, 100000);
+  RequireRange("limits.max_frame_pixels", c.limits.max_frame_pixels, 1, 1LL << 30);
+  RequireRange("limits.max_burst_pixels", c.limits.max_burst_pixels, 3, 1LL << 40);
 }
 
 std::vector<std::string> ApplyToml(const std::string& text, const std::string& origin,
@@ -347,6 +371,7 @@ CommandLine ParseCommandLine(const std::vector<std::string>& args) {
     }
   }
   Validate(line.config);
+  if (!line.help) ResolveAccessToken(&line.config.server, std::getenv("CREDENTIALS_DIRECTORY"));
   return line;
 }
 

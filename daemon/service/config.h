@@ -31,6 +31,11 @@ struct ServerConfig {
   int threads = 8;  // HTTP worker threads (each keep-alive connection holds one)
   int64_t max_body_bytes = 256LL << 20;
   std::string cors_origin;  // empty: no CORS headers at all
+  // Bearer token (access_token.h): read from this file, else from the systemd
+  // credential of this name; required unless `listen` is a loopback address.
+  std::filesystem::path token_file;
+  std::string token_credential = "dfsmd-token";
+  std::string token;  // not a key: the secret itself, set by ResolveAccessToken
 };
 
 struct CaptureSection {
@@ -71,12 +76,24 @@ struct RetentionSection {
   int64_t max_age_s = 7 * 24 * 3600;  // 0: no limit
 };
 
+// What one upload may hold (ustar.h TarLimits, job_intake.h): refused with a
+// 413 or 422 naming the limit before anything is decoded or stored.
+struct LimitsSection {
+  int max_upload_entries = 4096;
+  int64_t max_upload_file_bytes = 256LL << 20;
+  int max_burst_frames = 1000;
+  int64_t max_frame_pixels = 64LL << 20;
+  // Decoded pixels over all frames kept for the job (a gray8 copy each).
+  int64_t max_burst_pixels = 256LL << 20;
+};
+
 struct DaemonConfig {
   ServerConfig server;
   CaptureSection capture;
   PipelineSection pipeline;
   JobsSection jobs;
   RetentionSection retention;
+  LimitsSection limits;
 };
 
 // Checks every value's range; throws ConfigError naming the first bad key.
@@ -99,7 +116,8 @@ struct CommandLine {
 
 // Parses argv: --config FILE first (wherever it appears), then every flag in
 // order; $STATE_DIRECTORY (set by systemd's StateDirectory=) is the state_dir
-// default when neither the file nor a flag sets it. Validates the result.
+// default when neither the file nor a flag sets it. Validates the result and
+// resolves the bearer token (access_token.h) from $CREDENTIALS_DIRECTORY.
 CommandLine ParseCommandLine(const std::vector<std::string>& args);
 
 // One line per key: "section.key  type  default  description", for --help and docs.

@@ -2,6 +2,7 @@
 
 #include <signal.h>
 
+#include <algorithm>
 #include <iostream>
 
 #include "api/http_server.h"
@@ -100,9 +101,15 @@ int Daemon::Run() {
 
   TarLimits tar_limits;
   tar_limits.max_total_bytes = config_.server.max_body_bytes;
-  tar_limits.max_file_bytes = config_.server.max_body_bytes;
+  tar_limits.max_file_bytes =
+      std::min(config_.limits.max_upload_file_bytes, config_.server.max_body_bytes);
+  tar_limits.max_entries = config_.limits.max_upload_entries;
+  BurstLimits burst_limits;
+  burst_limits.max_frames = config_.limits.max_burst_frames;
+  burst_limits.max_frame_pixels = config_.limits.max_frame_pixels;
+  burst_limits.max_burst_pixels = config_.limits.max_burst_pixels;
   p.intake = std::make_unique<JobIntake>(p.store.get(), p.scheduler.get(), p.capture.get(),
-                                         &p.metrics, tar_limits);
+                                         &p.metrics, tar_limits, burst_limits);
 
   p.http = std::make_unique<api::HttpServer>(config_.server);
   api::ApiContext context;

@@ -6,10 +6,6 @@ namespace dfsm::service {
 namespace fs = std::filesystem;
 namespace {
 
-// Refuse before decoding: a tiny PNG can claim an enormous frame.
-constexpr int64_t kMaxPixels = 64LL << 20;
-constexpr size_t kMaxFrames = 1000;
-
 nlohmann::json InputSummary(const Burst& burst) {
   return {{"width", burst.width()},
           {"height", burst.height()},
@@ -97,15 +93,8 @@ Job JobIntake::FromArchive(std::string_view archive, const JobOptions& options) 
   }
   auto burst = std::make_shared<Burst>();
   try {
-    const BurstManifest manifest = ReadBurstManifest(root);
-    if (static_cast<int64_t>(manifest.width) * manifest.height > kMaxPixels) {
-      throw BadUpload("manifest.json: " + std::to_string(manifest.width) + "x" +
-                      std::to_string(manifest.height) + " frames are larger than the limit of " +
-                      std::to_string(kMaxPixels) + " pixels");
-    }
-    if (manifest.frames.size() > kMaxFrames) {
-      throw BadUpload("manifest.json: more than " + std::to_string(kMaxFrames) + " frames");
-    }
+    // Refuse before decoding: a tiny PNG can claim an enormous frame.
+    CheckUploadedBurst(root, ReadBurstManifest(root), options.frames, burst_limits_);
     ReadBurstOptions read;
     read.max_frames = options.frames;
     *burst = ReadBurst(root, read);

@@ -9,6 +9,7 @@
 #include <string_view>
 
 #include "daemon/capture/capture_service.h"
+#include "daemon/service/burst_limits.h"
 #include "daemon/service/job_scheduler.h"
 #include "daemon/service/job_store.h"
 #include "daemon/service/metrics.h"
@@ -32,12 +33,13 @@ class JobIntake {
  public:
   // `capture` may be null (then FromCapture throws capture::CaptureUnavailable).
   JobIntake(JobStore* store, JobScheduler* scheduler, capture::CaptureService* capture,
-            Metrics* metrics, TarLimits tar_limits)
+            Metrics* metrics, TarLimits tar_limits, BurstLimits burst_limits = {})
       : store_(store),
         scheduler_(scheduler),
         capture_(capture),
         metrics_(metrics),
-        tar_limits_(tar_limits) {}
+        tar_limits_(tar_limits),
+        burst_limits_(burst_limits) {}
 
   // Throws QueueFull, capture::CaptureUnavailable, JobStoreError.
   Job FromCapture(const JobOptions& options, std::chrono::milliseconds timeout);
@@ -53,6 +55,7 @@ class JobIntake {
   capture::CaptureService* capture_;
   Metrics* metrics_;
   const TarLimits tar_limits_;
+  const BurstLimits burst_limits_;
 };
 
 }  // namespace dfsm::service

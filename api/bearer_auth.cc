@@ -1,0 +1,103 @@
+#include "api/bearer_auth.h"
+
+#include <cctype>
+#include <memory>
+
+#include "api/problem.h"
+
+namespace dfsm::api {
+namespace {
+
+bool EqualsIgnoringCase(std::string_view a, std::string_view b) {
+  if (a.size() != b.size()) return false;
+  for (size_t i = 0; i < a.size(); ++i) {
+    if (std::tolower(static_cast<unsigned char>(a[i])) !=
+        std::tolower(static_cast<unsigned char>(b[i]))) {
+      return false;
+    }
+  }
+  return true;
+}
+
+}  // namespace
+
+bool ConstantTimeEquals(std::string_view presented, std::string_view expected) {
+  // Every byte of `presented` is compared (against `expected` repeated), and
+  // the differences are OR-ed together; volatile keeps the compiler from
+  // turning the loop back into an early-exit comparison.
+  volatile unsigned char difference = presented.size() == expected.size() ? 0 : 1;
+  for (size_t i = 0; i < presented.size(); ++i) {
+    const unsigned char other =
+        expected.empty() ? 0 : static_cast<unsigned char>(expected[i % expected.size()]);
+    difference = difference | (static_cast<unsigned char>(presented[i]) ^ other);
+  }
+  return difference == 0;
+}
+
+bool BearerAuth::IsPublic(const std::string& method, const std::string& path) {
+  if (method == "OPTIONS") return true;
+  if (method != "GET" && method != "HEAD") return false;
+  return path == "/healthz" || path == "/readyz" || path == "/api/v1/openapi.json";
+}
+
+BearerAuth::Verdict BearerAuth::Check(const std::string& authorization) const {
+  if (!enabled()) return Verdict::kAllowed;
+  if (authorization.empty()) return Verdict::kMissing;
+  // "Bearer" SP+ token, the scheme case-insensitive (RFC 7235 section 2.1).
+  const size_t space = authorization.find(' ');
+  if (space == std::string::npos ||
+      !EqualsIgnoringCase(std::string_view(authorization).substr(0, space), "Bearer")) {
+    return Verdict::kNotBearer;
+  }
+  const size_t begin = authorization.find_first_not_of(' ', space);
+  const size_t end = authorization.find_last_not_of(" \t");
+  if (begin == std::string::npos) return Verdict::kWrongToken;
+  const std::string_view presented = std::string_view(authorization).substr(begin, end + 1 - begin);
+  return ConstantTimeEquals(presented, token_) ? Verdict::kAllowed : Verdict::kWrongToken;
+}
+
+bool BearerAuth::Authorize(const httplib::Request& request, httplib::Response& response) const {
+  if (!enabled() || IsPublic(request.method, request.path)) return true;
+  const Verdict verdict = Check(request.get_header_value("Authorization"));
+  if (verdict == Verdict::kAllowed) return true;
+  std::string challenge = "Bearer realm=\"dfsmd\"";
+  std::string detail;
+  switch (verdict) {
+    case Verdict::kMissing:
+      detail = request.method + " " + request.path +
+               " needs an 'Authorization: Bearer <token>' header: this dfsmd has an access "
+               "token configured (server.token_file or the dfsmd-token credential)";
+      break;
+    case Verdict::kNotBearer:
+      challenge += ", error=\"invalid_request\"";
+      detail =
+          "the Authorization header must use the Bearer scheme: 'Authorization: Bearer "
+          "<token>'";
+      break;
+    default:
+      challenge += ", error=\"invalid_token\"";
+      detail = "the bearer token is not the one this dfsmd is configured with";
+      break;
+  }
+  response.set_header("WWW-Authenticate", challenge);
+  SetProblem(response, 401, "unauthorized", "Authentication required", detail);
+  return false;
+}
+
+void BearerAuth::Install(httplib::Server* server) const {
+  if (!enabled()) return;
+  auto auth = std::make_shared<const BearerAuth>(*this);
+  server->set_pre_routing_handler(
+      [auth](const httplib::Request& request, httplib::Response& response) {
+        return auth->Authorize(request, response) ? httplib::Server::HandlerResponse::Unhandled
+                                                  : httplib::Server::HandlerResponse::Handled;
+      });
+  // A client that waits for "100 Continue" before sending its upload gets the
+  // 401 instead, and never sends the body.
+  server->set_expect_100_continue_handler(
+      [auth](const httplib::Request& request, httplib::Response& response) {
+        return auth->Authorize(request, response) ? 100 : response.status;
+      });
+}
+
+}  // namespace dfsm::api

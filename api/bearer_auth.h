@@ -1,0 +1,52 @@
+// Bearer-token authentication of the REST API (RFC 6750). With a token
+// configured (server.token_file or the systemd credential, see
+// daemon/service/access_token.h) every request needs
+// `Authorization: Bearer <token>`, on loopback too, except the probes and the
+// API description: GET /healthz, /readyz, /api/v1/openapi.json, and CORS
+// preflights (browsers send those without credentials). Results are data and
+// the camera is a camera, so reads are protected like writes.
+//
+// The check runs before httplib reads a request body (pre-routing, and the
+// Expect: 100-continue answer), so an unauthenticated upload costs no memory.
+#pragma once
+
+#include <httplib.h>
+
+#include <string>
+#include <string_view>
+
+namespace dfsm::api {
+
+// Whether the two strings are equal, in a time that depends on the length of
+// `presented` only: no early exit at the first differing byte, so response
+// times reveal nothing of `expected`.
+bool ConstantTimeEquals(std::string_view presented, std::string_view expected);
+
+class BearerAuth {
+ public:
+  enum class Verdict { kAllowed, kMissing, kNotBearer, kWrongToken };
+
+  // An empty token disables authentication (loopback without a token).
+  explicit BearerAuth(std::string token) : token_(std::move(token)) {}
+
+  bool enabled() const { return !token_.empty(); }
+
+  // Requests that never need the token (see above).
+  static bool IsPublic(const std::string& method, const std::string& path);
+
+  // Judges an Authorization header value ("" when absent).
+  Verdict Check(const std::string& authorization) const;
+
+  // Allows the request, or answers it 401 problem+json with
+  // WWW-Authenticate and returns false.
+  bool Authorize(const httplib::Request& request, httplib::Response& response) const;
+
+  // Installs the check as `server`'s pre-routing and Expect: 100-continue
+  // handlers. Does nothing when not enabled().
+  void Install(httplib::Server* server) const;
+
+ private:
+  std::string token_;
+};
+
+}  // namespace dfsm::api

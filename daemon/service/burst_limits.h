@@ -1,0 +1,26 @@
+// The limits on an uploaded burst ([limits] in the configuration), checked on
+// the extracted files before any frame is decoded, so that a small archive
+// cannot make the daemon allocate gigabytes (MemoryMax would kill it).
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+
+#include "core/io/burst.h"
+
+namespace dfsm::service {
+
+struct BurstLimits {
+  int max_frames = 1000;                   // limits.max_burst_frames
+  int64_t max_frame_pixels = 64LL << 20;   // limits.max_frame_pixels
+  int64_t max_burst_pixels = 256LL << 20;  // limits.max_burst_pixels
+};
+
+// Checks the manifest's frame count and frame size, the pixels of the frames
+// the job keeps (`requested_frames`, 0: all), and that every frame file is a
+// PNG or JPEG whose header declares the manifest's size. Throws BurstError
+// naming the limit's key, or the frame file and what is wrong with it.
+void CheckUploadedBurst(const std::filesystem::path& burst_dir, const BurstManifest& manifest,
+                        int requested_frames, const BurstLimits& limits);
+
+}  // namespace dfsm::service
