@@ -71,6 +71,10 @@ void ValidateInputs(const Burst& burst, const CameraModel& camera, const std::ve
 // parabola through three neighbours still resolves the minimum.
 constexpr double kCoarsePlaneParallax = 0.2;
 constexpr double kFinePlaneParallax = 0.35;
+// Level pixels of parallax between the planes a sweep projects exactly; the
+// samples of the planes between move on a straight line to within ~0.01
+// pixel over such a span (the fine window spans about as much: 6 x 0.35).
+constexpr double kProjectedSpan = 2.0;
 
 // Largest image motion (pixels) per unit of inverse depth over the frames: a
 // point at inverse depth w moves by about f |T_xy + x T_z| w.
@@ -150,6 +154,12 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
   }
   result.coarse_scale = scale;
   result.coarse_planes = coarse_lattice.planes;
+  // Coarse pixels of parallax between neighbouring coarse planes; exact
+  // projections kProjectedSpan apart, the planes between interpolated.
+  const double coarse_plane_parallax =
+      plane_parallax * (lattice.planes - 1) / std::max(1, coarse_lattice.planes - 1) / scale;
+  cost.projected_every =
+      std::max(1, static_cast<int>(std::floor(kProjectedSpan / coarse_plane_parallax)));
   PlaneSelection coarse_selection = SweepAllPlanes(coarse, coarse_lattice, cost);
   timer.Lap("coarse_sweep");
   // Coarse plane indices onto the full lattice.

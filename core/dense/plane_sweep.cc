@@ -175,33 +175,56 @@ PlaneSelection MakeSelection(const cv::Size& size) {
 
 PlaneSelection SweepAllPlanes(const SweepLevel& level, const InverseDepthLattice& lattice,
                               const PhotoCostOptions& options) {
+  CV_Assert(options.projected_every >= 1);
   const int frames = static_cast<int>(level.frames.size());
   const cv::Size size = level.reference.size();
+  const int planes = lattice.planes;
+  // Projected planes: every projected_every-th one and the last. Plane p is
+  // interpolated between projections segment[p] and segment[p] + 1.
+  std::vector<int> projected;
+  for (int p = 0; p < planes - 1; p += options.projected_every) projected.push_back(p);
+  projected.push_back(planes - 1);
+  std::vector<int> segment(planes);
+  std::vector<float> along(planes);
+  for (int p = 0, k = 0; p < planes; ++p) {
+    while (k + 2 < static_cast<int>(projected.size()) && projected[k + 1] <= p) ++k;
+    segment[p] = k;
+    const int span = projected.size() > 1 ? projected[k + 1] - projected[k] : 1;
+    along[p] = static_cast<float>(p - projected[k]) / span;
+  }
+  if (projected.size() == 1) projected.push_back(projected[0]);  // one plane: no segment
   PlaneSelection selection = MakeSelection(size);
   ForEachBand(size.height, options.window_radius, [&](const Band& band) {
     const cv::Size band_size(size.width, band.rows());
-    std::vector<float> w(size.width);
-    RowSamples samples(size.width);
+    std::vector<std::vector<float>> w(projected.size(), std::vector<float>(size.width));
+    for (size_t k = 0; k < projected.size(); ++k)
+      std::fill(w[k].begin(), w[k].end(), static_cast<float>(lattice.At(projected[k])));
+    std::vector<RowSamples> samples(projected.size(), RowSamples(size.width));
     GatherScratch scratch(size.width);
-    cv::Mat sum(band_size, CV_32FC1), count(band_size, CV_32FC1);
-    std::vector<cv::Mat> costs(lattice.planes);
-    for (int plane = 0; plane < lattice.planes; ++plane) {
-      std::fill(w.begin(), w.end(), static_cast<float>(lattice.At(plane)));
-      sum.setTo(0.0f);
-      count.setTo(0.0f);
-      for (int j = 0; j < band.rows(); ++j) {
-        for (int i = 0; i < frames; ++i) {
-          ProjectRow(level, i, band.Row(j), w.data(), &samples);
-          BoundRow(samples, samples, 0.0f, size.width, level.frames[i], &scratch);
-          GatherRow(level, level.frames[i], band.Row(j), scratch, options.truncation,
-                    sum.ptr<float>(j), count.ptr<float>(j));
+    std::vector<cv::Mat> sums(planes), counts(planes);
+    for (int p = 0; p < planes; ++p) {
+      sums[p] = cv::Mat::zeros(band_size, CV_32FC1);
+      counts[p] = cv::Mat::zeros(band_size, CV_32FC1);
+    }
+    for (int j = 0; j < band.rows(); ++j) {
+      const int y = band.Row(j);
+      for (int i = 0; i < frames; ++i) {
+        for (size_t k = 0; k < projected.size(); ++k)
+          ProjectRow(level, i, y, w[k].data(), &samples[k]);
+        for (int p = 0; p < planes; ++p) {
+          BoundRow(samples[segment[p]], samples[segment[p] + 1], along[p], size.width,
+                   level.frames[i], &scratch);
+          GatherRow(level, level.frames[i], y, scratch, options.truncation, sums[p].ptr<float>(j),
+                    counts[p].ptr<float>(j));
         }
       }
-      AggregateSlice(sum, count, frames, options, costs[plane]);
-      costs[plane] = band.Inner(costs[plane]);
+    }
+    for (int p = 0; p < planes; ++p) {
+      AggregateSlice(sums[p], counts[p], frames, options, sums[p]);
+      sums[p] = band.Inner(sums[p]);
     }
     PlaneSelection rows = SelectionRows(selection, band);
-    SelectPlanesInto(costs, {}, 1, &rows);
+    SelectPlanesInto(sums, {}, 1, &rows);
   });
   return selection;
 }

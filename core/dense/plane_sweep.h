@@ -25,6 +25,11 @@ struct PhotoCostOptions {
   // Aggregated samples below this share of (frames x window) leave the cost
   // at kNoCost (the plane leaves most frames).
   float min_valid_share = 0.5f;
+  // SweepAllPlanes projects every this many planes exactly (and the last)
+  // and interpolates the samples of the planes between on the straight line
+  // between their two projections (see SweepPlaneWindow for why that holds).
+  // The caller picks it so that a segment spans a couple of pixels of parallax.
+  int projected_every = 1;
 };
 
 // The cost volume is streamed: the level is swept in bands of rows (plus
