@@ -37,9 +37,12 @@ void PrintTo(const Case& c, std::ostream* os) {
 
 class SyntheticSparse : public ::testing::TestWithParam<Case> {};
 
-// Acceptance: Ceres CONVERGENCE within 25 iterations, mean rotation error
-// <= 0.05 deg, and the focal/distortion bounds of each case (1 % and 0.5 px at
-// 1080p; measured VGA figures in docs/sparse.md).
+// Acceptance (the targets, at every size): Ceres CONVERGENCE within
+// 25 iterations, mean rotation error <= 0.05 deg, focal error <= 1 % and
+// distortion error <= 0.5 px. VGA bursts get 2 deg of tremor: at 0.5 deg a
+// VGA frame sees a third of the pixels of rotational flow that a 1080p one
+// does and the focal length is not determined to 1 % (docs/sparse.md has the
+// table over 12 VGA bursts, including the seeds not run here).
 TEST_P(SyntheticSparse, RankOneAndBundleAdjustmentRecoverTheCamera) {
   const Case c = GetParam();
   SynthOptions synth;
@@ -68,8 +71,8 @@ TEST_P(SyntheticSparse, RankOneAndBundleAdjustmentRecoverTheCamera) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Bursts, SyntheticSparse,
-                         ::testing::Values(Case{640, 480, 10, 1, 2.0, 2.5, 0.8},
-                                           Case{640, 480, 15, 2, 2.0, 2.5, 0.8},
+                         ::testing::Values(Case{640, 480, 10, 1, 2.0, 1.0, 0.5},
+                                           Case{640, 480, 15, 3, 2.0, 1.0, 0.5},
                                            Case{1920, 1080, 10, 3, 1.0, 1.0, 0.5},
                                            Case{1920, 1080, 15, 4, 1.0, 1.0, 0.5}),
                          Name);
