@@ -11,7 +11,11 @@ void SetProblem(httplib::Response& response, int status, const std::string& slug
                                {"title", title},
                                {"status", status},
                                {"detail", detail}};
-  response.set_content(body.dump() + "\n", kProblemContentType);
+  // The detail often quotes the request (a path, a query value), which need not
+  // be UTF-8: replace bad bytes with U+FFFD instead of throwing, which turned a
+  // 404 or 401 into a 500 (found by fuzz/http_fuzzer).
+  response.set_content(body.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n",
+                       kProblemContentType);
 }
 
 void SetDefaultProblem(const httplib::Request& request, httplib::Response& response,
