@@ -53,6 +53,17 @@ size_t MinimumFrameBytes(const FrameLayout& layout) {
     default:
       return 1;  // compressed
   }
+  // 4:2:2 and 4:2:0 share one chroma sample between 2 columns (and 4:2:0
+  // between 2 rows): such frames exist in even sizes only, and every chroma
+  // conversion below (ours and OpenCV's) reads whole samples, so an odd size
+  // would read past the end of the frame. Found by fuzz/frame_convert_fuzzer.
+  const bool yuv420 = layout.fourcc == V4L2_PIX_FMT_NV12 || layout.fourcc == V4L2_PIX_FMT_YUV420;
+  const bool subsampled =
+      yuv420 || layout.fourcc == V4L2_PIX_FMT_YUYV || layout.fourcc == V4L2_PIX_FMT_UYVY;
+  if ((subsampled && w % 2 != 0) || (yuv420 && h % 2 != 0))
+    throw std::runtime_error(std::string(yuv420 ? "4:2:0 frames need an even width and height"
+                                                : "4:2:2 frames need an even width") +
+                             ", got " + std::to_string(w) + "x" + std::to_string(h));
   if (stride < row)
     throw std::runtime_error("bytesperline " + std::to_string(stride) + " is less than the " +
                              std::to_string(row) + " bytes a row of width " + std::to_string(w) +

@@ -25,7 +25,8 @@ bool IsSupportedFourcc(uint32_t fourcc);
 bool HasCheapColor(uint32_t fourcc);
 
 // The smallest number of bytes a frame of this layout fills (for compressed
-// formats: 1). Throws std::runtime_error when bytesperline is too small for the width.
+// formats: 1). Throws std::runtime_error when bytesperline is too small for the width,
+// or the size is odd where the chroma subsampling needs it even (4:2:2 width, 4:2:0 both).
 size_t MinimumFrameBytes(const FrameLayout& layout);
 
 // Converts `bytesused` bytes at `data`. `gray` is always written; `color` is

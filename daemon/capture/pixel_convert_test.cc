@@ -90,6 +90,10 @@ TEST(PixelConvert, ShortFramesAndNarrowRowsAreErrors) {
                             nullptr, nullptr),
                std::runtime_error);
   EXPECT_THROW(MinimumFrameBytes({V4L2_PIX_FMT_YUYV, 16, 16, 20, 0}), std::runtime_error);
+  // Odd sizes of subsampled formats (fuzz/regressions/frame_convert/yu12-odd-width-overread).
+  EXPECT_THROW(MinimumFrameBytes({V4L2_PIX_FMT_YUV420, 15, 2, 15, 0}), std::runtime_error);
+  EXPECT_THROW(MinimumFrameBytes({V4L2_PIX_FMT_NV12, 16, 3, 16, 0}), std::runtime_error);
+  EXPECT_THROW(MinimumFrameBytes({V4L2_PIX_FMT_UYVY, 7, 4, 14, 0}), std::runtime_error);
 }
 
 // Strips the DHT segments, as many webcams send their MJPEG frames.
