@@ -113,7 +113,10 @@ nlohmann::json OpenApiDocument() {
        {{"required", false},
         {"content", {{"application/json", {{"schema", Ref("CaptureRequest")}}}}}}},
       {"responses",
-       {{"202", Accepted()}, {"400", Problem("Invalid request body")}, {"503", QueueFull()}}}};
+       {{"202", Accepted()},
+        {"400", Problem("Invalid request body")},
+        {"503", QueueFull()},
+        {"507", Problem("The burst cannot be stored (state directory full or unwritable)")}}}};
   paths["/api/v1/jobs"]["post"] = {
       {"summary", "Upload a tar of a dfsm-burst/1 directory and queue a pipeline job"},
       {"parameters",
@@ -134,7 +137,8 @@ nlohmann::json OpenApiDocument() {
         {"415", Problem("Not a tar upload")},
         {"422", Problem("Not a valid ustar archive of a dfsm-burst/1 directory, or over a "
                         "[limits] key (entries, file size, frames, pixels)")},
-        {"503", QueueFull()}}}};
+        {"503", QueueFull()},
+        {"507", Problem("The burst cannot be stored (state directory full or unwritable)")}}}};
   paths["/api/v1/jobs"]["get"] = {
       {"summary", "List jobs, newest first"},
       {"parameters",
