@@ -12,6 +12,21 @@ namespace fs = std::filesystem;
 
 namespace {
 
+// libjpeg decodes a JPEG cut short with only a warning, filling the rest with
+// grey, and OpenCV returns that image: a truncated frame would be processed as
+// if it were whole. A complete JPEG has its end-of-image marker (FF D9) after
+// the last start-of-scan (FF DA); neither pair can occur inside entropy-coded
+// data (an FF there is followed by 00 or a restart marker), and an EXIF
+// thumbnail's FF D9 comes before the image's first scan.
+bool IsTruncatedJpeg(const std::string& bytes) {
+  if (bytes.size() < 4 || static_cast<unsigned char>(bytes[0]) != 0xFF ||
+      static_cast<unsigned char>(bytes[1]) != 0xD8)
+    return false;  // not a JPEG
+  const size_t scan = bytes.rfind("\xFF\xDA");
+  if (scan == std::string::npos) return true;
+  return bytes.find("\xFF\xD9", scan + 2) == std::string::npos;
+}
+
 int RequirePositiveInt(const nlohmann::json& j, const char* key, const std::string& origin) {
   if (!j.contains(key)) throw BurstError(origin + ": required field '" + key + "' is missing");
   if (!j[key].is_number_integer() || j[key].get<int64_t>() <= 0 || j[key].get<int64_t>() > 65535)
@@ -161,7 +176,18 @@ Burst ReadBurst(const fs::path& burst_dir, const ReadBurstOptions& options) {
         !IsLexicallyInside(root, fs::weakly_canonical(path, ec)))
       throw BurstError(where + ": path lies outside the burst directory");
     if (!fs::is_regular_file(path, ec)) throw BurstError(where + ": file is missing");
-    const cv::Mat frame = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
+    std::string bytes;
+    try {
+      bytes = ReadFileToString(path);
+    } catch (const std::exception& e) {
+      throw BurstError(where + ": " + e.what());
+    }
+    if (bytes.empty()) throw BurstError(where + ": empty file");
+    if (IsTruncatedJpeg(bytes))
+      throw BurstError(where + ": truncated JPEG (" + std::to_string(bytes.size()) +
+                       " bytes, no end-of-image marker after the last scan)");
+    const cv::Mat frame = cv::imdecode(
+        cv::Mat(1, static_cast<int>(bytes.size()), CV_8UC1, bytes.data()), cv::IMREAD_UNCHANGED);
     if (frame.empty()) throw BurstError(where + ": unreadable or not an image");
     if (frame.cols != manifest.width || frame.rows != manifest.height)
       throw BurstError(where + ": frame is " + std::to_string(frame.cols) + "x" +

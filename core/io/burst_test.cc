@@ -107,6 +107,23 @@ TEST_F(BurstTest, RejectsAnUnreadableFrame) {
   EXPECT_NE(ReadError().find("unreadable"), std::string::npos);
 }
 
+TEST_F(BurstTest, RejectsATruncatedJpegAndAnEmptyFrame) {
+  // JPEG frames under their PNG names (the reader goes by content): whole,
+  // with bytes after the end-of-image marker (some cameras append a trailer)
+  // they read; cut short (libjpeg would fill the rest with grey) they do not.
+  std::vector<uchar> jpeg;
+  cv::imencode(".jpg", frames_[2], jpeg);
+  std::string whole(jpeg.begin(), jpeg.end());
+  WriteFileAtomically(dir_ / "frames/000002.png", whole + std::string(40, '\0') + "TRAILER");
+  EXPECT_EQ(ReadBurst(dir_).size(), 4);
+  WriteFileAtomically(dir_ / "frames/000002.png", whole.substr(0, whole.size() * 3 / 4));
+  const std::string error = ReadError();
+  EXPECT_NE(error.find("frames[2] 'frames/000002.png': truncated JPEG"), std::string::npos)
+      << error;
+  WriteFileAtomically(dir_ / "frames/000002.png", std::string());
+  EXPECT_NE(ReadError().find("000002.png': empty file"), std::string::npos);
+}
+
 TEST_F(BurstTest, RejectsAFrameOfAnotherSize) {
   cv::imwrite((dir_ / "frames/000000.png").string(), cv::Mat(10, 10, CV_8UC1, cv::Scalar(3)));
   EXPECT_NE(ReadError().find("10x10"), std::string::npos);

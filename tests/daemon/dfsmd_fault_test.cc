@@ -11,6 +11,7 @@
 #include <cstring>
 #include <iostream>
 #include <map>
+#include <opencv2/imgcodecs.hpp>
 
 #include "core/io/burst.h"
 #include "core/io/file_util.h"
@@ -228,7 +229,26 @@ TEST_F(DfsmdFaultTest, CorruptAndTruncatedFramesAreRefusedNamingTheFrame) {
                                    return png;
                                  })},
   };
-  for (const auto& [frame, tar] : uploads) {
+  // JPEG frames (the reader takes them too): one cut short. libjpeg decodes a
+  // truncated stream with a warning and grey filler, so it must be caught as such.
+  std::map<std::string, std::string> all = uploads;
+  {
+    const Burst good = ReadBurst(root_ / "burst");
+    BurstManifest manifest = good.manifest;
+    std::vector<service::TarFile> jpeg;
+    for (size_t k = 0; k < manifest.frames.size(); ++k) {
+      manifest.frames[k].file = "frames/" + std::to_string(k) + ".jpg";
+      std::vector<uchar> bytes;
+      cv::imencode(".jpg", good.gray[k], bytes, {cv::IMWRITE_JPEG_QUALITY, 95});
+      std::string data(bytes.begin(), bytes.end());
+      if (k == 4) data.resize(data.size() * 6 / 10);
+      jpeg.push_back({manifest.frames[k].file, data});
+    }
+    manifest.pixel_format = "gray8";
+    jpeg.push_back({"manifest.json", ToJson(manifest).dump()});
+    all["frames/4.jpg"] = service::WriteTar(jpeg);
+  }
+  for (const auto& [frame, tar] : all) {
     auto result = client.Post("/api/v1/jobs", tar, "application/x-tar");
     ASSERT_TRUE(result);
     std::cout << frame << ": " << result->status << " " << Detail(result) << "\n";
