@@ -22,6 +22,19 @@ struct StagingGuard {
   }
 };
 
+// `message` with the staging directory taken out of every path in it: the
+// client named its files relative to the archive, and the daemon's state
+// directory is none of its business.
+std::string ArchiveRelative(std::string message, const fs::path& extracted) {
+  const std::string prefix = extracted.string() + "/";
+  for (size_t at = message.find(prefix); at != std::string::npos; at = message.find(prefix, at))
+    message.erase(at, prefix.size());
+  const std::string bare = extracted.string();
+  for (size_t at = message.find(bare); at != std::string::npos; at = message.find(bare, at))
+    message.replace(at, bare.size(), "the archive");
+  return message;
+}
+
 }  // namespace
 
 JobScheduler::Reservation JobIntake::Reserve() {
@@ -99,7 +112,7 @@ Job JobIntake::FromArchive(std::string_view archive, const JobOptions& options) 
     read.max_frames = options.frames;
     *burst = ReadBurst(root, read);
   } catch (const BurstError& e) {
-    throw BadUpload(e.what());
+    throw BadUpload(ArchiveRelative(e.what(), extracted));
   }
   Job job = store_->Create("upload", options, root, InputSummary(*burst));
   scheduler_->Submit(std::move(reservation), job.id, std::move(burst));

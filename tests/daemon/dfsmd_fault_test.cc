@@ -254,6 +254,8 @@ TEST_F(DfsmdFaultTest, CorruptAndTruncatedFramesAreRefusedNamingTheFrame) {
     std::cout << frame << ": " << result->status << " " << Detail(result) << "\n";
     EXPECT_EQ(result->status, 422) << result->body;
     EXPECT_NE(Detail(result).find(frame), std::string::npos) << result->body;
+    // Paths are the archive's, never the daemon's state directory.
+    EXPECT_EQ(Detail(result).find(dir_.string()), std::string::npos) << result->body;
   }
   EXPECT_TRUE(json::parse(client.Get("/api/v1/jobs")->body)["jobs"].empty());
   EXPECT_TRUE(fs::is_empty(dir_ / "state" / "tmp"));
