@@ -5,6 +5,8 @@
 #
 #   DFSM_TEST_LONG=1   also run the suites labelled "long"
 #   DFSM_SANITIZE=0    skip the sanitizer build
+#   DFSM_FUZZ=0        skip the fuzz stage (clang + libFuzzer, build-fuzz)
+#   DFSM_FUZZ_SECONDS  seconds each fuzz harness runs in it (default 20)
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 "$root/scripts/install-deps.sh"
@@ -27,6 +29,22 @@ if [ "${DFSM_SANITIZE:-1}" != 0 ]; then
     ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 \
       ctest --output-on-failure --timeout 900 -j "$jobs" -L unit)
 fi
+
+# --- fuzz ---
+# The libFuzzer harnesses of fuzz/ (manifest, config, tar upload, frame
+# conversion, every HTTP route), built with clang + ASan + UBSan into
+# build-fuzz, each fuzzing its seed corpus for DFSM_FUZZ_SECONDS (default 20)
+# (ctest label fuzz). Long campaigns: scripts/run-fuzz.sh. DFSM_FUZZ=0 skips it.
+if [ "${DFSM_FUZZ:-1}" != 0 ]; then
+  echo "== fuzz (libFuzzer, ${DFSM_FUZZ_SECONDS:-20} s per harness)"
+  CC=clang CXX=clang++ cmake -S "$root" -B "$root/build-fuzz" -G Ninja \
+    -DCMAKE_BUILD_TYPE=RelWithDebInfo -DDFSM_FUZZ=ON -DDFSM_FUZZ_SECONDS="${DFSM_FUZZ_SECONDS:-20}" \
+    -DDFSM_BUILD_TESTS=OFF -DDFSM_BUILD_BENCH=OFF
+  cmake --build "$root/build-fuzz" --parallel "$jobs" --target burst_manifest_fuzzer config_fuzzer \
+    tar_upload_fuzzer frame_convert_fuzzer http_fuzzer
+  (cd "$root/build-fuzz" && ctest --output-on-failure -j "$jobs" -L fuzz)
+fi
+# --- end fuzz ---
 
 # --- capture: VM tests against the kernel's vivid driver (ctest label vm) ---
 # Boots Debian's kernel under qemu (no KVM needed, ~3 min under emulation).

@@ -1,0 +1,137 @@
+// Fuzzes dfsmd's HTTP surface: a raw request (or several, kept alive) goes
+// through cpp-httplib's parser into the real routes of api/routes.cc, bearer
+// authentication and CORS included, on the daemon's real parts (fuzz_daemon.h):
+// job store, scheduler (never started: no pipeline runs), intake, metrics and
+// a replay capture source. Every route is reachable: the seeds hold a request
+// for each, and "{J0}".."{J3}" in an input stand for the ids of the fixture
+// jobs (processing, succeeded, failed, queued).
+//
+// What must hold: no crash, no 500 (an exception escaping a handler is a bug),
+// every error answered as problem+json, and the store back to its fixtures
+// after each input (jobs made by the input are deleted, deleted fixtures made
+// again), so the state stays bounded over millions of inputs.
+#include <httplib.h>
+
+#include <algorithm>
+#include <cstddef>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <string>
+#include <string_view>
+
+#include "fuzz/fuzz_check.h"
+#include "fuzz/fuzz_daemon.h"
+
+namespace {
+
+// The request bytes as a connection: reads consume the input, writes collect
+// the response.
+class BufferStream final : public httplib::Stream {
+ public:
+  explicit BufferStream(std::string_view input) : input_(input) {}
+
+  bool is_readable() const override { return true; }
+  bool is_writable() const override { return true; }
+  ssize_t read(char* ptr, size_t size) override {
+    const size_t n = std::min(size, input_.size() - position_);
+    if (n > 0) std::memcpy(ptr, input_.data() + position_, n);
+    position_ += n;
+    return static_cast<ssize_t>(n);
+  }
+  ssize_t write(const char* ptr, size_t size) override {
+    output_.append(ptr, size);
+    return static_cast<ssize_t>(size);
+  }
+  void get_remote_ip_and_port(std::string& ip, int& port) const override {
+    ip = "192.0.2.7";  // not loopback: nothing may depend on where a request comes from
+    port = 50000;
+  }
+  void get_local_ip_and_port(std::string& ip, int& port) const override {
+    ip = "192.0.2.1";
+    port = 8080;
+  }
+  socket_t socket() const override { return INVALID_SOCKET; }
+
+  bool exhausted() const { return position_ >= input_.size(); }
+  std::string TakeOutput() { return std::move(output_); }
+
+ private:
+  std::string_view input_;
+  size_t position_ = 0;
+  std::string output_;
+};
+
+// process_request is protected; a pointer to it formed in a derived class may
+// be applied to the base object, so the harness serves through the real
+// api::HttpServer's httplib::Server (its limits, timeouts and routes) with no
+// socket in between.
+struct ServerAccess : httplib::Server {
+  static constexpr auto kProcessRequest = &ServerAccess::process_request;
+};
+
+// "{J0}".."{J9}" -> fixture job ids.
+std::string Substitute(std::string_view input, const dfsm::fuzz::FuzzDaemon& daemon) {
+  std::string out;
+  out.reserve(input.size() + 64);
+  for (size_t i = 0; i < input.size(); ++i) {
+    if (i + 3 < input.size() && input[i] == '{' && input[i + 1] == 'J' && input[i + 3] == '}' &&
+        input[i + 2] >= '0' && input[i + 2] < '0' + dfsm::fuzz::FuzzDaemon::kFixtures) {
+      out += daemon.fixture(input[i + 2] - '0');
+      i += 3;
+    } else {
+      out += input[i];
+    }
+  }
+  return out;
+}
+
+// Checks one response: its final status line (after any "100 Continue") and,
+// for errors, the problem+json content type.
+void CheckResponse(const std::string& response) {
+  if (response.empty()) return;  // nothing parseable arrived: the connection is just closed
+  size_t start = 0;
+  int status = 0;
+  for (;;) {
+    FUZZ_CHECK(response.compare(start, 9, "HTTP/1.1 ") == 0 && response.size() >= start + 12,
+               "no status line in: " + response.substr(start, 200));
+    status = std::stoi(response.substr(start + 9, 3));
+    if (status != 100) break;
+    const size_t end = response.find("\r\n\r\n", start);
+    FUZZ_CHECK(end != std::string::npos, "unterminated 100 Continue");
+    start = end + 4;
+  }
+  const size_t headers_end = response.find("\r\n\r\n", start);
+  const std::string headers = response.substr(start, headers_end - start);
+  FUZZ_CHECK(status != 500, "an exception escaped a handler:\n" + response.substr(start, 2000));
+  if (status >= 400) {
+    FUZZ_CHECK(headers.find("\r\nContent-Type: application/problem+json") != std::string::npos,
+               "an error without problem+json:\n" + response.substr(start, 2000));
+  }
+}
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  static dfsm::fuzz::FuzzDaemon daemon;
+  daemon.Restore();
+  const std::string input =
+      Substitute(std::string_view(reinterpret_cast<const char*>(data), size), daemon);
+  BufferStream stream(input);
+  httplib::Server* server = daemon.server();
+  // Up to 4 requests on one keep-alive connection, as a client may pipeline them.
+  for (int request = 0; request < 4 && !stream.exhausted(); ++request) {
+    bool connection_closed = false;
+    const bool ok = (server->*ServerAccess::kProcessRequest)(
+        stream, /*close_connection=*/false, connection_closed,
+        [](httplib::Request& r) { r.remote_addr = "192.0.2.7"; });
+    const std::string response = stream.TakeOutput();
+    // DFSM_FUZZ_TRACE=1: the status line of every answer, to see what seeds reach.
+    static const bool trace = std::getenv("DFSM_FUZZ_TRACE") != nullptr;
+    if (trace) std::fprintf(stderr, "-> %s\n", response.substr(0, response.find('\r')).c_str());
+    CheckResponse(response);
+    if (!ok || connection_closed) break;
+  }
+  return 0;
+}
