@@ -104,7 +104,9 @@ JobOptions ParseCaptureRequest(const std::string& body, const service::DaemonCon
   nlohmann::json json;
   try {
     json = nlohmann::json::parse(body);
-  } catch (const nlohmann::json::parse_error& e) {
+  } catch (const nlohmann::json::exception& e) {
+    // parse_error, and out_of_range for a number too large for a double ("1e999"),
+    // which was answered 500 instead of 400.
     throw RequestError(std::string("the body is not valid JSON: ") + e.what());
   }
   if (!json.is_object()) throw RequestError("the body must be a JSON object");
