@@ -55,7 +55,7 @@ for name in "${harnesses[@]}"; do
 done
 printf "%-16s %14d\n" total "$total" | tee -a "$summary"
 
-found=$(find "$work/artifacts" -type f | sort)
+found=$(for name in "${harnesses[@]}"; do find "$work/artifacts/$name" -type f; done | sort)
 if [ -n "$found" ]; then
   echo "crashing inputs (reproduce: build-fuzz/fuzz/<harness>_fuzzer FILE):"
   echo "$found"
