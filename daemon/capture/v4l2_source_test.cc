@@ -247,6 +247,12 @@ TEST_F(V4l2SourceTest, ServiceRecoversFromAnUnplugAndNeverBridgesTheGap) {
   StreamingCaptureService service(
       config, std::make_unique<V4l2Source>(options, MakeFakeV4l2Device(driver_)));
   service.Start();
+  // The 5 s below are for frames, not for filling the 257 x VGA ring, which
+  // took over 10 s under ThreadSanitizer on a loaded host (with the ring lock
+  // held, so the grab could not even notice its deadline).
+  const auto streaming_deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (!service.Status().streaming && std::chrono::steady_clock::now() < streaming_deadline)
+    std::this_thread::sleep_for(milliseconds(2));
   const auto burst = service.GrabBurst(5, BurstWhen::kNext, milliseconds(5000));
   EXPECT_EQ(burst.manifest.source["driver"], "fake");
   EXPECT_EQ(burst.manifest.source["format"], "YUYV");
