@@ -1,10 +1,14 @@
 #!/usr/bin/env bash
 # The test command: installs what is missing, builds with warnings as errors and
-# runs every test that belongs in the default run, then rebuilds with
-# AddressSanitizer + UndefinedBehaviorSanitizer and runs the unit tests again.
+# runs every test that belongs in the default run, then the sanitizer stages
+# (scripts/run-sanitizers.sh): the whole default run again under
+# AddressSanitizer + UndefinedBehaviorSanitizer (build-asan), and the daemon,
+# capture, scheduler and API tests under ThreadSanitizer (build-tsan).
+# Measured on 2 cores shared with other builds (the CI's are not shared):
+# ASan build ~17 CPU-min, tests see README; TSan build ~10 min, tests ~13 min.
 #
 #   DFSM_TEST_LONG=1   also run the suites labelled "long"
-#   DFSM_SANITIZE=0    skip the sanitizer build
+#   DFSM_SANITIZE=0    skip both sanitizer stages (=asan or =tsan: only that one)
 #   DFSM_FUZZ=0        skip the fuzz stage (clang + libFuzzer, build-fuzz)
 #   DFSM_FUZZ_SECONDS  seconds each fuzz harness runs in it (default 20)
 set -euo pipefail
@@ -20,15 +24,17 @@ BUILD_DIR="$root/build" "$root/scripts/build.sh" \
   -DDFSM_WERROR=ON -DDFSM_BUILD_TESTS=ON -DDFSM_BUILD_BENCH=ON
 (cd "$root/build" && ctest --output-on-failure --timeout 900 -j "$jobs" "${exclude[@]}")
 
-if [ "${DFSM_SANITIZE:-1}" != 0 ]; then
-  echo "== address + undefined-behaviour sanitizers"
-  BUILD_DIR="$root/build-asan" "$root/scripts/build.sh" \
-    -DCMAKE_BUILD_TYPE=RelWithDebInfo -DDFSM_SANITIZE=address,undefined \
-    -DDFSM_WERROR=ON -DDFSM_BUILD_TESTS=ON -DDFSM_BUILD_BENCH=OFF
-  (cd "$root/build-asan" &&
-    ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 \
-      ctest --output-on-failure --timeout 900 -j "$jobs" -L unit)
-fi
+# --- sanitizers ---
+# asan: every test of the default run (labels unit, e2e, daemon, fuzz replays;
+# not long, vm, soak) under ASan+UBSan; tsan: labels daemon and tsan under
+# TSan. Reports of every process, dfsmd children included, are collected under
+# <build>/sanitizer-reports and fail the stage. See scripts/run-sanitizers.sh.
+case "${DFSM_SANITIZE:-1}" in
+  0) ;;
+  asan | tsan) "$root/scripts/run-sanitizers.sh" "$DFSM_SANITIZE" ;;
+  *) "$root/scripts/run-sanitizers.sh" asan tsan ;;
+esac
+# --- end sanitizers ---
 
 # --- fuzz ---
 # The libFuzzer harnesses of fuzz/ (manifest, config, tar upload, frame
