@@ -21,8 +21,10 @@
 #         suppressed in scripts/tsan.supp, each entry with its reason. Races
 #         in our code are fixed, never suppressed.
 #
-# Measured on the CI's 2 cores (see README.md, "Tests"): asan build ~15 min,
-# tests ~12 min; tsan build ~9 min, tests ~5 min.
+# Measured on 2 cores shared with other builds (load 5-10): asan build ~35
+# CPU-min, tests 15.4 min (206 tests, 1080p sparse/pipeline tests 3-5 min
+# each); tsan build ~11 CPU-min, tests 13.3 min (119 tests, the 24-round
+# kill -9 test 9 min of it).
 #
 # Every sanitized process writes its report to <build>/sanitizer-reports/
 # (log_path), dfsmd children included: the daemon tests send a child's stderr
