@@ -5,6 +5,7 @@
 #include <sys/socket.h>
 
 #include <cerrno>
+#include <chrono>
 #include <cstring>
 
 namespace dfsm::api {
@@ -47,12 +48,20 @@ int HttpServer::Bind() {
 
 void HttpServer::Start() {
   if (!bound_ || thread_.joinable()) return;
-  thread_ = std::thread([this] { server_.listen_after_bind(); });
+  listening_ended_ = false;
+  thread_ = std::thread([this] {
+    server_.listen_after_bind();
+    listening_ended_ = true;
+  });
 }
 
 void HttpServer::Stop() {
   if (!thread_.joinable()) return;
-  // listen_after_bind may not have entered its loop yet; stop() until it ends.
+  // httplib's stop() acts only once listen_after_bind has marked the server
+  // running: called earlier it does nothing, the loop starts afterwards and
+  // the join waits forever. So wait for the loop (or for its early end).
+  while (!server_.is_running() && !listening_ended_)
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
   server_.stop();
   thread_.join();
 }

@@ -6,6 +6,7 @@
 
 #include <httplib.h>
 
+#include <atomic>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -37,6 +38,7 @@ class HttpServer {
   const service::ServerConfig config_;
   httplib::Server server_;
   std::thread thread_;
+  std::atomic<bool> listening_ended_{false};  // listen_after_bind returned
   bool bound_ = false;
 };
 

@@ -72,6 +72,9 @@ run_stage() {
 asan_build="${DFSM_ASAN_BUILD_DIR:-$root/build-asan}"
 tsan_build="${DFSM_TSAN_BUILD_DIR:-$root/build-tsan}"
 status=0
+# The kill -9 test's rounds exercise the same paths; 8 instead of 24 saves
+# ~3 min under ASan and ~6 min under TSan.
+export DFSM_KILL_ROUNDS="${DFSM_KILL_ROUNDS:-8}"
 for stage in "${stages[@]}"; do
   case "$stage" in
     asan)
