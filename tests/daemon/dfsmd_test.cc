@@ -13,12 +13,16 @@
 #include "core/synth/burst_synthesizer.h"
 #include "daemon/service/ustar.h"
 #include "tests/daemon/dfsmd_process.h"
+#include "tests/daemon/fault_helpers.h"
 
 namespace dfsm::test {
 namespace {
 
 namespace fs = std::filesystem;
 using nlohmann::json;
+
+// How long a job of these small bursts may take before the test fails.
+constexpr std::chrono::seconds kJobTimeout(60);
 
 class DfsmdTest : public ::testing::Test {
  protected:
@@ -51,23 +55,6 @@ class DfsmdTest : public ::testing::Test {
     auto daemon = std::make_unique<DfsmdProcess>(DFSMD_BINARY, Args(extra), dir_ / "dfsmd.log");
     EXPECT_TRUE(daemon->ok()) << daemon->Log();
     return daemon;
-  }
-
-  // Polls the job until it has finished; returns its record.
-  static json AwaitJob(httplib::Client& client, const std::string& location,
-                       std::chrono::seconds timeout = std::chrono::seconds(60)) {
-    const auto deadline = std::chrono::steady_clock::now() + timeout;
-    json job;
-    while (std::chrono::steady_clock::now() < deadline) {
-      auto result = client.Get(location.c_str());
-      if (result && result->status == 200) {
-        job = json::parse(result->body);
-        if (job["status"] == "succeeded" || job["status"] == "failed") return job;
-      }
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    }
-    ADD_FAILURE() << "job " << location << " did not finish: " << job.dump();
-    return job;
   }
 
   static std::string Accepted(const httplib::Result& result) {
@@ -116,7 +103,7 @@ TEST_F(DfsmdTest, CaptureThenFetchEveryOutput) {
   // the reference view is the one the ground truth describes.
   const std::string location = Accepted(
       client.Post("/api/v1/captures", R"({"frames":10,"when":"next"})", "application/json"));
-  const json job = AwaitJob(client, location);
+  const json job = AwaitFinished(client, location, kJobTimeout);
   ASSERT_EQ(job["status"], "succeeded") << job.dump(2);
   EXPECT_EQ(job["origin"], "capture");
   EXPECT_EQ(job["input"]["frames"], 10);
@@ -201,14 +188,14 @@ TEST_F(DfsmdTest, UploadedBurstIsProcessedTheSameWay) {
   const std::string gnu = ReadFileToString(dir_ / "b.tar");
   const std::string second =
       Accepted(client.Post("/api/v1/jobs?frames=8", gnu, "application/x-tar"));
-  const json job = AwaitJob(client, location);
+  const json job = AwaitFinished(client, location, kJobTimeout);
   ASSERT_EQ(job["status"], "succeeded") << job.dump(2);
   EXPECT_EQ(job["origin"], "upload");
   EXPECT_FALSE(job["has_burst"]);
   ExpectProblem(client.Get((location + "/burst.tar").c_str()), 410);
   const DepthEvaluation score = ScoreDepth(client, location);
   EXPECT_LT(score.abs_rel, 0.10) << json(ToJson(score)).dump();
-  const json other = AwaitJob(client, second);
+  const json other = AwaitFinished(client, second, kJobTimeout);
   EXPECT_EQ(other["status"], "succeeded") << other.dump(2);
   EXPECT_EQ(other["input"]["frames"], 8);
 
@@ -252,7 +239,7 @@ TEST_F(DfsmdTest, FullQueueAnswers503AndBadRequestsAreProblems) {
   ExpectProblem(client.Get((locations[0] + "/..%2F..%2Fjob.json").c_str()), 404);
   ExpectProblem(client.Get((locations[0] + "/job.json").c_str()), 404);
   ExpectProblem(client.Get("/api/v1/jobs/..%2F..%2F..%2Fetc%2Fpasswd"), 404);
-  for (const std::string& location : locations) AwaitJob(client, location);
+  for (const std::string& location : locations) AwaitFinished(client, location, kJobTimeout);
   EXPECT_EQ(daemon->Stop(SIGTERM), 0);
 }
 
@@ -261,7 +248,7 @@ TEST_F(DfsmdTest, KillDuringAJobThenRestartCompletesIt) {
   httplib::Client client = daemon->Client();
   const std::string first = Accepted(
       client.Post("/api/v1/captures", R"({"frames":10,"when":"next"})", "application/json"));
-  ASSERT_EQ(AwaitJob(client, first)["status"], "succeeded");
+  ASSERT_EQ(AwaitFinished(client, first, kJobTimeout)["status"], "succeeded");
   const std::string depth_before = client.Get((first + "/depth.tiff").c_str())->body;
 
   const std::string second = Accepted(
@@ -278,7 +265,7 @@ TEST_F(DfsmdTest, KillDuringAJobThenRestartCompletesIt) {
 
   auto restarted = Start({"--pipeline.planes", "256"});
   httplib::Client again = restarted->Client();
-  const json job = AwaitJob(again, second);
+  const json job = AwaitFinished(again, second, kJobTimeout);
   EXPECT_EQ(job["status"], "succeeded") << job.dump(2);
   EXPECT_EQ(job["attempts"], 2);
   EXPECT_EQ(again.Get((first + "/depth.tiff").c_str())->body, depth_before);
