@@ -171,6 +171,33 @@ PlaneSelection MakeSelection(const cv::Size& size) {
   return {cv::Mat(size, CV_32FC1), cv::Mat(size, CV_32FC1), cv::Mat(size, CV_8UC1)};
 }
 
+// The sum and count slices of one band, one pair per swept plane: filled row
+// by row by GatherRow, then aggregated and selected as a whole.
+struct BandSlices {
+  std::vector<cv::Mat> sums, counts;
+
+  BandSlices(int slices, const cv::Size& band_size) : sums(slices), counts(slices) {
+    for (int k = 0; k < slices; ++k) {
+      sums[k] = cv::Mat::zeros(band_size, CV_32FC1);
+      counts[k] = cv::Mat::zeros(band_size, CV_32FC1);
+    }
+  }
+
+  // Turns every slice into its mean cost and selects the band's inner rows
+  // into `selection` (first_plane: the level's, or empty; see SelectPlanes).
+  void Select(const Band& band, int frames, const PhotoCostOptions& options,
+              const cv::Mat& first_plane, int stride, PlaneSelection& selection) {
+    for (size_t k = 0; k < sums.size(); ++k) {
+      AggregateSlice(sums[k], counts[k], frames, options, sums[k]);
+      sums[k] = band.Inner(sums[k]);
+    }
+    PlaneSelection rows = SelectionRows(selection, band);
+    SelectPlanesInto(sums,
+                     first_plane.empty() ? cv::Mat() : first_plane.rowRange(band.first, band.last),
+                     stride, &rows);
+  }
+};
+
 }  // namespace
 
 PlaneSelection SweepAllPlanes(const SweepLevel& level, const InverseDepthLattice& lattice,
@@ -201,11 +228,7 @@ PlaneSelection SweepAllPlanes(const SweepLevel& level, const InverseDepthLattice
       std::fill(w[k].begin(), w[k].end(), static_cast<float>(lattice.At(projected[k])));
     std::vector<RowSamples> samples(projected.size(), RowSamples(size.width));
     GatherScratch scratch(size.width);
-    std::vector<cv::Mat> sums(planes), counts(planes);
-    for (int p = 0; p < planes; ++p) {
-      sums[p] = cv::Mat::zeros(band_size, CV_32FC1);
-      counts[p] = cv::Mat::zeros(band_size, CV_32FC1);
-    }
+    BandSlices slices(planes, band_size);
     for (int j = 0; j < band.rows(); ++j) {
       const int y = band.Row(j);
       for (int i = 0; i < frames; ++i) {
@@ -214,17 +237,12 @@ PlaneSelection SweepAllPlanes(const SweepLevel& level, const InverseDepthLattice
         for (int p = 0; p < planes; ++p) {
           BoundRow(samples[segment[p]], samples[segment[p] + 1], along[p], size.width,
                    level.frames[i], &scratch);
-          GatherRow(level, level.frames[i], y, scratch, options.truncation, sums[p].ptr<float>(j),
-                    counts[p].ptr<float>(j));
+          GatherRow(level, level.frames[i], y, scratch, options.truncation,
+                    slices.sums[p].ptr<float>(j), slices.counts[p].ptr<float>(j));
         }
       }
     }
-    for (int p = 0; p < planes; ++p) {
-      AggregateSlice(sums[p], counts[p], frames, options, sums[p]);
-      sums[p] = band.Inner(sums[p]);
-    }
-    PlaneSelection rows = SelectionRows(selection, band);
-    SelectPlanesInto(sums, {}, 1, &rows);
+    slices.Select(band, frames, options, {}, 1, selection);
   });
   return selection;
 }
@@ -243,11 +261,7 @@ PlaneSelection SweepPlaneWindow(const SweepLevel& level, const InverseDepthLatti
     std::vector<float> w_first(size.width), w_last(size.width);
     RowSamples first_samples(size.width), last_samples(size.width);
     GatherScratch scratch(size.width);
-    std::vector<cv::Mat> sums(count), counts(count);
-    for (int k = 0; k < count; ++k) {
-      sums[k] = cv::Mat::zeros(band_size, CV_32FC1);
-      counts[k] = cv::Mat::zeros(band_size, CV_32FC1);
-    }
+    BandSlices slices(count, band_size);
     // The window's planes are evenly spaced in w, and along them a sample
     // moves on a straight line to within ~0.02 pixel: the homography is
     // linear in w up to the division by Z, which changes by well under 1 %
@@ -268,17 +282,12 @@ PlaneSelection SweepPlaneWindow(const SweepLevel& level, const InverseDepthLatti
         if (count > 1) ProjectRow(level, i, y, w_last.data(), &last_samples);
         for (int k = 0; k < count; ++k) {
           BoundRow(first_samples, last_samples, k * last_t, size.width, level.frames[i], &scratch);
-          GatherRow(level, level.frames[i], y, scratch, options.truncation, sums[k].ptr<float>(j),
-                    counts[k].ptr<float>(j));
+          GatherRow(level, level.frames[i], y, scratch, options.truncation,
+                    slices.sums[k].ptr<float>(j), slices.counts[k].ptr<float>(j));
         }
       }
     }
-    for (int k = 0; k < count; ++k) {
-      AggregateSlice(sums[k], counts[k], frames, options, sums[k]);
-      sums[k] = band.Inner(sums[k]);
-    }
-    PlaneSelection rows = SelectionRows(selection, band);
-    SelectPlanesInto(sums, first_plane.rowRange(band.first, band.last), stride, &rows);
+    slices.Select(band, frames, options, first_plane, stride, selection);
   });
   return selection;
 }
