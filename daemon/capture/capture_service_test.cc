@@ -207,20 +207,70 @@ CaptureConfig SmallConfig() {
   return config;
 }
 
-TEST(CaptureServiceReplay, AReaderSlowerThanTheWriterTimesOut) {
-  // Unpaced replay into a 3-frame ring: the copies cannot keep up, every
-  // attempt meets a gap, and the grab must still end at its deadline.
+TEST(CaptureServiceReplay, UnpacedReplayWaitsForTheBurstReader) {
+  // A recording loses nothing by waiting: unpaced into a ring exactly the
+  // burst's size, the writer would lap any reader, so it must wait for it.
+  // Before it did, the VM suite timed out here after 1078 restarts.
   CaptureConfig config = FlowerReplay(-1.0);
-  config.ring_frames = 3;
+  config.ring_frames = 31;
   auto service = CaptureService::Create(config);
   service->Start();
+  for (int round = 0; round < 3; ++round) {
+    const CaptureService::Burst burst =
+        service->GrabBurst(31, BurstWhen::kNext, milliseconds(20000));
+    ASSERT_EQ(burst.frames.size(), 31u);
+    EXPECT_EQ(burst.manifest.source["source_sequence_first"], 0);
+    EXPECT_EQ(burst.manifest.source["source_sequence_last"], 30);
+  }
+  // And it runs on once the reader is gone.
+  const uint64_t before = service->Status().frames_captured;
+  EXPECT_TRUE(WaitFor([&] { return service->Status().frames_captured > before + 100; }));
+  service->Stop();
+}
+
+// A live source as fast as the machine: nothing waits for a slow reader.
+class FloodSource : public FrameSource {
+ public:
+  void Open() override {}
+  void Close() override {}
+  ReadResult Read(FrameSlot& slot, milliseconds) override {
+    slot.gray.create(480, 640, CV_8UC1);
+    slot.gray.setTo(static_cast<uint8_t>(next_));
+    slot.color.release();
+    slot.timestamp_ns = next_ * 1000;
+    slot.source_sequence = next_++;
+    slot.dropped_before = 0;
+    slot.discontinuity = false;
+    return ReadResult::kFrame;
+  }
+  SourceDescription Describe() const override {
+    SourceDescription d;
+    d.kind = "flood";
+    d.width = 640;
+    d.height = 480;
+    return d;
+  }
+
+ private:
+  int64_t next_ = 0;
+};
+
+TEST(CaptureServiceGaps, AReaderSlowerThanALiveWriterEndsAtItsDeadline) {
+  // Into a 3-frame ring the copies may never keep up, every attempt may meet
+  // a gap, and the grab must still end at its deadline (or succeed).
+  CaptureConfig config;
+  config.source = "flood:";
+  config.ring_frames = 3;
+  StreamingCaptureService service(config, std::make_unique<FloodSource>());
+  service.Start();
   const auto start = std::chrono::steady_clock::now();
   try {
-    service->GrabBurst(3, BurstWhen::kNext, milliseconds(300));
+    service.GrabBurst(3, BurstWhen::kNext, milliseconds(300));
   } catch (const CaptureUnavailable& e) {
     EXPECT_NE(std::string(e.what()).find("timed out"), std::string::npos) << e.what();
   }
   EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(5));
+  EXPECT_TRUE(service.Status().streaming);
 }
 
 TEST(CaptureServiceGaps, ABurstNeverSpansAGap) {

@@ -112,6 +112,12 @@ std::optional<int64_t> FrameRing::NewestSequence() const {
   return AtLocked(0)->sequence;
 }
 
+std::optional<int64_t> FrameRing::NextEvicted() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (count_ < capacity_) return std::nullopt;
+  return AtLocked(count_ - 1)->sequence;
+}
+
 std::optional<int64_t> FrameRing::NewestRunStart() const {
   std::lock_guard<std::mutex> lock(mutex_);
   if (count_ == 0) return std::nullopt;

@@ -54,6 +54,8 @@ class FrameRing {
   // Reader side.
   int Fill() const;
   std::optional<int64_t> NewestSequence() const;
+  // The sequence the next Publish() evicts, or nothing while the ring is not full.
+  std::optional<int64_t> NextEvicted() const;
   // The first sequence of the newest run of consecutive frames.
   std::optional<int64_t> NewestRunStart() const;
 

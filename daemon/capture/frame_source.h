@@ -51,6 +51,10 @@ struct SourceDescription {
   int width = 0, height = 0;
   double fps = 0.0;
   bool color = false;
+  // A live device loses a frame that is not read in time; a recording does
+  // not, so the service may make it wait for a burst reader that fell behind
+  // instead of overwriting frames the burst still needs.
+  bool live = true;
   nlohmann::json details = nlohmann::json::object();  // source-specific provenance
 };
 

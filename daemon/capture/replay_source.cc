@@ -153,6 +153,7 @@ SourceDescription ReplaySource::Describe() const {
   d.device = root_.string();
   d.driver = "replay";
   d.format = "png";
+  d.live = false;
   if (!frames_.empty()) {
     d.width = frames_[0].gray.cols;
     d.height = frames_[0].gray.rows;

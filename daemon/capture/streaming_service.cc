@@ -35,6 +35,7 @@ void StreamingCaptureService::Stop() {
     stop_ = true;
   }
   stop_cv_.notify_all();
+  readers_cv_.notify_all();
   ring_.Wake();
   if (thread_.joinable()) thread_.join();
   running_ = false;
@@ -103,6 +104,41 @@ void StreamingCaptureService::ApplyHoldRequest() {
   holding_ = want;
 }
 
+StreamingCaptureService::ReaderCursor::ReaderCursor(StreamingCaptureService& service, int64_t next)
+    : service_(service) {
+  std::lock_guard<std::mutex> lock(service_.readers_mutex_);
+  position_ = service_.reader_cursors_.insert(next);
+}
+
+StreamingCaptureService::ReaderCursor::~ReaderCursor() {
+  {
+    std::lock_guard<std::mutex> lock(service_.readers_mutex_);
+    service_.reader_cursors_.erase(position_);
+  }
+  service_.readers_cv_.notify_all();
+}
+
+void StreamingCaptureService::ReaderCursor::Advance(int64_t next) {
+  {
+    std::lock_guard<std::mutex> lock(service_.readers_mutex_);
+    if (*position_ == next) return;
+    service_.reader_cursors_.erase(position_);
+    position_ = service_.reader_cursors_.insert(next);
+  }
+  service_.readers_cv_.notify_all();
+}
+
+void StreamingCaptureService::WaitForBurstReaders() {
+  // No deadlock with the reader: the writer waits only while the frame the
+  // reader needs next is in the ring, where CopyAtOrAfter() finds it at once.
+  std::unique_lock<std::mutex> lock(readers_mutex_);
+  while (!stop_ && !reader_cursors_.empty()) {
+    const std::optional<int64_t> evicted = ring_.NextEvicted();
+    if (!evicted || *evicted < *reader_cursors_.begin()) return;
+    readers_cv_.wait_for(lock, kReadSlice);
+  }
+}
+
 void StreamingCaptureService::Run() {
   bool open = false;
   bool discontinuity = false;  // the next frame follows a reopen
@@ -123,6 +159,10 @@ void StreamingCaptureService::Run() {
       last_frame = std::chrono::steady_clock::now();
     }
     ApplyHoldRequest();
+    if (!description_.live) {
+      WaitForBurstReaders();
+      last_frame = std::chrono::steady_clock::now();
+    }
 
     FrameSlot* slot = ring_.Staging();
     const bool dropping = slot == nullptr;
@@ -231,6 +271,7 @@ CaptureService::Burst StreamingCaptureService::GrabBurst(int count, BurstWhen wh
       next = *newest + 1;
   }
 
+  ReaderCursor cursor(*this, next);
   std::vector<CapturedFrame> got;
   got.reserve(static_cast<size_t>(count));
   int gaps = 0;
@@ -263,6 +304,7 @@ CaptureService::Burst StreamingCaptureService::GrabBurst(int count, BurstWhen wh
       got.clear();
     }
     next = frame->sequence + 1;
+    cursor.Advance(next);
     got.push_back(std::move(*frame));
   }
 

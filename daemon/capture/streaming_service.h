@@ -14,6 +14,7 @@
 #include <condition_variable>
 #include <memory>
 #include <mutex>
+#include <set>
 #include <thread>
 
 #include "daemon/capture/capture_service.h"
@@ -39,6 +40,20 @@ class StreamingCaptureService : public CaptureService {
   void LoseSource(const std::string& error, bool gone);
   void SleepUnlessStopped(std::chrono::milliseconds duration);
   void ApplyHoldRequest();
+  void WaitForBurstReaders();
+
+  // Where one GrabBurst() has got to: the next sequence it needs, published
+  // so that a recording can wait for it (see SourceDescription::live).
+  class ReaderCursor {
+   public:
+    ReaderCursor(StreamingCaptureService& service, int64_t next);
+    ~ReaderCursor();
+    void Advance(int64_t next);
+
+   private:
+    StreamingCaptureService& service_;
+    std::multiset<int64_t>::iterator position_;
+  };
 
   const CaptureConfig config_;
   const std::unique_ptr<FrameSource> source_;
@@ -55,6 +70,12 @@ class StreamingCaptureService : public CaptureService {
   // controls (applied by the capture thread, which owns the source).
   std::atomic<int> holds_{0};
   bool holding_ = false;  // capture thread only
+
+  // The next sequence each GrabBurst() in progress needs. The capture thread
+  // of a source that is not live waits rather than evict the smallest.
+  std::mutex readers_mutex_;
+  std::condition_variable readers_cv_;
+  std::multiset<int64_t> reader_cursors_;  // guarded by readers_mutex_
 
   mutable std::mutex status_mutex_;
   CaptureStatus status_;           // guarded by status_mutex_
