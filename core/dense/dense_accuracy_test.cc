@@ -1,5 +1,5 @@
 // Accuracy of the dense stage on generated bursts (core/synth) with the true
-// camera and poses: the project's targets at 1080p, looser bounds at 640x480
+// camera and poses: the project's targets, looser bounds at 640x480 with JPEG
 // (see docs/dense.md for the measured table). Renders 1080p bursts, so it
 // carries the ctest label `accuracy` and is not part of the default run.
 #include <gtest/gtest.h>
@@ -49,11 +49,12 @@ TEST_P(DenseAccuracyTest, MeetsTheBoundsWithTruePoses) {
 
 INSTANTIATE_TEST_SUITE_P(Synth, DenseAccuracyTest,
                          ::testing::Values(
-                             // 640x480 misses the project targets (measured ~3.2-3.8 %, 87-90 %):
-                             // honest looser bounds.
-                             Case{640, 480, 10, 0, 0.045, 0.85, 0.90},
-                             Case{640, 480, 15, 90, 0.045, 0.83, 0.90},
-                             // 1080p: the targets (measured 1.1-1.3 %, 97.4-97.6 %, 94.5-95.6 %).
+                             // 640x480 without JPEG: the targets (measured 1.43 %, 97.0 %,
+                             // 94.5 %); with JPEG q90 the low-texture background is off
+                             // (measured 2.30 %, 92.0 %): looser bounds.
+                             Case{640, 480, 10, 0, 0.02, 0.95, 0.90},
+                             Case{640, 480, 15, 90, 0.03, 0.90, 0.90},
+                             // 1080p: the targets (measured 0.5-0.8 %, 98-99.6 %, 92.6-94 %).
                              Case{1920, 1080, 10, 0, 0.02, 0.95, 0.90},
                              Case{1920, 1080, 10, 90, 0.02, 0.95, 0.90},
                              Case{1920, 1080, 15, 90, 0.02, 0.95, 0.90}),

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "core/dense/bilinear_upsample.h"
+#include "core/dense/depth_discontinuity.h"
 #include "core/dense/guided_filter.h"
 #include "core/dense/inverse_depth_lattice.h"
 #include "core/dense/parallel_rows.h"
@@ -56,6 +57,9 @@ void ValidateInputs(const Burst& burst, const CameraModel& camera, const std::ve
           "image " + std::to_string(burst.width()) + "x" + std::to_string(burst.height()) +
               " too small for coarse_scale " + std::to_string(scale));
   Require(options.refine_radius >= 1, "refine_radius must be >= 1");
+  Require(options.edge_guard_parallax >= 0.0 && options.discontinuity_parallax >= 0.0 &&
+              options.discontinuity_radius >= 0,
+          "edge_guard_parallax, discontinuity_parallax and discontinuity_radius must be >= 0");
   Require(options.refine_stride >= 0, "refine_stride must be >= 0 (0: chosen from the parallax)");
   Require(options.coarse_window_radius >= 0 && options.fine_window_radius >= 0,
           "window radii must be >= 0");
@@ -242,6 +246,7 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
     for (int x = 0; x < plane.cols; ++x)
       wt[x] = (p[x] >= 0.0f && c[x] >= min_confidence) ? c[x] : 0.0f;
   });
+  const cv::Mat raw_plane = options.guided_radius > 0 ? plane.clone() : plane;
   if (options.guided_radius > 0) {
     cv::Mat guide;
     burst.gray[burst.reference()].convertTo(guide, CV_32F, 1.0 / 255.0);
@@ -249,6 +254,14 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
                                  static_cast<float>(options.guided_eps), nullptr,
                                  plane.cols > 1000 ? options.guided_subsample : 1);
   }
+
+  if (options.guided_radius > 0 && options.edge_guard_parallax > 0.0)
+    KeepEdgesOfRawWinners(raw_plane, weight,
+                          static_cast<float>(options.edge_guard_parallax / plane_parallax), plane);
+  if (options.discontinuity_parallax > 0.0)
+    InvalidateAlongDiscontinuities(
+        plane, options.discontinuity_radius,
+        static_cast<float>(options.discontinuity_parallax / plane_parallax), weight);
 
   result.depth = cv::Mat::zeros(plane.size(), CV_32FC1);
   result.confidence = confidence;

@@ -39,8 +39,10 @@ struct DenseOptions {
   int coarse_window_radius = 2;
   int fine_window_radius = 3;
   // Gaussian pre-filter of every frame (captured pixels): evens out the blur
-  // of bilinear resampling and the sensor/JPEG noise. 0: none.
-  double prefilter_sigma = 0.8;
+  // of bilinear resampling and the sensor/JPEG noise. 0: none. Wider filters
+  // wash out the fine texture that low-contrast regions match on: 0.8 gave
+  // 2.5-3.1 % AbsRel at 640x480 where 0.5 gives 1.4-1.9 % (docs/dense.md).
+  double prefilter_sigma = 0.5;
   float truncation = 10.0f;  // grey levels, see PhotoCostOptions
   // Pixels whose confidence (distinctiveness of the cost minimum) is lower get no depth.
   double min_confidence = 0.05;
@@ -51,6 +53,14 @@ struct DenseOptions {
   // The guided filter's linear models are fitted at 1/guided_subsample of the
   // resolution (fast guided filter) once the image is wider than 1000 pixels.
   int guided_subsample = 2;
+  // Depth discontinuities (see depth_discontinuity.h), in pixels of parallax
+  // (in the frame that moves most): where the refinement departs from the
+  // median of the raw winners by more than edge_guard_parallax it keeps the
+  // median; pixels within discontinuity_radius of which the depth spans more
+  // than discontinuity_parallax get no depth. 0: off.
+  double edge_guard_parallax = 0.2;
+  int discontinuity_radius = 2;
+  double discontinuity_parallax = 0.6;
 };
 
 struct DenseDepth {

@@ -210,6 +210,10 @@ TEST_F(DenseDepthInputTest, RejectsInconsistentInputsWithANamedReason) {
   DenseOptions options;
   options.planes = 1;
   ExpectRejected(s.burst, s.camera, s.poses, s.sparse_inverse_depths, "planes", options);
+  options = {};
+  options.discontinuity_parallax = -0.6;
+  ExpectRejected(s.burst, s.camera, s.poses, s.sparse_inverse_depths, "discontinuity_parallax",
+                 options);
 }
 
 }  // namespace

@@ -1,0 +1,64 @@
+#include "core/dense/depth_discontinuity.h"
+
+#include <gtest/gtest.h>
+
+#include <opencv2/imgproc.hpp>
+
+namespace dfsm {
+namespace {
+
+// Plane 10 left of column 20, plane 30 from it on.
+cv::Mat Step(cv::Size size = {40, 24}) {
+  cv::Mat plane(size, CV_32FC1, cv::Scalar(10.0f));
+  plane.colRange(20, size.width).setTo(30.0f);
+  return plane;
+}
+
+TEST(KeepEdgesOfRawWinners, UndoesSmoothingAcrossAnEdgeAndKeepsItElsewhere) {
+  const cv::Mat raw = Step();
+  const cv::Mat weight(raw.size(), CV_32FC1, cv::Scalar(1.0f));
+  // What a filter that does not see the edge makes of it: a ramp 9 columns
+  // wide, plus a small offset everywhere that must survive.
+  cv::Mat refined;
+  cv::blur(raw, refined, cv::Size(9, 1), cv::Point(-1, -1), cv::BORDER_REPLICATE);
+  refined += 0.5f;
+  KeepEdgesOfRawWinners(raw, weight, 1.0f, refined);
+  for (int x = 0; x < raw.cols; ++x) {
+    const float expected = x < 20 ? 10.0f : 30.0f;
+    EXPECT_NEAR(refined.at<float>(12, x), expected, 0.51f) << "column " << x;
+  }
+  EXPECT_FLOAT_EQ(refined.at<float>(12, 2), 10.5f);  // departures below the limit stay
+}
+
+TEST(KeepEdgesOfRawWinners, PixelsWithoutWeightEnterWithTheirRefinedValue) {
+  const cv::Mat raw(16, 16, CV_32FC1, cv::Scalar(-1.0f));  // no winner anywhere
+  const cv::Mat weight = cv::Mat::zeros(raw.size(), CV_32FC1);
+  cv::Mat refined(raw.size(), CV_32FC1, cv::Scalar(7.0f));
+  KeepEdgesOfRawWinners(raw, weight, 0.1f, refined);
+  EXPECT_EQ(cv::countNonZero(refined != 7.0f), 0);
+}
+
+TEST(InvalidateAlongDiscontinuities, ClearsABandAlongTheStepOnly) {
+  const cv::Mat plane = Step();
+  cv::Mat weight(plane.size(), CV_32FC1, cv::Scalar(1.0f));
+  InvalidateAlongDiscontinuities(plane, 2, 5.0f, weight);
+  for (int x = 0; x < plane.cols; ++x) {
+    const bool near = x >= 18 && x <= 21;  // within 2 of the other side
+    EXPECT_EQ(weight.at<float>(10, x) == 0.0f, near) << "column " << x;
+  }
+}
+
+TEST(InvalidateAlongDiscontinuities, InvalidPixelsDoNotWidenTheSpanAndSmallSpansStay) {
+  cv::Mat plane(20, 20, CV_32FC1, cv::Scalar(50.0f));
+  cv::Mat weight(plane.size(), CV_32FC1, cv::Scalar(1.0f));
+  plane.at<float>(10, 10) = -1.0f;  // no depth there
+  weight.at<float>(10, 10) = 0.0f;
+  plane.colRange(0, 5).setTo(53.0f);  // a slant-like change below the limit
+  InvalidateAlongDiscontinuities(plane, 2, 5.0f, weight);
+  EXPECT_EQ(cv::countNonZero(weight), 20 * 20 - 1);
+  InvalidateAlongDiscontinuities(plane, 0, 0.0f, weight);  // radius 0: off
+  EXPECT_EQ(cv::countNonZero(weight), 20 * 20 - 1);
+}
+
+}  // namespace
+}  // namespace dfsm
