@@ -246,18 +246,19 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
     for (int x = 0; x < plane.cols; ++x)
       wt[x] = (p[x] >= 0.0f && c[x] >= min_confidence) ? c[x] : 0.0f;
   });
-  const cv::Mat raw_plane = options.guided_radius > 0 ? plane.clone() : plane;
   if (options.guided_radius > 0) {
     cv::Mat guide;
     burst.gray[burst.reference()].convertTo(guide, CV_32F, 1.0 / 255.0);
-    plane = WeightedGuidedFilter(guide, plane, weight, options.guided_radius,
+    // The filter returns a new image, so the raw winners stay as they are.
+    const cv::Mat raw_plane = plane;
+    plane = WeightedGuidedFilter(guide, raw_plane, weight, options.guided_radius,
                                  static_cast<float>(options.guided_eps), nullptr,
                                  plane.cols > 1000 ? options.guided_subsample : 1);
+    if (options.edge_guard_parallax > 0.0)
+      KeepEdgesOfRawWinners(raw_plane, weight,
+                            static_cast<float>(options.edge_guard_parallax / plane_parallax),
+                            plane);
   }
-
-  if (options.guided_radius > 0 && options.edge_guard_parallax > 0.0)
-    KeepEdgesOfRawWinners(raw_plane, weight,
-                          static_cast<float>(options.edge_guard_parallax / plane_parallax), plane);
   if (options.discontinuity_parallax > 0.0)
     InvalidateAlongDiscontinuities(
         plane, options.discontinuity_radius,
