@@ -32,7 +32,9 @@ TEST(FlowerPipeline, FlowerHeadsAreNearerThanTheBackground) {
   ASSERT_TRUE(output.dense.has_value());
   const cv::Mat& depth = output.dense->depth;
   ASSERT_EQ(depth.size(), cv::Size(512, 288));
-  EXPECT_GT(output.dense->valid_fraction, 0.3);
+  // Measured 0.866: the pixels along the outlines of the flower heads get no
+  // depth (depth discontinuities), the relief of the heads keeps its depth.
+  EXPECT_GT(output.dense->valid_fraction, 0.8);
 
   // Regions read off the reference frame (512x288): the large flower head at
   // the right edge, the one in the centre, and grass/leaves at the left.

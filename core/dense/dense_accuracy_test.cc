@@ -49,12 +49,15 @@ TEST_P(DenseAccuracyTest, MeetsTheBoundsWithTruePoses) {
 
 INSTANTIATE_TEST_SUITE_P(Synth, DenseAccuracyTest,
                          ::testing::Values(
-                             // 640x480 without JPEG: the targets (measured 1.43 %, 97.0 %,
-                             // 94.5 %); with JPEG q90 the low-texture background is off
-                             // (measured 2.30 %, 92.0 %): looser bounds.
+                             // 640x480 without JPEG: the targets (measured 1.26 %, 97.4 %,
+                             // 95.1 %). With JPEG q90 the reference's block artefacts, common
+                             // to every comparison, leave the far low-texture background off
+                             // (measured 2.06 % / 93.3 % at 10 frames, 2.09 % / 92.9 % at 15):
+                             // looser bounds.
                              Case{640, 480, 10, 0, 0.02, 0.95, 0.90},
-                             Case{640, 480, 15, 90, 0.03, 0.90, 0.90},
-                             // 1080p: the targets (measured 0.5-0.8 %, 98-99.6 %, 92.6-94 %).
+                             Case{640, 480, 10, 90, 0.025, 0.92, 0.90},
+                             Case{640, 480, 15, 90, 0.025, 0.92, 0.90},
+                             // 1080p: the targets (measured 0.54-0.82 %, 98-99.5 %, 96-96.5 %).
                              Case{1920, 1080, 10, 0, 0.02, 0.95, 0.90},
                              Case{1920, 1080, 10, 90, 0.02, 0.95, 0.90},
                              Case{1920, 1080, 15, 90, 0.02, 0.95, 0.90}),

@@ -57,12 +57,15 @@ void ValidateInputs(const Burst& burst, const CameraModel& camera, const std::ve
           "image " + std::to_string(burst.width()) + "x" + std::to_string(burst.height()) +
               " too small for coarse_scale " + std::to_string(scale));
   Require(options.refine_radius >= 1, "refine_radius must be >= 1");
+  Require(options.oversample_max_pixels >= 0, "oversample_max_pixels must be >= 0 (0: never)");
   Require(options.edge_guard_parallax >= 0.0 && options.discontinuity_parallax >= 0.0 &&
-              options.discontinuity_radius >= 0,
-          "edge_guard_parallax, discontinuity_parallax and discontinuity_radius must be >= 0");
+              options.discontinuity_relative >= 0.0 && options.discontinuity_radius >= 0,
+          "edge_guard_parallax, discontinuity_parallax, discontinuity_relative and "
+          "discontinuity_radius must be >= 0");
   Require(options.refine_stride >= 0, "refine_stride must be >= 0 (0: chosen from the parallax)");
-  Require(options.coarse_window_radius >= 0 && options.fine_window_radius >= 0,
-          "window radii must be >= 0");
+  Require(options.coarse_window_radius >= 0 && options.fine_window_radius >= 0 &&
+              options.coarse_shiftable_radius >= 0 && options.fine_shiftable_radius >= 0,
+          "window and shiftable radii must be >= 0");
   Require(
       options.prefilter_sigma >= 0.0 && options.truncation > 0.0f &&
           options.min_confidence >= 0.0 && options.guided_radius >= 0 && options.guided_eps > 0.0,
@@ -141,8 +144,16 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
   PhotoCostOptions cost;
   cost.truncation = options.truncation;
   const int scale = CoarseScale(burst.width(), options);
-  const SweepLevel coarse = MakeSweepLevel(reference, frames, other_poses, camera, radial, scale);
+  // Level pixels of a frame at `level_scale`: oversampled up to the option's size.
+  const auto oversample = [&](int level_scale) {
+    const double pixels =
+        static_cast<double>(burst.width() / level_scale) * (burst.height() / level_scale);
+    return pixels <= options.oversample_max_pixels ? 2 : 1;
+  };
+  const SweepLevel coarse =
+      MakeSweepLevel(reference, frames, other_poses, camera, radial, scale, oversample(scale));
   cost.window_radius = options.coarse_window_radius;
+  cost.shiftable_radius = options.coarse_shiftable_radius;
   // Parallax (full-resolution pixels) between neighbouring lattice planes in
   // the frame that moves most: what "a plane" means in the images.
   const double plane_parallax = MaxParallaxPerInverseDepth(camera, other_poses) * lattice.step();
@@ -215,9 +226,11 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
         c[x] = Upsampled(c0, c1, ty, columns, x);
       }
     });
-    const SweepLevel fine = MakeSweepLevel(reference, frames, other_poses, camera, radial, 1);
+    const SweepLevel fine =
+        MakeSweepLevel(reference, frames, other_poses, camera, radial, 1, oversample(1));
     timer.Lap("upsample");
     cost.window_radius = options.fine_window_radius;
+    cost.shiftable_radius = options.fine_shiftable_radius;
     const PlaneSelection fine_selection =
         SweepPlaneWindow(fine, lattice, first, window, stride, cost);
     timer.Lap("fine_sweep");
@@ -262,7 +275,9 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
   if (options.discontinuity_parallax > 0.0)
     InvalidateAlongDiscontinuities(
         plane, options.discontinuity_radius,
-        static_cast<float>(options.discontinuity_parallax / plane_parallax), weight);
+        static_cast<float>(options.discontinuity_parallax / plane_parallax),
+        static_cast<float>(options.discontinuity_relative),
+        static_cast<float>(-lattice.min_inverse_depth / lattice.step()), weight);
 
   result.depth = cv::Mat::zeros(plane.size(), CV_32FC1);
   result.confidence = confidence;

@@ -128,42 +128,62 @@ cv::Point BestShift(const PlaneScene& scene, const cv::Mat& depth, cv::Point dir
   return best;
 }
 
-class DenseDepthPlaneTest : public ::testing::TestWithParam<int> {};
-
-// A plane slanted along x (param 0) or y (param 1): the depth is accurate,
-// dense, in the poses' scale, and does not drift: the best integer shift
-// against the truth is (0, 0) and the sub-pixel displacement implied by the
-// mean bias stays far below a pixel.
-TEST_P(DenseDepthPlaneTest, AccurateAndAlignedWithTheCapturedGrid) {
-  const bool along_x = GetParam() == 0;
-  const Eigen::Vector3d normal = along_x ? Eigen::Vector3d(-0.5, 0.0, 0.6)   // Z 1.2 .. 2.4 m
-                                         : Eigen::Vector3d(0.0, -0.6, 0.6);  // Z 1.2 .. 2.5 m
-  const PlaneScene scene = RenderPlaneScene(normal, 6);
-  const DenseDepth dense =
-      ComputeDenseDepth(scene.burst, scene.camera, scene.poses, scene.sparse_inverse_depths);
-  ASSERT_EQ(dense.depth.type(), CV_32FC1);
-  ASSERT_EQ(dense.depth.size(), cv::Size(640, 480));
-  EXPECT_EQ(dense.planes, 128);
-  EXPECT_GT(dense.valid_fraction, 0.9);
-
-  const DepthEvaluation evaluation =
-      EvaluateDepth(dense.depth, scene.depth, TexturedMask(scene.burst.gray[0]));
-  EXPECT_NEAR(evaluation.scale, 1.0, 0.01);  // true poses: no scale to absorb
-  EXPECT_LT(evaluation.abs_rel, 0.02);
-  EXPECT_GT(evaluation.within_5_percent, 0.95);
-  EXPECT_GT(evaluation.coverage, 0.9);
-
-  const cv::Point direction = along_x ? cv::Point(1, 0) : cv::Point(0, 1);
-  EXPECT_EQ(BestShift(scene, dense.depth, direction), cv::Point(0, 0));
+// Pixels the depth map is displaced by along `direction`, read from its mean
+// inverse-depth bias: a displacement by s reads s on a plane and on its
+// mirror image, a relative bias of the inverse depth reads with opposite signs.
+double ApparentDisplacement(const PlaneScene& scene, const cv::Mat& depth, cv::Point direction) {
   // Inverse-depth change per pixel along the slant, from the truth itself.
   const double per_pixel =
       scene.InverseDepth(Eigen::Vector2d(320 + direction.x, 240 + direction.y)) -
       scene.InverseDepth({320, 240});
-  const double displacement = MeanInverseDepthBias(scene, dense.depth, {0, 0}) / per_pixel;
-  // Measured: 0.37 px (x) and < 0.25 px (y), i.e. a 0.04 % inverse-depth bias
-  // at most; a half-pixel convention error would show as >= 0.5.
-  EXPECT_LT(std::abs(displacement), 0.45) << "depth map displaced by " << displacement << " px";
-  for (const auto& [stage, ms] : dense.timings_ms) EXPECT_GE(ms, 0.0) << stage;
+  return MeanInverseDepthBias(scene, depth, {0, 0}) / per_pixel;
+}
+
+class DenseDepthPlaneTest : public ::testing::TestWithParam<int> {};
+
+// A plane slanted along x (param 0) or y (param 1), and its mirror image:
+// the depth is accurate, dense, in the poses' scale, and does not drift. The
+// best integer shift against the truth is (0, 0); the mean of the two planes'
+// apparent displacements is what the map is displaced by (a grid convention
+// error would show as >= 0.5 pixel), half their difference a bias of the
+// inverse depth that is the same on both.
+TEST_P(DenseDepthPlaneTest, AccurateAndAlignedWithTheCapturedGrid) {
+  const bool along_x = GetParam() == 0;
+  const cv::Point direction = along_x ? cv::Point(1, 0) : cv::Point(0, 1);
+  double displacement[2];
+  for (const int mirror : {0, 1}) {
+    const double sign = mirror ? -1.0 : 1.0;
+    const Eigen::Vector3d normal = along_x ? Eigen::Vector3d(-0.5 * sign, 0.0, 0.6)   // Z 1.2-2.4
+                                           : Eigen::Vector3d(0.0, -0.6 * sign, 0.6);  // 1.2-2.5
+    SCOPED_TRACE(mirror ? "mirrored" : "plane");
+    const PlaneScene scene = RenderPlaneScene(normal, 6);
+    const DenseDepth dense =
+        ComputeDenseDepth(scene.burst, scene.camera, scene.poses, scene.sparse_inverse_depths);
+    ASSERT_EQ(dense.depth.type(), CV_32FC1);
+    ASSERT_EQ(dense.depth.size(), cv::Size(640, 480));
+    EXPECT_EQ(dense.planes, 128);
+    EXPECT_GT(dense.valid_fraction, 0.9);
+    for (const auto& [stage, ms] : dense.timings_ms) EXPECT_GE(ms, 0.0) << stage;
+
+    const DepthEvaluation evaluation =
+        EvaluateDepth(dense.depth, scene.depth, TexturedMask(scene.burst.gray[0]));
+    EXPECT_NEAR(evaluation.scale, 1.0, 0.01);  // true poses: no scale to absorb
+    EXPECT_LT(evaluation.abs_rel, 0.02);
+    EXPECT_GT(evaluation.within_5_percent, 0.95);
+    EXPECT_GT(evaluation.coverage, 0.9);
+    EXPECT_EQ(BestShift(scene, dense.depth, direction), cv::Point(0, 0));
+    displacement[mirror] = ApparentDisplacement(scene, dense.depth, direction);
+  }
+  const double shift = 0.5 * (displacement[0] + displacement[1]);
+  const double bias = 0.5 * (displacement[0] - displacement[1]);
+  // Measured (x, y): displaced by 0.08 / -0.07 pixel, bias worth -0.13 /
+  // -0.30 pixel of slant (<= 0.04 % of the inverse depth). Sampling the frames
+  // bilinearly without oversampling: -0.28 pixel along y, and the mirrored
+  // y-plane's best integer shift (0, -1).
+  EXPECT_LT(std::abs(shift), 0.2) << "depth map displaced by " << shift << " px";
+  EXPECT_LT(std::abs(bias), 0.45) << "inverse-depth bias worth " << bias << " px";
+  RecordProperty("displacement_px", std::to_string(shift));
+  RecordProperty("bias_px", std::to_string(bias));
 }
 
 INSTANTIATE_TEST_SUITE_P(Slant, DenseDepthPlaneTest, ::testing::Values(0, 1));
@@ -213,6 +233,13 @@ TEST_F(DenseDepthInputTest, RejectsInconsistentInputsWithANamedReason) {
   options = {};
   options.discontinuity_parallax = -0.6;
   ExpectRejected(s.burst, s.camera, s.poses, s.sparse_inverse_depths, "discontinuity_parallax",
+                 options);
+  options = {};
+  options.coarse_shiftable_radius = -1;
+  ExpectRejected(s.burst, s.camera, s.poses, s.sparse_inverse_depths, "shiftable radii", options);
+  options = {};
+  options.oversample_max_pixels = -1;
+  ExpectRejected(s.burst, s.camera, s.poses, s.sparse_inverse_depths, "oversample_max_pixels",
                  options);
 }
 

@@ -30,7 +30,7 @@ void KeepEdgesOfRawWinners(const cv::Mat& raw, const cv::Mat& weight, float max_
 }
 
 void InvalidateAlongDiscontinuities(const cv::Mat& plane, int radius, float max_span,
-                                    cv::Mat& weight) {
+                                    float min_relative_span, float zero_plane, cv::Mat& weight) {
   CV_Assert(plane.type() == CV_32FC1 && weight.type() == CV_32FC1 && plane.size() == weight.size());
   if (radius <= 0) return;
   // Invalid pixels must not widen the span: they enter the maximum as -inf
@@ -55,8 +55,11 @@ void InvalidateAlongDiscontinuities(const cv::Mat& plane, int radius, float max_
     const float* h = high.ptr<float>(y);
     const float* l = low.ptr<float>(y);
     float* w = weight.ptr<float>(y);
-    for (int x = 0; x < plane.cols; ++x)
-      if (w[x] > 0.0f && h[x] - l[x] > max_span) w[x] = 0.0f;
+    for (int x = 0; x < plane.cols; ++x) {
+      const float span = h[x] - l[x];
+      if (w[x] > 0.0f && span > max_span && span > min_relative_span * (h[x] - zero_plane))
+        w[x] = 0.0f;
+    }
   });
 }
 

@@ -19,8 +19,12 @@ void KeepEdgesOfRawWinners(const cv::Mat& raw, const cv::Mat& weight, float max_
                            cv::Mat& refined);
 
 // Sets `weight` to 0 at pixels within `radius` of which the valid plane
-// indices (weight > 0) span more than `max_span` planes.
+// indices (weight > 0) span more than `max_span` planes and more than
+// `min_relative_span` of the larger inverse depth there, plane `zero_plane`
+// (<= 0) being inverse depth 0. Both bounds: a span of a few tenths of a pixel
+// of parallax is noise on a far surface, and a span of many pixels is the
+// relief of a near one (a flower head at 30 cm), not a break between surfaces.
 void InvalidateAlongDiscontinuities(const cv::Mat& plane, int radius, float max_span,
-                                    cv::Mat& weight);
+                                    float min_relative_span, float zero_plane, cv::Mat& weight);
 
 }  // namespace dfsm

@@ -41,7 +41,7 @@ TEST(KeepEdgesOfRawWinners, PixelsWithoutWeightEnterWithTheirRefinedValue) {
 TEST(InvalidateAlongDiscontinuities, ClearsABandAlongTheStepOnly) {
   const cv::Mat plane = Step();
   cv::Mat weight(plane.size(), CV_32FC1, cv::Scalar(1.0f));
-  InvalidateAlongDiscontinuities(plane, 2, 5.0f, weight);
+  InvalidateAlongDiscontinuities(plane, 2, 5.0f, 0.0f, 0.0f, weight);
   for (int x = 0; x < plane.cols; ++x) {
     const bool near = x >= 18 && x <= 21;  // within 2 of the other side
     EXPECT_EQ(weight.at<float>(10, x) == 0.0f, near) << "column " << x;
@@ -54,10 +54,23 @@ TEST(InvalidateAlongDiscontinuities, InvalidPixelsDoNotWidenTheSpanAndSmallSpans
   plane.at<float>(10, 10) = -1.0f;  // no depth there
   weight.at<float>(10, 10) = 0.0f;
   plane.colRange(0, 5).setTo(53.0f);  // a slant-like change below the limit
-  InvalidateAlongDiscontinuities(plane, 2, 5.0f, weight);
+  InvalidateAlongDiscontinuities(plane, 2, 5.0f, 0.0f, 0.0f, weight);
   EXPECT_EQ(cv::countNonZero(weight), 20 * 20 - 1);
-  InvalidateAlongDiscontinuities(plane, 0, 0.0f, weight);  // radius 0: off
+  InvalidateAlongDiscontinuities(plane, 0, 0.0f, 0.0f, 0.0f, weight);  // radius 0: off
   EXPECT_EQ(cv::countNonZero(weight), 20 * 20 - 1);
+}
+
+// The same step in planes is a break between surfaces far away and relief on
+// a near one: only the relative bound tells them apart.
+TEST(InvalidateAlongDiscontinuities, ASpanSmallAgainstTheInverseDepthStays) {
+  const cv::Mat plane = Step();
+  cv::Mat weight(plane.size(), CV_32FC1, cv::Scalar(1.0f));
+  // Inverse depth 0 at plane -1000: the step is < 1 % of the inverse depth.
+  InvalidateAlongDiscontinuities(plane, 2, 5.0f, 0.1f, -1000.0f, weight);
+  EXPECT_EQ(cv::countNonZero(weight), static_cast<int>(plane.total()));
+  // Inverse depth 0 at plane 0: the same step is most of it.
+  InvalidateAlongDiscontinuities(plane, 2, 5.0f, 0.1f, 0.0f, weight);
+  EXPECT_LT(cv::countNonZero(weight), static_cast<int>(plane.total()));
 }
 
 }  // namespace

@@ -33,7 +33,10 @@ inline void ProjectRow(const SweepLevel& level, int frame, int y, const float* w
   const float* ry = level.ray_y.ptr<float>(y);
   const RadialInverse& radial = *level.radial;
   const float max_r2 = radial.max_r2();
-  const float focal = level.focal, centre_x = level.centre_x, centre_y = level.centre_y;
+  // Onto the frames' grid (level pixels times the oversampling).
+  const float grid = static_cast<float>(level.oversample);
+  const float focal = grid * level.focal, centre_x = grid * level.centre_x,
+              centre_y = grid * level.centre_y;
   float* px = out->px.data();
   float* py = out->py.data();
   float* usable = out->usable.data();
@@ -112,7 +115,7 @@ inline void GatherRow(const SweepLevel& level, const cv::Mat& image, int y,
 }
 
 // Box-aggregates sum and count (count in place) into the mean cost `cost`
-// (which may be `sum`).
+// (which may be `sum`), then takes the lowest over the shiftable windows.
 void AggregateSlice(const cv::Mat& sum, cv::Mat& count, int frames, const PhotoCostOptions& options,
                     cv::Mat& cost) {
   const cv::Size window(2 * options.window_radius + 1, 2 * options.window_radius + 1);
@@ -124,12 +127,19 @@ void AggregateSlice(const cv::Mat& sum, cv::Mat& count, int frames, const PhotoC
     const float* c = count.ptr<float>(y);
     for (int x = 0; x < cost.cols; ++x) s[x] = c[x] >= min_count ? s[x] / c[x] : kNoCost;
   }
+  if (options.shiftable_radius > 0) {
+    const int side = 2 * options.shiftable_radius + 1;
+    cv::erode(cost, cost, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(side, side)),
+              cv::Point(-1, -1), 1, cv::BORDER_REPLICATE);
+  }
 }
 
 // Rows [first, last) of the level, swept with `halo` more rows on each side:
 // band row j is level row Row(j). Clamping the halo into the image repeats
 // the edge rows, so aggregating the band with a replicated border gives its
-// inner rows exactly what aggregating the whole image would.
+// inner rows exactly what aggregating the whole image would (the halo covers
+// the box and the shiftable windows; at the image's first and last rows the
+// shiftable windows also reach windows centred on the repeated rows).
 struct Band {
   int first = 0, last = 0, halo = 0, level_rows = 0;
   int rows() const { return last - first + 2 * halo; }
@@ -221,7 +231,7 @@ PlaneSelection SweepAllPlanes(const SweepLevel& level, const InverseDepthLattice
   }
   if (projected.size() == 1) projected.push_back(projected[0]);  // one plane: no segment
   PlaneSelection selection = MakeSelection(size);
-  ForEachBand(size.height, options.window_radius, [&](const Band& band) {
+  ForEachBand(size.height, options.window_radius + options.shiftable_radius, [&](const Band& band) {
     const cv::Size band_size(size.width, band.rows());
     std::vector<std::vector<float>> w(projected.size(), std::vector<float>(size.width));
     for (size_t k = 0; k < projected.size(); ++k)
@@ -256,7 +266,7 @@ PlaneSelection SweepPlaneWindow(const SweepLevel& level, const InverseDepthLatti
   const float w0 = static_cast<float>(lattice.min_inverse_depth);
   const float dw = static_cast<float>(lattice.step());
   PlaneSelection selection = MakeSelection(size);
-  ForEachBand(size.height, options.window_radius, [&](const Band& band) {
+  ForEachBand(size.height, options.window_radius + options.shiftable_radius, [&](const Band& band) {
     const cv::Size band_size(size.width, band.rows());
     std::vector<float> w_first(size.width), w_last(size.width);
     RowSamples first_samples(size.width), last_samples(size.width);

@@ -22,6 +22,12 @@ struct PhotoCostOptions {
   float truncation = 10.0f;
   // Half-width of the square aggregation window (box filter), level pixels.
   int window_radius = 2;
+  // Shiftable windows: a pixel takes the lowest aggregated cost of the
+  // windows whose centres lie within this radius (a min filter after the
+  // box), so a pixel near a depth edge can use a window that does not cross
+  // it, and the nearer surface's texture no longer spreads into the farther
+  // one. 0: the centred window only.
+  int shiftable_radius = 0;
   // Aggregated samples below this share of (frames x window) leave the cost
   // at kNoCost (the plane leaves most frames).
   float min_valid_share = 0.5f;

@@ -2,6 +2,7 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "core/dense/frame_oversampling.h"
 #include "core/dense/parallel_rows.h"
 
 namespace dfsm {
@@ -20,8 +21,8 @@ cv::Mat Downsample(const cv::Mat& image, int scale) {
 
 SweepLevel MakeSweepLevel(const cv::Mat& reference, const std::vector<cv::Mat>& frames,
                           const std::vector<Pose>& poses, const CameraModel& camera,
-                          const RadialInverse& radial, int scale) {
-  CV_Assert(scale >= 1 && frames.size() == poses.size());
+                          const RadialInverse& radial, int scale, int oversample) {
+  CV_Assert(scale >= 1 && (oversample == 1 || oversample == 2) && frames.size() == poses.size());
   SweepLevel level;
   level.scale = scale;
   level.reference = Downsample(reference, scale);
@@ -43,8 +44,15 @@ SweepLevel MakeSweepLevel(const cv::Mat& reference, const std::vector<cv::Mat>& 
   level.focal = static_cast<float>(camera.f / scale);
   level.centre_x = static_cast<float>((camera.cx - offset) / scale);
   level.centre_y = static_cast<float>((camera.cy - offset) / scale);
+  level.oversample = oversample;
+  level.frames.resize(frames.size());
+  cv::parallel_for_(cv::Range(0, static_cast<int>(frames.size())), [&](const cv::Range& range) {
+    for (int i = range.start; i < range.end; ++i) {
+      const cv::Mat frame = Downsample(frames[i], scale);
+      level.frames[i] = oversample == 2 ? OversampleTwice(frame) : frame;
+    }
+  });
   for (size_t i = 0; i < frames.size(); ++i) {
-    level.frames.push_back(Downsample(frames[i], scale));
     PlaneHomography warp;
     for (int r = 0; r < 3; ++r) {
       for (int c = 0; c < 3; ++c) warp.r[3 * r + c] = static_cast<float>(poses[i].R(r, c));

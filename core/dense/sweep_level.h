@@ -23,10 +23,14 @@ struct PlaneHomography {
 };
 
 struct SweepLevel {
-  int scale = 1;                // captured pixels per pixel of this level
-  cv::Mat reference;            // CV_32FC1, reference frame
-  cv::Mat ray_x, ray_y;         // CV_32FC1, undistorted normalized coords of the reference pixels
-  std::vector<cv::Mat> frames;  // CV_32FC1, the other frames
+  int scale = 1;         // captured pixels per pixel of this level
+  cv::Mat reference;     // CV_32FC1, reference frame
+  cv::Mat ray_x, ray_y;  // CV_32FC1, undistorted normalized coords of the reference pixels
+  // CV_32FC1, the other frames; on a grid `oversample` times as fine as the
+  // level when oversample is 2 (frame_oversampling.h): level position p is
+  // frame grid position oversample * p.
+  std::vector<cv::Mat> frames;
+  int oversample = 1;
   std::vector<PlaneHomography> warps;  // one per entry of `frames`
   const RadialInverse* radial = nullptr;
   // Captured pixel p = c + f * ratio * x_u is level pixel (p - (scale - 1) / 2) / scale
@@ -36,10 +40,11 @@ struct SweepLevel {
 
 // Builds the level `scale` (1: full resolution; > 1: area-downsampled by that
 // factor, pixel centres at scale * x + (scale - 1) / 2 of the captured grid)
-// from full-resolution float images. `frames[i]` and `poses[i]` belong
-// together; the reference itself is not among them. `radial` must outlive the level.
+// from full-resolution float images, its frames oversampled by `oversample`
+// (1 or 2). `frames[i]` and `poses[i]` belong together; the reference itself
+// is not among them. `radial` must outlive the level.
 SweepLevel MakeSweepLevel(const cv::Mat& reference, const std::vector<cv::Mat>& frames,
                           const std::vector<Pose>& poses, const CameraModel& camera,
-                          const RadialInverse& radial, int scale);
+                          const RadialInverse& radial, int scale, int oversample = 1);
 
 }  // namespace dfsm
