@@ -144,7 +144,8 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
   PhotoCostOptions cost;
   cost.truncation = options.truncation;
   const int scale = CoarseScale(burst.width(), options);
-  // Level pixels of a frame at `level_scale`: oversampled up to the option's size.
+  // A level's frames go on the 2x grid while the level has at most
+  // oversample_max_pixels pixels (every level below 1080p, the coarse one at 1080p).
   const auto oversample = [&](int level_scale) {
     const double pixels =
         static_cast<double>(burst.width() / level_scale) * (burst.height() / level_scale);
