@@ -7,48 +7,17 @@
 // Run: build/bench/dense_bench --benchmark_format=json
 #include <benchmark/benchmark.h>
 
-#include <map>
-#include <memory>
-#include <tuple>
-
+#include "bench/rendered_burst.h"
 #include "core/dense/dense_depth.h"
-#include "core/synth/burst_synthesizer.h"
 
 namespace dfsm {
 namespace {
 
-struct BenchScene {
-  Burst burst;
-  GroundTruth truth;
-  std::vector<double> sparse_inverse_depths;
-};
-
-// Rendering a 1080p burst takes seconds: one per size, kept for every run.
-const BenchScene& Scene(int width, int height, int frames) {
-  static std::map<std::tuple<int, int, int>, std::unique_ptr<BenchScene>> cache;
-  auto& scene = cache[{width, height, frames}];
-  if (!scene) {
-    SynthOptions options;
-    options.width = width;
-    options.height = height;
-    options.frames = frames;
-    const SynthBurst synth = SynthesizeBurst(options);
-    scene = std::make_unique<BenchScene>();
-    scene->burst = ToBurst(synth);
-    scene->truth = synth.truth;
-    // Stand-in for the sparse stage's inverse depths: the truth on a grid.
-    const cv::Mat& depth = synth.truth.depth;
-    for (int v = depth.rows / 40; v < depth.rows; v += depth.rows / 20)
-      for (int u = depth.cols / 40; u < depth.cols; u += depth.cols / 20)
-        if (depth.at<float>(v, u) > 0.0f)
-          scene->sparse_inverse_depths.push_back(1.0 / depth.at<float>(v, u));
-  }
-  return *scene;
-}
-
-// The first `frames` frames of `scene` (reference 0 included).
-void RunDense(benchmark::State& state, const BenchScene& scene, int frames, int planes) {
+// The first `frames` frames of `scene` (reference 0 included), with the
+// truth standing in for the sparse stage's inverse depths.
+void RunDense(benchmark::State& state, const RenderedBurst& scene, int frames, int planes) {
   Burst burst = scene.burst;
+  const std::vector<double> sparse_inverse_depths = SparseInverseDepthsFromTruth(scene.truth);
   burst.gray.resize(frames);
   burst.manifest.frames.resize(frames);
   const std::vector<Pose> poses(scene.truth.poses.begin(), scene.truth.poses.begin() + frames);
@@ -56,8 +25,7 @@ void RunDense(benchmark::State& state, const BenchScene& scene, int frames, int 
   options.planes = planes;
   DenseDepth dense;
   for (auto _ : state)
-    dense =
-        ComputeDenseDepth(burst, scene.truth.camera, poses, scene.sparse_inverse_depths, options);
+    dense = ComputeDenseDepth(burst, scene.truth.camera, poses, sparse_inverse_depths, options);
   for (const auto& [stage, ms] : dense.timings_ms) state.counters[stage + "_ms"] = ms;
   state.counters["valid_fraction"] = dense.valid_fraction;
   state.counters["pixels"] = static_cast<double>(burst.width()) * burst.height();
@@ -65,7 +33,7 @@ void RunDense(benchmark::State& state, const BenchScene& scene, int frames, int 
 
 // The operating point.
 void BM_Dense1080p(benchmark::State& state) {
-  RunDense(state, Scene(1920, 1080, 15), static_cast<int>(state.range(0)),
+  RunDense(state, Rendered(1920, 1080, 15), static_cast<int>(state.range(0)),
            static_cast<int>(state.range(1)));
 }
 BENCHMARK(BM_Dense1080p)
@@ -82,7 +50,7 @@ BENCHMARK(BM_Dense1080p)
 // Resolution scaling at 10 frames, 128 planes.
 void BM_DenseResolution(benchmark::State& state) {
   const int width = static_cast<int>(state.range(0)), height = static_cast<int>(state.range(1));
-  RunDense(state, Scene(width, height, 10), 10, 128);
+  RunDense(state, Rendered(width, height, 10), 10, 128);
 }
 BENCHMARK(BM_DenseResolution)
     ->ArgNames({"width", "height"})

@@ -12,30 +12,13 @@
 #include <benchmark/benchmark.h>
 
 #include <fstream>
-#include <map>
-#include <memory>
 #include <string>
-#include <tuple>
 
+#include "bench/rendered_burst.h"
 #include "core/pipeline/pipeline.h"
-#include "core/synth/burst_synthesizer.h"
 
 namespace dfsm {
 namespace {
-
-// Rendering a 1080p burst takes seconds: one per size, kept for every run.
-const Burst& RenderedBurst(int width, int height, int frames) {
-  static std::map<std::tuple<int, int, int>, std::unique_ptr<Burst>> cache;
-  auto& burst = cache[{width, height, frames}];
-  if (!burst) {
-    SynthOptions options;
-    options.width = width;
-    options.height = height;
-    options.frames = frames;
-    burst = std::make_unique<Burst>(ToBurst(SynthesizeBurst(options)));
-  }
-  return *burst;
-}
 
 // VmHWM of this process in MB; -1 where /proc cannot tell.
 double PeakRssMb() {
@@ -50,7 +33,7 @@ double PeakRssMb() {
 void ResetPeakRss() { std::ofstream("/proc/self/clear_refs") << "5"; }
 
 void RunWholePipeline(benchmark::State& state, int width, int height) {
-  const Burst& burst = RenderedBurst(width, height, static_cast<int>(state.range(0)));
+  const Burst& burst = Rendered(width, height, static_cast<int>(state.range(0))).burst;
   PipelineOptions options;
   options.dense.planes = static_cast<int>(state.range(1));
   ResetPeakRss();

@@ -28,12 +28,8 @@ TEST_P(DenseAccuracyTest, MeetsTheBoundsWithTruePoses) {
   options.frames = c.frames;
   options.jpeg_quality = c.jpeg_quality;
   const SynthBurst synth = SynthesizeBurst(options);
-  // The sparse stage's inverse depths, stood in for by the truth on a grid.
-  std::vector<double> sparse;
+  const std::vector<double> sparse = SparseInverseDepthsFromTruth(synth.truth);
   const cv::Mat& truth = synth.truth.depth;
-  for (int v = truth.rows / 40; v < truth.rows; v += truth.rows / 20)
-    for (int u = truth.cols / 40; u < truth.cols; u += truth.cols / 20)
-      if (truth.at<float>(v, u) > 0.0f) sparse.push_back(1.0 / truth.at<float>(v, u));
   const Burst burst = ToBurst(synth);
   const DenseDepth dense = ComputeDenseDepth(burst, synth.truth.camera, synth.truth.poses, sparse);
   const DepthEvaluation e =

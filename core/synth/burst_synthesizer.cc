@@ -208,4 +208,19 @@ Burst ToBurst(const SynthBurst& synth) {
   return burst;
 }
 
+std::vector<double> SparseInverseDepthsFromTruth(const GroundTruth& truth, int grid) {
+  const cv::Mat& depth = truth.depth;
+  Require(depth.type() == CV_32FC1 && !depth.empty(), "the ground truth has no depth map");
+  Require(grid >= 1 && grid <= std::min(depth.rows, depth.cols),
+          "grid " + std::to_string(grid) + " does not fit the depth map");
+  std::vector<double> inverse_depths;
+  for (int row = 0; row < grid; ++row)
+    for (int column = 0; column < grid; ++column) {
+      const float z = depth.at<float>((2 * row + 1) * depth.rows / (2 * grid),
+                                      (2 * column + 1) * depth.cols / (2 * grid));
+      if (z > 0.0f) inverse_depths.push_back(1.0 / z);
+    }
+  return inverse_depths;
+}
+
 }  // namespace dfsm

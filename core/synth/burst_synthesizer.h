@@ -49,4 +49,9 @@ void WriteSynthBurst(const std::filesystem::path& burst_dir, const SynthBurst& b
 // A Burst in memory as ReadBurst would return it for the written directory.
 Burst ToBurst(const SynthBurst& burst);
 
+// A stand-in for the sparse stage's inverse depths where only the dense stage
+// is measured: 1 / depth of the truth at the centres of a grid x grid lattice
+// over the reference (cells without depth skipped).
+std::vector<double> SparseInverseDepthsFromTruth(const GroundTruth& truth, int grid = 20);
+
 }  // namespace dfsm

@@ -4,6 +4,7 @@
 
 #include <filesystem>
 #include <opencv2/imgproc.hpp>
+#include <stdexcept>
 
 #include "core/io/ground_truth.h"
 #include "core/synth/camera_path.h"
@@ -88,6 +89,22 @@ TEST(BurstSynthesizer, DepthCoversTheImageWithSeveralLayers) {
   EXPECT_LT(highest, 10.0);
   EXPECT_GT(highest / lowest, 2.0) << "the scene needs depth contrast";
   EXPECT_EQ(cv::countNonZero(burst.truth.depth), 320 * 240);
+}
+
+// The stand-in for the sparse stage's inverse depths samples the truth at
+// the centres of the lattice's cells and skips cells without depth.
+TEST(BurstSynthesizer, SparseInverseDepthsSampleTheTruthAtCellCentres) {
+  const SynthBurst burst = SynthesizeBurst(SmallOptions());
+  const std::vector<double> sparse = SparseInverseDepthsFromTruth(burst.truth, 4);
+  ASSERT_EQ(sparse.size(), 16u);
+  // 320x240 in 4x4 cells of 80x60: centres at (40 + 80 i, 30 + 60 j), row by row.
+  EXPECT_DOUBLE_EQ(sparse[0], 1.0 / burst.truth.depth.at<float>(30, 40));
+  EXPECT_DOUBLE_EQ(sparse[6], 1.0 / burst.truth.depth.at<float>(90, 200));
+  GroundTruth holes = burst.truth;
+  holes.depth = burst.truth.depth.clone();
+  holes.depth.at<float>(30, 40) = 0.0f;
+  EXPECT_EQ(SparseInverseDepthsFromTruth(holes, 4).size(), 15u);
+  EXPECT_THROW(SparseInverseDepthsFromTruth(burst.truth, 0), std::invalid_argument);
 }
 
 TEST(BurstSynthesizer, IsDeterministicAndSeedDependent) {
