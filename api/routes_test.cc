@@ -6,7 +6,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
-#include "api/http_server.h"
+#include "api/routes_test_harness.h"
 #include "core/io/file_util.h"
 
 namespace dfsm::api {
@@ -17,62 +17,21 @@ namespace fs = std::filesystem;
 class RoutesTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("routes-test-" + std::to_string(::getpid()));
-    fs::remove_all(dir_);
-    config_.server.port = 0;
-    config_.server.max_body_bytes = 64 * 1024;
-    config_.jobs.queue = 2;
-    store_ = std::make_unique<service::JobStore>(dir_);
-    // Never started: queued jobs stay queued, so the queue's bounds are testable.
-    scheduler_ = std::make_unique<service::JobScheduler>(
-        1, config_.jobs.queue, [](const std::string&, std::shared_ptr<const Burst>) {});
-    service::TarLimits limits;
-    intake_ = std::make_unique<service::JobIntake>(store_.get(), scheduler_.get(), nullptr,
-                                                   &metrics_, limits);
-    ApiContext context{&config_, store_.get(), scheduler_.get(), intake_.get(), nullptr, &metrics_};
-    server_ = std::make_unique<HttpServer>(config_.server);
-    RegisterRoutes(context, server_->server());
-    port_ = server_->Bind();
-    server_->Start();
-    client_ = std::make_unique<httplib::Client>("127.0.0.1", port_);
-  }
-  void TearDown() override {
-    server_->Stop();
-    scheduler_->Shutdown();
-    fs::remove_all(dir_);
+    service::DaemonConfig config;
+    config.server.port = 0;
+    config.server.max_body_bytes = 64 * 1024;
+    config.jobs.queue = 2;
+    routes_ = std::make_unique<RoutesTestHarness>("routes-test", config);
+    client_ = std::make_unique<httplib::Client>("127.0.0.1", routes_->port());
   }
 
-  std::string AddJob(service::JobStatus status) {
-    const fs::path burst = store_->NewStagingDir() / "burst";
-    fs::create_directories(burst);
-    WriteFileAtomically(burst / "manifest.json", "{}");
-    service::Job job = store_->Create("upload", {}, burst, {});
-    job.status = status;
-    store_->Update(job);
-    return job.id;
-  }
-
-  // Checks a problem+json answer and returns its detail.
+  std::string AddJob(service::JobStatus status) { return routes_->AddJob(status); }
   std::string Problem(const httplib::Result& result, int status) {
-    EXPECT_TRUE(result);
-    if (!result) return "";
-    EXPECT_EQ(result->status, status) << result->body;
-    EXPECT_EQ(result->get_header_value("Content-Type"), "application/problem+json");
-    const nlohmann::json body = nlohmann::json::parse(result->body);
-    EXPECT_EQ(body["status"], status);
-    EXPECT_FALSE(body["title"].get<std::string>().empty());
-    return body["detail"].get<std::string>();
+    return ExpectProblem(result, status);
   }
 
-  fs::path dir_;
-  service::DaemonConfig config_;
-  service::Metrics metrics_;
-  std::unique_ptr<service::JobStore> store_;
-  std::unique_ptr<service::JobScheduler> scheduler_;
-  std::unique_ptr<service::JobIntake> intake_;
-  std::unique_ptr<HttpServer> server_;
+  std::unique_ptr<RoutesTestHarness> routes_;
   std::unique_ptr<httplib::Client> client_;
-  int port_ = 0;
 };
 
 TEST_F(RoutesTest, ListsNewestFirstInPages) {
@@ -133,13 +92,13 @@ TEST_F(RoutesTest, BadUploadsAreNamed) {
             std::string::npos);
   // Valid body, but this daemon has no capture source.
   Problem(client_->Post("/api/v1/captures", "", "application/json"), 503);
-  EXPECT_TRUE(store_->List().empty());  // nothing half-made was kept
-  EXPECT_TRUE(fs::is_empty(dir_ / "tmp"));
+  EXPECT_TRUE(routes_->store().List().empty());  // nothing half-made was kept
+  EXPECT_TRUE(fs::is_empty(routes_->dir() / "tmp"));
 }
 
 TEST_F(RoutesTest, FullQueueAnswers503WithRetryAfter) {
-  auto held1 = scheduler_->TryReserve();
-  auto held2 = scheduler_->TryReserve();
+  auto held1 = routes_->scheduler().TryReserve();
+  auto held2 = routes_->scheduler().TryReserve();
   const auto result = client_->Post("/api/v1/captures", "", "application/json");
   EXPECT_NE(Problem(result, 503).find("queue is full"), std::string::npos);
   EXPECT_EQ(result->get_header_value("Retry-After"), "5");
@@ -151,17 +110,17 @@ TEST_F(RoutesTest, FullQueueAnswers503WithRetryAfter) {
 
 TEST_F(RoutesTest, DeleteRemovesQueuedAndFinishedJobs) {
   const std::string queued = AddJob(service::JobStatus::kQueued);
-  scheduler_->SubmitRecovered(queued);
+  routes_->scheduler().SubmitRecovered(queued);
   const std::string processing = AddJob(service::JobStatus::kProcessing);
   const std::string failed = AddJob(service::JobStatus::kFailed);
   EXPECT_NE(
       Problem(client_->Delete(("/api/v1/jobs/" + processing).c_str()), 409).find("being processed"),
       std::string::npos);
-  store_->Remove(processing);
+  routes_->store().Remove(processing);
   EXPECT_EQ(client_->Delete(("/api/v1/jobs/" + queued).c_str())->status, 204);
   EXPECT_EQ(client_->Delete(("/api/v1/jobs/" + failed).c_str())->status, 204);
   Problem(client_->Delete(("/api/v1/jobs/" + failed).c_str()), 404);
-  EXPECT_TRUE(store_->List().empty());
+  EXPECT_TRUE(routes_->store().List().empty());
 }
 
 TEST_F(RoutesTest, OpenApiDocumentsEveryRoute) {

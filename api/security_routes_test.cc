@@ -11,8 +11,7 @@
 #include <chrono>
 #include <opencv2/imgcodecs.hpp>
 
-#include "api/http_server.h"
-#include "api/routes.h"
+#include "api/routes_test_harness.h"
 #include "core/io/burst.h"
 #include "core/io/file_util.h"
 
@@ -57,51 +56,24 @@ std::string Png(int width, int height) {
 class SecurityRoutesTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("security-routes-test-" + std::to_string(::getpid()));
-    fs::remove_all(dir_);
-    config_.server.port = 0;
-    config_.server.max_body_bytes = 256 * 1024;
-    config_.server.token = kToken;
-    store_ = std::make_unique<service::JobStore>(dir_);
-    scheduler_ = std::make_unique<service::JobScheduler>(
-        1, config_.jobs.queue, [](const std::string&, std::shared_ptr<const Burst>) {});
+    service::DaemonConfig config;
+    config.server.port = 0;
+    config.server.max_body_bytes = 256 * 1024;
+    config.server.token = kToken;
     service::TarLimits tar_limits;
     tar_limits.max_entries = 8;
     service::BurstLimits burst_limits;
     burst_limits.max_frame_pixels = 64 * 64;
-    intake_ = std::make_unique<service::JobIntake>(store_.get(), scheduler_.get(), nullptr,
-                                                   &metrics_, tar_limits, burst_limits);
-    ApiContext context{&config_, store_.get(), scheduler_.get(), intake_.get(), nullptr, &metrics_};
-    server_ = std::make_unique<HttpServer>(config_.server);
-    RegisterRoutes(context, server_->server());
-    port_ = server_->Bind();
-    server_->Start();
-    anonymous_ = std::make_unique<httplib::Client>("127.0.0.1", port_);
-    client_ = std::make_unique<httplib::Client>("127.0.0.1", port_);
+    routes_ = std::make_unique<RoutesTestHarness>("security-routes-test", config, tar_limits,
+                                                  burst_limits);
+    anonymous_ = std::make_unique<httplib::Client>("127.0.0.1", routes_->port());
+    client_ = std::make_unique<httplib::Client>("127.0.0.1", routes_->port());
     client_->set_bearer_token_auth(kToken);
   }
-  void TearDown() override {
-    server_->Stop();
-    scheduler_->Shutdown();
-    fs::remove_all(dir_);
-  }
 
-  std::string AddFinishedJob() {
-    const fs::path burst = store_->NewStagingDir() / "burst";
-    fs::create_directories(burst);
-    WriteFileAtomically(burst / "manifest.json", "{}");
-    service::Job job = store_->Create("upload", {}, burst, {});
-    job.status = service::JobStatus::kFailed;
-    store_->Update(job);
-    return job.id;
-  }
-
+  std::string AddFinishedJob() { return routes_->AddJob(service::JobStatus::kFailed); }
   std::string Problem(const httplib::Result& result, int status) {
-    EXPECT_TRUE(result);
-    if (!result) return "";
-    EXPECT_EQ(result->status, status) << result->body;
-    EXPECT_EQ(result->get_header_value("Content-Type"), "application/problem+json");
-    return nlohmann::json::parse(result->body).value("detail", "");
+    return ExpectProblem(result, status);
   }
 
   // A ustar archive of a burst of `frames` PNGs, each `png`, declared width x height.
@@ -117,15 +89,8 @@ class SecurityRoutesTest : public ::testing::Test {
     return service::WriteTar(files);
   }
 
-  fs::path dir_;
-  service::DaemonConfig config_;
-  service::Metrics metrics_;
-  std::unique_ptr<service::JobStore> store_;
-  std::unique_ptr<service::JobScheduler> scheduler_;
-  std::unique_ptr<service::JobIntake> intake_;
-  std::unique_ptr<HttpServer> server_;
+  std::unique_ptr<RoutesTestHarness> routes_;
   std::unique_ptr<httplib::Client> anonymous_, client_;
-  int port_ = 0;
 };
 
 TEST_F(SecurityRoutesTest, EveryProtectedRouteNeedsTheToken) {
@@ -146,23 +111,23 @@ TEST_F(SecurityRoutesTest, EveryProtectedRouteNeedsTheToken) {
     EXPECT_NE(Problem(result, 401).find("Authorization: Bearer <token>"), std::string::npos);
     EXPECT_EQ(result->get_header_value("WWW-Authenticate"), "Bearer realm=\"dfsmd\"");
   }
-  EXPECT_TRUE(store_->Get(job.substr(13)));  // the DELETE did nothing
+  EXPECT_TRUE(routes_->store().Get(job.substr(13)));  // the DELETE did nothing
 
-  httplib::Client wrong("127.0.0.1", port_);
+  httplib::Client wrong("127.0.0.1", routes_->port());
   wrong.set_bearer_token_auth("0123456789abcdef0123456789abcdeX");
   const auto result = wrong.Delete(job.c_str());
   EXPECT_NE(Problem(result, 401).find("not the one"), std::string::npos);
   EXPECT_EQ(result->get_header_value("WWW-Authenticate"),
             "Bearer realm=\"dfsmd\", error=\"invalid_token\"");
-  httplib::Client basic("127.0.0.1", port_);
+  httplib::Client basic("127.0.0.1", routes_->port());
   basic.set_basic_auth("user", kToken);
   EXPECT_NE(Problem(basic.Get("/api/v1/jobs"), 401).find("Bearer scheme"), std::string::npos);
-  EXPECT_TRUE(store_->Get(job.substr(13)));
+  EXPECT_TRUE(routes_->store().Get(job.substr(13)));
 
   EXPECT_EQ(client_->Get("/api/v1/jobs")->status, 200);
   EXPECT_EQ(client_->Get("/metrics")->status, 200);
   EXPECT_EQ(client_->Delete(job.c_str())->status, 204);
-  EXPECT_FALSE(store_->Get(job.substr(13)));
+  EXPECT_FALSE(routes_->store().Get(job.substr(13)));
 }
 
 TEST_F(SecurityRoutesTest, ProbesAndTheApiDescriptionArePublic) {
@@ -178,7 +143,7 @@ TEST_F(SecurityRoutesTest, AnUnauthenticatedUploadIsRefusedBeforeItsBodyIsRead) 
   // Expect: 100-continue: the client gets the 401 instead of "100 Continue"
   // and never sends the 10 MB it announced.
   const std::string answer =
-      RawExchange(port_,
+      RawExchange(routes_->port(),
                   "POST /api/v1/jobs HTTP/1.1\r\nHost: x\r\nContent-Type: application/x-tar\r\n"
                   "Content-Length: 10000000\r\nExpect: 100-continue\r\n\r\n");
   EXPECT_EQ(answer.rfind("HTTP/1.1 401", 0), 0u) << answer;
@@ -187,12 +152,12 @@ TEST_F(SecurityRoutesTest, AnUnauthenticatedUploadIsRefusedBeforeItsBodyIsRead) 
   // Without Expect, the 401 still comes first, as soon as the headers are in
   // (well before a body over server.max_body_bytes would be refused as 413).
   const std::string direct =
-      RawExchange(port_,
+      RawExchange(routes_->port(),
                   "POST /api/v1/jobs HTTP/1.1\r\nHost: x\r\nContent-Type: application/x-tar\r\n"
                   "Content-Length: 10000000\r\n\r\n" +
                       std::string(1000, 'x'));
   EXPECT_EQ(direct.rfind("HTTP/1.1 401", 0), 0u) << direct;
-  EXPECT_TRUE(store_->List().empty());
+  EXPECT_TRUE(routes_->store().List().empty());
 }
 
 TEST_F(SecurityRoutesTest, PathTricksNeverReachTheStateDirectory) {
@@ -216,8 +181,8 @@ TEST_F(SecurityRoutesTest, PathTricksNeverReachTheStateDirectory) {
                                 "/api/v1/jobs/" + id + "%2F..", "/api/v1/jobs/" + id + "%00"}) {
     EXPECT_EQ(client_->Delete(path.c_str())->status, 404) << path;
   }
-  EXPECT_TRUE(store_->Get(id));
-  EXPECT_TRUE(fs::exists(dir_ / "jobs" / id / "job.json"));
+  EXPECT_TRUE(routes_->store().Get(id));
+  EXPECT_TRUE(fs::exists(routes_->dir() / "jobs" / id / "job.json"));
 }
 
 TEST_F(SecurityRoutesTest, BodyHeaderAndUriLimitsAreProblems) {
@@ -232,7 +197,7 @@ TEST_F(SecurityRoutesTest, BodyHeaderAndUriLimitsAreProblems) {
                         "\r\nContent-Type: application/x-tar\r\nTransfer-Encoding: chunked\r\n\r\n";
   for (int i = 0; i < 5; ++i) chunked += "10000\r\n" + chunk + "\r\n";
   chunked += "0\r\n\r\n";
-  const std::string answer = RawExchange(port_, chunked);
+  const std::string answer = RawExchange(routes_->port(), chunked);
   EXPECT_EQ(answer.rfind("HTTP/1.1 413", 0), 0u) << answer.substr(0, 400);
   EXPECT_NE(answer.find("max_body_bytes"), std::string::npos);
 
@@ -249,11 +214,11 @@ TEST_F(SecurityRoutesTest, RequestsWithoutContentLengthHaveNoBody) {
   const std::string auth = "Authorization: Bearer " + std::string(kToken) + "\r\n";
   const std::string id = AddFinishedJob();
   const auto start = std::chrono::steady_clock::now();
-  const std::string deleted =
-      RawExchange(port_, "DELETE /api/v1/jobs/" + id + " HTTP/1.1\r\nHost: x\r\n" + auth + "\r\n");
+  const std::string deleted = RawExchange(
+      routes_->port(), "DELETE /api/v1/jobs/" + id + " HTTP/1.1\r\nHost: x\r\n" + auth + "\r\n");
   EXPECT_EQ(deleted.rfind("HTTP/1.1 204", 0), 0u) << deleted;
   const std::string captured =
-      RawExchange(port_, "POST /api/v1/captures HTTP/1.1\r\nHost: x\r\n" + auth + "\r\n");
+      RawExchange(routes_->port(), "POST /api/v1/captures HTTP/1.1\r\nHost: x\r\n" + auth + "\r\n");
   EXPECT_EQ(captured.rfind("HTTP/1.1 503", 0), 0u) << captured;  // no capture source here
   EXPECT_NE(captured.find("capture-unavailable"), std::string::npos) << captured;
   EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(5));
@@ -261,12 +226,13 @@ TEST_F(SecurityRoutesTest, RequestsWithoutContentLengthHaveNoBody) {
   std::string chunked =
       "POST /no/such/path HTTP/1.1\r\nHost: x\r\n" + auth + "Transfer-Encoding: chunked\r\n\r\n";
   for (int i = 0; i < 5; ++i) chunked += "10000\r\n" + std::string(0x10000, 'x') + "\r\n";
-  const std::string unknown = RawExchange(port_, chunked + "0\r\n\r\n");
+  const std::string unknown = RawExchange(routes_->port(), chunked + "0\r\n\r\n");
   EXPECT_EQ(unknown.rfind("HTTP/1.1 413", 0), 0u) << unknown.substr(0, 300);
   // Multipart is not a way around the body rules.
   const std::string multipart = RawExchange(
-      port_, "POST /api/v1/jobs HTTP/1.1\r\nHost: x\r\n" + auth +
-                 "Content-Type: multipart/form-data; boundary=b\r\nContent-Length: 4\r\n\r\n--b\n");
+      routes_->port(),
+      "POST /api/v1/jobs HTTP/1.1\r\nHost: x\r\n" + auth +
+          "Content-Type: multipart/form-data; boundary=b\r\nContent-Length: 4\r\n\r\n--b\n");
   EXPECT_EQ(multipart.rfind("HTTP/1.1 415", 0), 0u) << multipart;
 }
 
@@ -288,7 +254,7 @@ TEST_F(SecurityRoutesTest, UploadLimitsAreNamed) {
   EXPECT_NE(Problem(upload(BurstTar(3, bomb, 8, 8)), 422)
                 .find("the file declares 16392x16392, the manifest says 8x8"),
             std::string::npos);
-  EXPECT_TRUE(store_->List().empty());
+  EXPECT_TRUE(routes_->store().List().empty());
   EXPECT_EQ(upload(BurstTar(3, Png(8, 8), 8, 8))->status, 202);
 }
 
