@@ -143,6 +143,7 @@ void StreamingCaptureService::Run() {
   bool open = false;
   bool discontinuity = false;  // the next frame follows a reopen
   bool first_frame = true;
+  bool live = true;   // the open source's, read once per open under status_mutex_
   FrameSlot discard;  // written when readers pin every spare buffer
   auto last_frame = std::chrono::steady_clock::now();
   double measured_fps = 0.0;
@@ -155,11 +156,15 @@ void StreamingCaptureService::Run() {
         continue;
       }
       open = true;
+      {
+        std::lock_guard<std::mutex> lock(status_mutex_);
+        live = description_.live;
+      }
       discontinuity = !first_frame;
       last_frame = std::chrono::steady_clock::now();
     }
     ApplyHoldRequest();
-    if (!description_.live) {
+    if (!live) {
       WaitForBurstReaders();
       last_frame = std::chrono::steady_clock::now();
     }
