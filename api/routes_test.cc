@@ -25,18 +25,13 @@ class RoutesTest : public ::testing::Test {
     client_ = std::make_unique<httplib::Client>("127.0.0.1", routes_->port());
   }
 
-  std::string AddJob(service::JobStatus status) { return routes_->AddJob(status); }
-  std::string Problem(const httplib::Result& result, int status) {
-    return ExpectProblem(result, status);
-  }
-
   std::unique_ptr<RoutesTestHarness> routes_;
   std::unique_ptr<httplib::Client> client_;
 };
 
 TEST_F(RoutesTest, ListsNewestFirstInPages) {
   std::vector<std::string> ids;
-  for (int i = 0; i < 5; ++i) ids.push_back(AddJob(service::JobStatus::kFailed));
+  for (int i = 0; i < 5; ++i) ids.push_back(routes_->AddJob(service::JobStatus::kFailed));
   auto page = client_->Get("/api/v1/jobs?limit=2");
   ASSERT_TRUE(page);
   EXPECT_EQ(page->status, 200);
@@ -53,26 +48,28 @@ TEST_F(RoutesTest, ListsNewestFirstInPages) {
     next = body["next"].is_null() ? "" : body["next"].get<std::string>();
   }
   EXPECT_EQ(seen, (std::vector<std::string>{ids[4], ids[3], ids[2], ids[1], ids[0]}));
-  Problem(client_->Get("/api/v1/jobs?limit=none"), 400);
+  ExpectProblem(client_->Get("/api/v1/jobs?limit=none"), 400);
 }
 
 TEST_F(RoutesTest, UnknownJobsFilesAndPathTricksAreProblems) {
-  const std::string id = AddJob(service::JobStatus::kQueued);
-  EXPECT_NE(Problem(client_->Get("/api/v1/jobs/j0000000000000-0000"), 404).find("there is no job"),
+  const std::string id = routes_->AddJob(service::JobStatus::kQueued);
+  EXPECT_NE(
+      ExpectProblem(client_->Get("/api/v1/jobs/j0000000000000-0000"), 404).find("there is no job"),
+      std::string::npos);
+  EXPECT_NE(ExpectProblem(client_->Get("/api/v1/jobs/..%2E"), 404).find("not a job id"),
             std::string::npos);
-  EXPECT_NE(Problem(client_->Get("/api/v1/jobs/..%2E"), 404).find("not a job id"),
-            std::string::npos);
-  Problem(client_->Get("/api/v1/jobs/..%2F..%2Fetc"), 404);
-  EXPECT_NE(Problem(client_->Get(("/api/v1/jobs/" + id + "/job.json").c_str()), 404)
+  ExpectProblem(client_->Get("/api/v1/jobs/..%2F..%2Fetc"), 404);
+  EXPECT_NE(ExpectProblem(client_->Get(("/api/v1/jobs/" + id + "/job.json").c_str()), 404)
                 .find("not a job file"),
             std::string::npos);
-  Problem(client_->Get(("/api/v1/jobs/" + id + "/..%2Fjob.json").c_str()), 404);
-  Problem(client_->Get(("/api/v1/jobs/" + id + "/../../jobs").c_str()), 404);
-  Problem(client_->Get(("/api/v1/jobs/" + id + "/result.json").c_str()), 409);
-  Problem(client_->Get("/api/v1/nothing"), 404);
-  Problem(client_->Get("/api/v1/calibration"), 404);
-  Problem(client_->Get("/api/v1/snapshot.jpg"), 503);
-  EXPECT_NE(Problem(client_->Get("/readyz"), 503).find("no capture source"), std::string::npos);
+  ExpectProblem(client_->Get(("/api/v1/jobs/" + id + "/..%2Fjob.json").c_str()), 404);
+  ExpectProblem(client_->Get(("/api/v1/jobs/" + id + "/../../jobs").c_str()), 404);
+  ExpectProblem(client_->Get(("/api/v1/jobs/" + id + "/result.json").c_str()), 409);
+  ExpectProblem(client_->Get("/api/v1/nothing"), 404);
+  ExpectProblem(client_->Get("/api/v1/calibration"), 404);
+  ExpectProblem(client_->Get("/api/v1/snapshot.jpg"), 503);
+  EXPECT_NE(ExpectProblem(client_->Get("/readyz"), 503).find("no capture source"),
+            std::string::npos);
   EXPECT_EQ(client_->Get("/healthz")->status, 200);
 }
 
@@ -80,18 +77,20 @@ TEST_F(RoutesTest, BadUploadsAreNamed) {
   auto tar = [&](const std::string& body, const std::string& query = "") {
     return client_->Post(("/api/v1/jobs" + query).c_str(), body, "application/x-tar");
   };
-  EXPECT_NE(Problem(tar("not a tar" + std::string(600, ' ')), 422).find("tar header at byte 0"),
+  EXPECT_NE(
+      ExpectProblem(tar("not a tar" + std::string(600, ' ')), 422).find("tar header at byte 0"),
+      std::string::npos);
+  EXPECT_NE(ExpectProblem(tar(""), 400).find("must be a tar"), std::string::npos);
+  ExpectProblem(client_->Post("/api/v1/jobs", "{}", "application/json"), 415);
+  EXPECT_NE(ExpectProblem(tar("x", "?planes=0"), 400).find("'planes'"), std::string::npos);
+  EXPECT_NE(ExpectProblem(tar(std::string(128 * 1024, '\0')), 413).find("max_body_bytes"),
             std::string::npos);
-  EXPECT_NE(Problem(tar(""), 400).find("must be a tar"), std::string::npos);
-  Problem(client_->Post("/api/v1/jobs", "{}", "application/json"), 415);
-  EXPECT_NE(Problem(tar("x", "?planes=0"), 400).find("'planes'"), std::string::npos);
-  EXPECT_NE(Problem(tar(std::string(128 * 1024, '\0')), 413).find("max_body_bytes"),
-            std::string::npos);
-  EXPECT_NE(Problem(client_->Post("/api/v1/captures", "{\"frames\":", "application/json"), 400)
-                .find("not valid JSON"),
-            std::string::npos);
+  EXPECT_NE(
+      ExpectProblem(client_->Post("/api/v1/captures", "{\"frames\":", "application/json"), 400)
+          .find("not valid JSON"),
+      std::string::npos);
   // Valid body, but this daemon has no capture source.
-  Problem(client_->Post("/api/v1/captures", "", "application/json"), 503);
+  ExpectProblem(client_->Post("/api/v1/captures", "", "application/json"), 503);
   EXPECT_TRUE(routes_->store().List().empty());  // nothing half-made was kept
   EXPECT_TRUE(fs::is_empty(routes_->dir() / "tmp"));
 }
@@ -100,26 +99,26 @@ TEST_F(RoutesTest, FullQueueAnswers503WithRetryAfter) {
   auto held1 = routes_->scheduler().TryReserve();
   auto held2 = routes_->scheduler().TryReserve();
   const auto result = client_->Post("/api/v1/captures", "", "application/json");
-  EXPECT_NE(Problem(result, 503).find("queue is full"), std::string::npos);
+  EXPECT_NE(ExpectProblem(result, 503).find("queue is full"), std::string::npos);
   EXPECT_EQ(result->get_header_value("Retry-After"), "5");
-  EXPECT_NE(Problem(client_->Get("/readyz"), 503).find("queue is full"), std::string::npos);
+  EXPECT_NE(ExpectProblem(client_->Get("/readyz"), 503).find("queue is full"), std::string::npos);
   const auto metrics = client_->Get("/metrics");
   EXPECT_NE(metrics->body.find("dfsmd_jobs_rejected_total 1"), std::string::npos);
   EXPECT_NE(metrics->body.find("dfsmd_queue_depth 2"), std::string::npos);
 }
 
 TEST_F(RoutesTest, DeleteRemovesQueuedAndFinishedJobs) {
-  const std::string queued = AddJob(service::JobStatus::kQueued);
+  const std::string queued = routes_->AddJob(service::JobStatus::kQueued);
   routes_->scheduler().SubmitRecovered(queued);
-  const std::string processing = AddJob(service::JobStatus::kProcessing);
-  const std::string failed = AddJob(service::JobStatus::kFailed);
-  EXPECT_NE(
-      Problem(client_->Delete(("/api/v1/jobs/" + processing).c_str()), 409).find("being processed"),
-      std::string::npos);
+  const std::string processing = routes_->AddJob(service::JobStatus::kProcessing);
+  const std::string failed = routes_->AddJob(service::JobStatus::kFailed);
+  EXPECT_NE(ExpectProblem(client_->Delete(("/api/v1/jobs/" + processing).c_str()), 409)
+                .find("being processed"),
+            std::string::npos);
   routes_->store().Remove(processing);
   EXPECT_EQ(client_->Delete(("/api/v1/jobs/" + queued).c_str())->status, 204);
   EXPECT_EQ(client_->Delete(("/api/v1/jobs/" + failed).c_str())->status, 204);
-  Problem(client_->Delete(("/api/v1/jobs/" + failed).c_str()), 404);
+  ExpectProblem(client_->Delete(("/api/v1/jobs/" + failed).c_str()), 404);
   EXPECT_TRUE(routes_->store().List().empty());
 }
 

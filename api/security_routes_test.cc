@@ -72,9 +72,6 @@ class SecurityRoutesTest : public ::testing::Test {
   }
 
   std::string AddFinishedJob() { return routes_->AddJob(service::JobStatus::kFailed); }
-  std::string Problem(const httplib::Result& result, int status) {
-    return ExpectProblem(result, status);
-  }
 
   // A ustar archive of a burst of `frames` PNGs, each `png`, declared width x height.
   std::string BurstTar(int frames, const std::string& png, int width, int height) {
@@ -108,7 +105,7 @@ TEST_F(SecurityRoutesTest, EveryProtectedRouteNeedsTheToken) {
   refused.push_back(anonymous_->Get("/metrics"));
   refused.push_back(anonymous_->Get("/no/such/route"));
   for (httplib::Result& result : refused) {
-    EXPECT_NE(Problem(result, 401).find("Authorization: Bearer <token>"), std::string::npos);
+    EXPECT_NE(ExpectProblem(result, 401).find("Authorization: Bearer <token>"), std::string::npos);
     EXPECT_EQ(result->get_header_value("WWW-Authenticate"), "Bearer realm=\"dfsmd\"");
   }
   EXPECT_TRUE(routes_->store().Get(job.substr(13)));  // the DELETE did nothing
@@ -116,12 +113,12 @@ TEST_F(SecurityRoutesTest, EveryProtectedRouteNeedsTheToken) {
   httplib::Client wrong("127.0.0.1", routes_->port());
   wrong.set_bearer_token_auth("0123456789abcdef0123456789abcdeX");
   const auto result = wrong.Delete(job.c_str());
-  EXPECT_NE(Problem(result, 401).find("not the one"), std::string::npos);
+  EXPECT_NE(ExpectProblem(result, 401).find("not the one"), std::string::npos);
   EXPECT_EQ(result->get_header_value("WWW-Authenticate"),
             "Bearer realm=\"dfsmd\", error=\"invalid_token\"");
   httplib::Client basic("127.0.0.1", routes_->port());
   basic.set_basic_auth("user", kToken);
-  EXPECT_NE(Problem(basic.Get("/api/v1/jobs"), 401).find("Bearer scheme"), std::string::npos);
+  EXPECT_NE(ExpectProblem(basic.Get("/api/v1/jobs"), 401).find("Bearer scheme"), std::string::npos);
   EXPECT_TRUE(routes_->store().Get(job.substr(13)));
 
   EXPECT_EQ(client_->Get("/api/v1/jobs")->status, 200);
@@ -188,7 +185,8 @@ TEST_F(SecurityRoutesTest, PathTricksNeverReachTheStateDirectory) {
 TEST_F(SecurityRoutesTest, BodyHeaderAndUriLimitsAreProblems) {
   // Over server.max_body_bytes, announced or chunked.
   EXPECT_NE(
-      Problem(client_->Post("/api/v1/jobs", std::string(300 * 1024, 'x'), "application/x-tar"), 413)
+      ExpectProblem(
+          client_->Post("/api/v1/jobs", std::string(300 * 1024, 'x'), "application/x-tar"), 413)
           .find("server.max_body_bytes (262144 bytes)"),
       std::string::npos);
   const std::string chunk = std::string(64 * 1024, 'x');
@@ -204,8 +202,8 @@ TEST_F(SecurityRoutesTest, BodyHeaderAndUriLimitsAreProblems) {
   // httplib's compiled-in limits: a header line over 8 KiB is a 400, a request
   // line over 8 KiB a 414; both still problem+json.
   httplib::Headers huge = {{"X-Filler", std::string(9000, 'a')}};
-  Problem(client_->Get("/api/v1/jobs", huge), 400);
-  Problem(client_->Get(("/api/v1/jobs?after=" + std::string(9000, 'a')).c_str()), 414);
+  ExpectProblem(client_->Get("/api/v1/jobs", huge), 400);
+  ExpectProblem(client_->Get(("/api/v1/jobs?after=" + std::string(9000, 'a')).c_str()), 414);
 }
 
 TEST_F(SecurityRoutesTest, RequestsWithoutContentLengthHaveNoBody) {
@@ -241,17 +239,17 @@ TEST_F(SecurityRoutesTest, UploadLimitsAreNamed) {
     return client_->Post("/api/v1/jobs", tar, "application/x-tar");
   };
   // More tar entries than TarLimits.max_entries (8 here).
-  EXPECT_NE(Problem(upload(BurstTar(9, Png(8, 8), 8, 8)), 422).find("more than 8 entries"),
+  EXPECT_NE(ExpectProblem(upload(BurstTar(9, Png(8, 8), 8, 8)), 422).find("more than 8 entries"),
             std::string::npos);
   // A frame over limits.max_frame_pixels (64x64 here).
-  EXPECT_NE(Problem(upload(BurstTar(3, Png(65, 64), 65, 64)), 422)
+  EXPECT_NE(ExpectProblem(upload(BurstTar(3, Png(65, 64), 65, 64)), 422)
                 .find("exceed limits.max_frame_pixels (4096 pixels)"),
             std::string::npos);
   // A decompression bomb: the manifest is small, the PNG header is not.
   std::string bomb = Png(8, 8);
   bomb[18] = 0x40;  // width 0x4008
   bomb[22] = 0x40;  // height 0x4008
-  EXPECT_NE(Problem(upload(BurstTar(3, bomb, 8, 8)), 422)
+  EXPECT_NE(ExpectProblem(upload(BurstTar(3, bomb, 8, 8)), 422)
                 .find("the file declares 16392x16392, the manifest says 8x8"),
             std::string::npos);
   EXPECT_TRUE(routes_->store().List().empty());
