@@ -1,6 +1,6 @@
 // Accuracy of the dense stage on generated bursts (core/synth) with the true
-// camera and poses: the project's targets, looser bounds at 640x480 with JPEG
-// (see docs/dense.md for the measured table). Renders 1080p bursts, so it
+// camera and poses: the project's targets (see docs/dense.md for the
+// measured table). Renders 1080p bursts, so it
 // carries the ctest label `accuracy` and is not part of the default run.
 #include <gtest/gtest.h>
 
@@ -45,15 +45,15 @@ TEST_P(DenseAccuracyTest, MeetsTheBoundsWithTruePoses) {
 
 INSTANTIATE_TEST_SUITE_P(Synth, DenseAccuracyTest,
                          ::testing::Values(
-                             // 640x480 without JPEG: the targets (measured 1.26 %, 97.4 %,
-                             // 95.1 %). With JPEG q90 the reference's block artefacts, common
-                             // to every comparison, leave the far low-texture background off
-                             // (measured 2.06 % / 93.3 % at 10 frames, 2.09 % / 92.9 % at 15):
-                             // looser bounds.
+                             // 640x480: the targets (measured without JPEG 1.06 %, 98.9 %,
+                             // 95.3 %; with JPEG q90 1.70 % / 95.7 % at 10 frames, 1.73 % /
+                             // 95.5 % at 15). Within-5 % with JPEG is asserted a point below
+                             // the target: the JPEG codec's rounding may differ between
+                             // builds of libjpeg, and the margin is half a point.
                              Case{640, 480, 10, 0, 0.02, 0.95, 0.90},
-                             Case{640, 480, 10, 90, 0.025, 0.92, 0.90},
-                             Case{640, 480, 15, 90, 0.025, 0.92, 0.90},
-                             // 1080p: the targets (measured 0.54-0.82 %, 98-99.5 %, 96-96.5 %).
+                             Case{640, 480, 10, 90, 0.02, 0.94, 0.90},
+                             Case{640, 480, 15, 90, 0.02, 0.94, 0.90},
+                             // 1080p: the targets (measured 0.55-0.74 %, 99.1-99.5 %, 96.2-96.5 %).
                              Case{1920, 1080, 10, 0, 0.02, 0.95, 0.90},
                              Case{1920, 1080, 10, 90, 0.02, 0.95, 0.90},
                              Case{1920, 1080, 15, 90, 0.02, 0.95, 0.90}),

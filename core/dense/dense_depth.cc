@@ -16,6 +16,7 @@
 #include "core/dense/plane_sweep.h"
 #include "core/dense/radial_inverse.h"
 #include "core/dense/sweep_level.h"
+#include "core/dense/weak_texture.h"
 #include "core/io/stage_timer.h"
 
 namespace dfsm {
@@ -64,8 +65,9 @@ void ValidateInputs(const Burst& burst, const CameraModel& camera, const std::ve
           "discontinuity_radius must be >= 0");
   Require(options.refine_stride >= 0, "refine_stride must be >= 0 (0: chosen from the parallax)");
   Require(options.coarse_window_radius >= 0 && options.fine_window_radius >= 0 &&
-              options.coarse_shiftable_radius >= 0 && options.fine_shiftable_radius >= 0,
-          "window and shiftable radii must be >= 0");
+              options.coarse_shiftable_radius >= 0 && options.fine_shiftable_radius >= 0 &&
+              options.weak_texture_window_radius >= 0 && options.weak_texture_gradient >= 0.0,
+          "window and shiftable radii and weak_texture_gradient must be >= 0");
   Require(
       options.prefilter_sigma >= 0.0 && options.truncation > 0.0f &&
           options.min_confidence >= 0.0 && options.guided_radius >= 0 && options.guided_eps > 0.0,
@@ -232,6 +234,11 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
     timer.Lap("upsample");
     cost.window_radius = options.fine_window_radius;
     cost.shiftable_radius = options.fine_shiftable_radius;
+    if (options.weak_texture_window_radius > options.fine_window_radius) {
+      cost.wide_window_radius = options.weak_texture_window_radius;
+      cost.wide_window_mask =
+          WeakTextureMask(fine.reference, cost.wide_window_radius, options.weak_texture_gradient);
+    }
     const PlaneSelection fine_selection =
         SweepPlaneWindow(fine, lattice, first, window, stride, cost);
     timer.Lap("fine_sweep");
@@ -260,6 +267,11 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
     for (int x = 0; x < plane.cols; ++x)
       wt[x] = (p[x] >= 0.0f && c[x] >= min_confidence) ? c[x] : 0.0f;
   });
+  // A break between surfaces, in planes (depth_discontinuity.h).
+  SpanBound breaks;
+  breaks.max_span = static_cast<float>(options.discontinuity_parallax / plane_parallax);
+  breaks.min_relative_span = static_cast<float>(options.discontinuity_relative);
+  breaks.zero_plane = static_cast<float>(-lattice.min_inverse_depth / lattice.step());
   if (options.guided_radius > 0) {
     cv::Mat guide;
     burst.gray[burst.reference()].convertTo(guide, CV_32F, 1.0 / 255.0);
@@ -271,14 +283,13 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
     if (options.edge_guard_parallax > 0.0)
       KeepEdgesOfRawWinners(raw_plane, weight,
                             static_cast<float>(options.edge_guard_parallax / plane_parallax),
-                            plane);
+                            options.discontinuity_parallax > 0.0
+                                ? options.guided_radius + options.discontinuity_radius
+                                : 0,
+                            breaks, plane);
   }
   if (options.discontinuity_parallax > 0.0)
-    InvalidateAlongDiscontinuities(
-        plane, options.discontinuity_radius,
-        static_cast<float>(options.discontinuity_parallax / plane_parallax),
-        static_cast<float>(options.discontinuity_relative),
-        static_cast<float>(-lattice.min_inverse_depth / lattice.step()), weight);
+    InvalidateAlongDiscontinuities(plane, options.discontinuity_radius, breaks, weight);
 
   result.depth = cv::Mat::zeros(plane.size(), CV_32FC1);
   result.confidence = confidence;

@@ -45,6 +45,11 @@ struct DenseOptions {
   // window (radius 2) it added noise inside surfaces: 1080p 0.43 -> 0.50 %.
   int coarse_shiftable_radius = 1;
   int fine_shiftable_radius = 0;
+  // Weakly textured pixels (weak_texture.h) aggregate over windows of this
+  // half-width at full resolution; a window counts as weak where its RMS
+  // gradient is below weak_texture_gradient grey levels per pixel. 0: off.
+  int weak_texture_window_radius = 5;
+  double weak_texture_gradient = 4.0;
   // Gaussian pre-filter of every frame (captured pixels): evens out the blur
   // of bilinear resampling and the sensor/JPEG noise. 0: none. Wider filters
   // wash out the fine texture that low-contrast regions match on: 0.8 gave
@@ -67,8 +72,9 @@ struct DenseOptions {
   int guided_subsample = 2;
   // Depth discontinuities (see depth_discontinuity.h), in pixels of parallax
   // (in the frame that moves most): where the refinement departs from the
-  // median of the raw winners by more than edge_guard_parallax it keeps the
-  // median; pixels within discontinuity_radius of which the depth spans more
+  // median of the raw winners by more than edge_guard_parallax, or lies within
+  // guided_radius + discontinuity_radius of a break in that median, it keeps
+  // the median; pixels within discontinuity_radius of which the depth spans more
   // than discontinuity_parallax get no depth. 0: off.
   double edge_guard_parallax = 0.2;
   int discontinuity_radius = 2;

@@ -238,6 +238,10 @@ TEST_F(DenseDepthInputTest, RejectsInconsistentInputsWithANamedReason) {
   options.coarse_shiftable_radius = -1;
   ExpectRejected(s.burst, s.camera, s.poses, s.sparse_inverse_depths, "shiftable radii", options);
   options = {};
+  options.weak_texture_gradient = -1.0;
+  ExpectRejected(s.burst, s.camera, s.poses, s.sparse_inverse_depths, "weak_texture_gradient",
+                 options);
+  options = {};
   options.oversample_max_pixels = -1;
   ExpectRejected(s.burst, s.camera, s.poses, s.sparse_inverse_depths, "oversample_max_pixels",
                  options);

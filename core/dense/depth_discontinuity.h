@@ -10,21 +10,38 @@
 
 namespace dfsm {
 
-// Where `refined` departs by more than `max_departure` planes from the 5x5
-// median of the raw winners, the refinement crossed an edge that the median
-// (which keeps straight edges in place) did not: takes the median there.
-// `raw` and `refined` are CV_32FC1 plane indices; pixels whose `weight` is 0
-// enter the median with their refined value.
+// When the plane indices around a pixel span a break between two surfaces
+// rather than noise or relief: more than `max_span` planes and more than
+// `min_relative_span` of the larger inverse depth, plane `zero_plane` (<= 0)
+// being inverse depth 0. Both bounds: a span of a few tenths of a pixel of
+// parallax is noise on a far surface, and a span of many pixels is the relief
+// of a near one (a flower head at 30 cm), not a break between surfaces.
+struct SpanBound {
+  float max_span = 0.0f;
+  float min_relative_span = 0.0f;
+  float zero_plane = 0.0f;
+
+  bool ExceededBy(float high, float low) const {
+    const float span = high - low;
+    return span > max_span && span > min_relative_span * (high - zero_plane);
+  }
+};
+
+// Takes the 5x5 median of the raw winners where `refined` departs from it by
+// more than `max_departure` planes (the refinement crossed an edge that the
+// median, which keeps straight edges in place, did not), and everywhere
+// within `edge_radius` of a break (`edge`) in that median: there the guided
+// filter's linear models straddle both surfaces and shift the farther one by
+// less than max_departure, which on a far background is still several
+// percent of its depth. `raw` and `refined` are CV_32FC1 plane indices;
+// pixels whose `weight` is 0 enter the median with their refined value and
+// take no part in finding breaks. edge_radius 0: departures only.
 void KeepEdgesOfRawWinners(const cv::Mat& raw, const cv::Mat& weight, float max_departure,
-                           cv::Mat& refined);
+                           int edge_radius, const SpanBound& edge, cv::Mat& refined);
 
 // Sets `weight` to 0 at pixels within `radius` of which the valid plane
-// indices (weight > 0) span more than `max_span` planes and more than
-// `min_relative_span` of the larger inverse depth there, plane `zero_plane`
-// (<= 0) being inverse depth 0. Both bounds: a span of a few tenths of a pixel
-// of parallax is noise on a far surface, and a span of many pixels is the
-// relief of a near one (a flower head at 30 cm), not a break between surfaces.
-void InvalidateAlongDiscontinuities(const cv::Mat& plane, int radius, float max_span,
-                                    float min_relative_span, float zero_plane, cv::Mat& weight);
+// indices (weight > 0) span a break (`bound`).
+void InvalidateAlongDiscontinuities(const cv::Mat& plane, int radius, const SpanBound& bound,
+                                    cv::Mat& weight);
 
 }  // namespace dfsm

@@ -7,6 +7,14 @@
 namespace dfsm {
 namespace {
 
+SpanBound Bound(float max_span, float min_relative_span, float zero_plane) {
+  SpanBound bound;
+  bound.max_span = max_span;
+  bound.min_relative_span = min_relative_span;
+  bound.zero_plane = zero_plane;
+  return bound;
+}
+
 // Plane 10 left of column 20, plane 30 from it on.
 cv::Mat Step(cv::Size size = {40, 24}) {
   cv::Mat plane(size, CV_32FC1, cv::Scalar(10.0f));
@@ -22,7 +30,7 @@ TEST(KeepEdgesOfRawWinners, UndoesSmoothingAcrossAnEdgeAndKeepsItElsewhere) {
   cv::Mat refined;
   cv::blur(raw, refined, cv::Size(9, 1), cv::Point(-1, -1), cv::BORDER_REPLICATE);
   refined += 0.5f;
-  KeepEdgesOfRawWinners(raw, weight, 1.0f, refined);
+  KeepEdgesOfRawWinners(raw, weight, 1.0f, 0, {}, refined);
   for (int x = 0; x < raw.cols; ++x) {
     const float expected = x < 20 ? 10.0f : 30.0f;
     EXPECT_NEAR(refined.at<float>(12, x), expected, 0.51f) << "column " << x;
@@ -30,18 +38,35 @@ TEST(KeepEdgesOfRawWinners, UndoesSmoothingAcrossAnEdgeAndKeepsItElsewhere) {
   EXPECT_FLOAT_EQ(refined.at<float>(12, 2), 10.5f);  // departures below the limit stay
 }
 
+// A filter whose halo departs from the raw winners by less than the limit:
+// only the zone along the break yields to the median.
+TEST(KeepEdgesOfRawWinners, TakesTheMedianNearABreak) {
+  const cv::Mat raw = Step({80, 24});
+  const cv::Mat weight(raw.size(), CV_32FC1, cv::Scalar(1.0f));
+  cv::Mat refined = raw + 0.5f;
+  refined.colRange(14, 20) += 0.4f;  // a halo on the far side, 0.9 < the limit
+  const int radius = 4;
+  KeepEdgesOfRawWinners(raw, weight, 1.0f, radius, Bound(5.0f, 0.0f, 0.0f), refined);
+  for (int x = 0; x < raw.cols; ++x) {
+    const bool near = x >= 20 - radius && x < 20 + radius;  // within 4 of the other side
+    const float departure = near ? 0.0f : (x >= 14 && x < 20 ? 0.9f : 0.5f);
+    const float expected = (x < 20 ? 10.0f : 30.0f) + departure;
+    EXPECT_FLOAT_EQ(refined.at<float>(12, x), expected) << "column " << x;
+  }
+}
+
 TEST(KeepEdgesOfRawWinners, PixelsWithoutWeightEnterWithTheirRefinedValue) {
   const cv::Mat raw(16, 16, CV_32FC1, cv::Scalar(-1.0f));  // no winner anywhere
   const cv::Mat weight = cv::Mat::zeros(raw.size(), CV_32FC1);
   cv::Mat refined(raw.size(), CV_32FC1, cv::Scalar(7.0f));
-  KeepEdgesOfRawWinners(raw, weight, 0.1f, refined);
+  KeepEdgesOfRawWinners(raw, weight, 0.1f, 0, {}, refined);
   EXPECT_EQ(cv::countNonZero(refined != 7.0f), 0);
 }
 
 TEST(InvalidateAlongDiscontinuities, ClearsABandAlongTheStepOnly) {
   const cv::Mat plane = Step();
   cv::Mat weight(plane.size(), CV_32FC1, cv::Scalar(1.0f));
-  InvalidateAlongDiscontinuities(plane, 2, 5.0f, 0.0f, 0.0f, weight);
+  InvalidateAlongDiscontinuities(plane, 2, Bound(5.0f, 0.0f, 0.0f), weight);
   for (int x = 0; x < plane.cols; ++x) {
     const bool near = x >= 18 && x <= 21;  // within 2 of the other side
     EXPECT_EQ(weight.at<float>(10, x) == 0.0f, near) << "column " << x;
@@ -54,9 +79,9 @@ TEST(InvalidateAlongDiscontinuities, InvalidPixelsDoNotWidenTheSpanAndSmallSpans
   plane.at<float>(10, 10) = -1.0f;  // no depth there
   weight.at<float>(10, 10) = 0.0f;
   plane.colRange(0, 5).setTo(53.0f);  // a slant-like change below the limit
-  InvalidateAlongDiscontinuities(plane, 2, 5.0f, 0.0f, 0.0f, weight);
+  InvalidateAlongDiscontinuities(plane, 2, Bound(5.0f, 0.0f, 0.0f), weight);
   EXPECT_EQ(cv::countNonZero(weight), 20 * 20 - 1);
-  InvalidateAlongDiscontinuities(plane, 0, 0.0f, 0.0f, 0.0f, weight);  // radius 0: off
+  InvalidateAlongDiscontinuities(plane, 0, Bound(0.0f, 0.0f, 0.0f), weight);  // radius 0: off
   EXPECT_EQ(cv::countNonZero(weight), 20 * 20 - 1);
 }
 
@@ -66,10 +91,10 @@ TEST(InvalidateAlongDiscontinuities, ASpanSmallAgainstTheInverseDepthStays) {
   const cv::Mat plane = Step();
   cv::Mat weight(plane.size(), CV_32FC1, cv::Scalar(1.0f));
   // Inverse depth 0 at plane -1000: the step is < 1 % of the inverse depth.
-  InvalidateAlongDiscontinuities(plane, 2, 5.0f, 0.1f, -1000.0f, weight);
+  InvalidateAlongDiscontinuities(plane, 2, Bound(5.0f, 0.1f, -1000.0f), weight);
   EXPECT_EQ(cv::countNonZero(weight), static_cast<int>(plane.total()));
   // Inverse depth 0 at plane 0: the same step is most of it.
-  InvalidateAlongDiscontinuities(plane, 2, 5.0f, 0.1f, 0.0f, weight);
+  InvalidateAlongDiscontinuities(plane, 2, Bound(5.0f, 0.1f, 0.0f), weight);
   EXPECT_LT(cv::countNonZero(weight), static_cast<int>(plane.total()));
 }
 

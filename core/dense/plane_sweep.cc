@@ -114,24 +114,37 @@ inline void GatherRow(const SweepLevel& level, const cv::Mat& image, int y,
   }
 }
 
-// Box-aggregates sum and count (count in place) into the mean cost `cost`
-// (which may be `sum`), then takes the lowest over the shiftable windows.
-void AggregateSlice(const cv::Mat& sum, cv::Mat& count, int frames, const PhotoCostOptions& options,
-                    cv::Mat& cost) {
-  const cv::Size window(2 * options.window_radius + 1, 2 * options.window_radius + 1);
+// Box-aggregates sum and count into the mean cost over windows of `radius`;
+// kNoCost where too few samples were valid.
+cv::Mat MeanCost(const cv::Mat& sum, const cv::Mat& count, int radius, int frames,
+                 const PhotoCostOptions& options) {
+  const cv::Size window(2 * radius + 1, 2 * radius + 1);
+  cv::Mat cost, counted;
   cv::boxFilter(sum, cost, -1, window, cv::Point(-1, -1), false, cv::BORDER_REPLICATE);
-  cv::boxFilter(count, count, -1, window, cv::Point(-1, -1), false, cv::BORDER_REPLICATE);
+  cv::boxFilter(count, counted, -1, window, cv::Point(-1, -1), false, cv::BORDER_REPLICATE);
   const float min_count = options.min_valid_share * frames * window.area();
   for (int y = 0; y < cost.rows; ++y) {
     float* s = cost.ptr<float>(y);
-    const float* c = count.ptr<float>(y);
+    const float* c = counted.ptr<float>(y);
     for (int x = 0; x < cost.cols; ++x) s[x] = c[x] >= min_count ? s[x] / c[x] : kNoCost;
   }
+  return cost;
+}
+
+// Aggregates one slice's sum and count into its mean cost: over the wide
+// window where `wide_mask` (band-sized) is set, then the lowest over the
+// shiftable windows.
+cv::Mat AggregateSlice(const cv::Mat& sum, const cv::Mat& count, int frames,
+                       const PhotoCostOptions& options, const cv::Mat& wide_mask) {
+  cv::Mat cost = MeanCost(sum, count, options.window_radius, frames, options);
+  if (!wide_mask.empty())
+    MeanCost(sum, count, options.wide_window_radius, frames, options).copyTo(cost, wide_mask);
   if (options.shiftable_radius > 0) {
     const int side = 2 * options.shiftable_radius + 1;
     cv::erode(cost, cost, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(side, side)),
               cv::Point(-1, -1), 1, cv::BORDER_REPLICATE);
   }
+  return cost;
 }
 
 // Rows [first, last) of the level, swept with `halo` more rows on each side:
@@ -149,6 +162,18 @@ struct Band {
     return band_image.rowRange(halo, halo + last - first);
   }
 };
+
+void CheckWideWindowMask(const SweepLevel& level, const PhotoCostOptions& options) {
+  const cv::Mat& mask = options.wide_window_mask;
+  CV_Assert(options.wide_window_radius >= 0);
+  CV_Assert(mask.empty() || (mask.type() == CV_8UC1 && mask.size() == level.reference.size()));
+}
+
+// Rows a band must sweep beyond its own for its windows to aggregate exactly.
+int Halo(const PhotoCostOptions& options) {
+  const int wide = options.wide_window_mask.empty() ? 0 : options.wide_window_radius;
+  return std::max(options.window_radius, wide) + options.shiftable_radius;
+}
 
 // Calls sweep_band(band) for bands covering the level's rows, in parallel.
 // Bands are small enough that every core gets several (balance) and large
@@ -197,10 +222,14 @@ struct BandSlices {
   // into `selection` (first_plane: the level's, or empty; see SelectPlanes).
   void Select(const Band& band, int frames, const PhotoCostOptions& options,
               const cv::Mat& first_plane, int stride, PlaneSelection& selection) {
-    for (size_t k = 0; k < sums.size(); ++k) {
-      AggregateSlice(sums[k], counts[k], frames, options, sums[k]);
-      sums[k] = band.Inner(sums[k]);
+    cv::Mat wide_mask;
+    if (options.wide_window_radius > 0 && !options.wide_window_mask.empty()) {
+      wide_mask.create(band.rows(), options.wide_window_mask.cols, CV_8UC1);
+      for (int j = 0; j < band.rows(); ++j)
+        options.wide_window_mask.row(band.Row(j)).copyTo(wide_mask.row(j));
     }
+    for (size_t k = 0; k < sums.size(); ++k)
+      sums[k] = band.Inner(AggregateSlice(sums[k], counts[k], frames, options, wide_mask));
     PlaneSelection rows = SelectionRows(selection, band);
     SelectPlanesInto(sums,
                      first_plane.empty() ? cv::Mat() : first_plane.rowRange(band.first, band.last),
@@ -213,6 +242,7 @@ struct BandSlices {
 PlaneSelection SweepAllPlanes(const SweepLevel& level, const InverseDepthLattice& lattice,
                               const PhotoCostOptions& options) {
   CV_Assert(options.projected_every >= 1);
+  CheckWideWindowMask(level, options);
   const int frames = static_cast<int>(level.frames.size());
   const cv::Size size = level.reference.size();
   const int planes = lattice.planes;
@@ -231,7 +261,7 @@ PlaneSelection SweepAllPlanes(const SweepLevel& level, const InverseDepthLattice
   }
   if (projected.size() == 1) projected.push_back(projected[0]);  // one plane: no segment
   PlaneSelection selection = MakeSelection(size);
-  ForEachBand(size.height, options.window_radius + options.shiftable_radius, [&](const Band& band) {
+  ForEachBand(size.height, Halo(options), [&](const Band& band) {
     const cv::Size band_size(size.width, band.rows());
     std::vector<std::vector<float>> w(projected.size(), std::vector<float>(size.width));
     for (size_t k = 0; k < projected.size(); ++k)
@@ -261,12 +291,13 @@ PlaneSelection SweepPlaneWindow(const SweepLevel& level, const InverseDepthLatti
                                 const cv::Mat& first_plane, int count, int stride,
                                 const PhotoCostOptions& options) {
   CV_Assert(first_plane.type() == CV_32SC1 && first_plane.size() == level.reference.size());
+  CheckWideWindowMask(level, options);
   const int frames = static_cast<int>(level.frames.size());
   const cv::Size size = level.reference.size();
   const float w0 = static_cast<float>(lattice.min_inverse_depth);
   const float dw = static_cast<float>(lattice.step());
   PlaneSelection selection = MakeSelection(size);
-  ForEachBand(size.height, options.window_radius + options.shiftable_radius, [&](const Band& band) {
+  ForEachBand(size.height, Halo(options), [&](const Band& band) {
     const cv::Size band_size(size.width, band.rows());
     std::vector<float> w_first(size.width), w_last(size.width);
     RowSamples first_samples(size.width), last_samples(size.width);

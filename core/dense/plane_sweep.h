@@ -28,6 +28,11 @@ struct PhotoCostOptions {
   // it, and the nearer surface's texture no longer spreads into the farther
   // one. 0: the centred window only.
   int shiftable_radius = 0;
+  // Weakly textured pixels: where wide_window_mask (CV_8UC1, level size) is
+  // set, the cost is aggregated over a window of half-width
+  // wide_window_radius instead. 0 or an empty mask: off.
+  int wide_window_radius = 0;
+  cv::Mat wide_window_mask;
   // Aggregated samples below this share of (frames x window) leave the cost
   // at kNoCost (the plane leaves most frames).
   float min_valid_share = 0.5f;

@@ -1,0 +1,76 @@
+#include "core/dense/plane_sweep.h"
+
+#include <gtest/gtest.h>
+
+#include <opencv2/imgproc.hpp>
+
+#include "core/dense/radial_inverse.h"
+#include "core/dense/sweep_level.h"
+
+namespace dfsm {
+namespace {
+
+// Random frames and poses: what is compared is how costs are aggregated,
+// not whether the winners are right.
+struct SweepFixture {
+  CameraModel camera;
+  std::vector<cv::Mat> frames;
+  std::vector<Pose> poses;
+  cv::Mat reference;
+
+  SweepFixture() {
+    camera.width = 96;
+    camera.height = 200;  // several bands of rows
+    camera.f = 120.0;
+    camera.cx = 48.0;
+    camera.cy = 100.0;
+    cv::RNG rng(5);
+    reference.create(camera.height, camera.width, CV_32FC1);
+    rng.fill(reference, cv::RNG::UNIFORM, 0.0, 255.0);
+    cv::GaussianBlur(reference, reference, cv::Size(), 1.0);
+    for (int i = 0; i < 3; ++i) {
+      Pose pose;
+      pose.T = Eigen::Vector3d(0.01 * (i + 1), -0.005 * i, 0.0);
+      poses.push_back(pose);
+      cv::Mat frame(reference.size(), CV_32FC1);
+      rng.fill(frame, cv::RNG::UNIFORM, 0.0, 255.0);
+      cv::GaussianBlur(frame, frame, cv::Size(), 1.0);
+      frames.push_back(frame);
+    }
+  }
+};
+
+// A wide window wherever the mask is set is exactly the wide window
+// everywhere: the streamed bands' halo covers it, and the mask's rows line
+// up with the bands' rows.
+TEST(SweepPlaneWindow, WideWindowUnderAFullMaskEqualsThatWindowEverywhere) {
+  const SweepFixture f;
+  const RadialInverse radial(f.camera);
+  const SweepLevel level = MakeSweepLevel(f.reference, f.frames, f.poses, f.camera, radial, 1);
+  InverseDepthLattice lattice;
+  lattice.min_inverse_depth = 0.2;
+  lattice.max_inverse_depth = 2.0;
+  lattice.planes = 32;
+  const cv::Mat first(f.reference.size(), CV_32SC1, cv::Scalar(10));
+  PhotoCostOptions wide;
+  wide.window_radius = 5;
+  PhotoCostOptions masked;
+  masked.window_radius = 2;
+  masked.wide_window_radius = 5;
+  masked.wide_window_mask = cv::Mat(f.reference.size(), CV_8UC1, cv::Scalar(255));
+  const PlaneSelection a = SweepPlaneWindow(level, lattice, first, 7, 1, wide);
+  const PlaneSelection b = SweepPlaneWindow(level, lattice, first, 7, 1, masked);
+  EXPECT_EQ(cv::norm(a.plane, b.plane, cv::NORM_INF), 0.0);
+  EXPECT_EQ(cv::norm(a.confidence, b.confidence, cv::NORM_INF), 0.0);
+  // An empty mask leaves the narrow window.
+  masked.wide_window_mask.setTo(0);
+  PhotoCostOptions narrow;
+  narrow.window_radius = 2;
+  const PlaneSelection c = SweepPlaneWindow(level, lattice, first, 7, 1, narrow);
+  const PlaneSelection d = SweepPlaneWindow(level, lattice, first, 7, 1, masked);
+  EXPECT_EQ(cv::norm(c.plane, d.plane, cv::NORM_INF), 0.0);
+  EXPECT_GT(cv::norm(a.plane, c.plane, cv::NORM_INF), 0.0);  // the windows differ at all
+}
+
+}  // namespace
+}  // namespace dfsm
