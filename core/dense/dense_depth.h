@@ -48,8 +48,8 @@ struct DenseOptions {
   // Weakly textured pixels (weak_texture.h) aggregate over windows of this
   // half-width at full resolution; a window counts as weak where its RMS
   // gradient is below weak_texture_gradient grey levels per pixel. 0: off.
-  int weak_texture_window_radius = 5;
-  double weak_texture_gradient = 4.0;
+  int weak_texture_window_radius = 7;
+  double weak_texture_gradient = 8.0;
   // Gaussian pre-filter of every frame (captured pixels): evens out the blur
   // of bilinear resampling and the sensor/JPEG noise. 0: none. Wider filters
   // wash out the fine texture that low-contrast regions match on: 0.8 gave
