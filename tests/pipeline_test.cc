@@ -42,12 +42,12 @@ void PrintTo(const DepthCase& c, std::ostream* os) {
 class PipelineDepth : public ::testing::TestWithParam<DepthCase> {};
 
 // Scale-aligned depth of the whole pipeline (estimated camera and poses)
-// against the ground truth, over textured pixels. At 1080p the bounds are the
-// acceptance targets (AbsRel <= 2 %, >= 95 % within 5 %). At VGA the
-// estimated camera (f off by a few percent at 0.5 deg of tremor) and
-// rotations (~0.02 deg) are the limit, not the sweep: measured 9.3 % (JPEG
-// 5.1 %), where the same sweep fed the true geometry scores 1.26 % (JPEG
-// 2.06 %, docs/dense.md). Coverage measured 0.95-0.96 everywhere.
+// against the ground truth, over textured pixels. The bounds are the
+// acceptance targets (AbsRel <= 2 %, >= 95 % within 5 %), except at VGA with
+// JPEG: measured 1.75 % / 95.9 % on this burst, but 1.8-3.1 % over seeds 1, 2
+// and 6 (docs/dense.md), so 2.5 % / 92 %. Without JPEG: 1.14 % / 98.8 %
+// (1.1-1.8 % over seeds 1-6); 1080p 0.75 % / 99.3 %, JPEG 0.95 % / 99.0 %.
+// Coverage measured 0.95-0.97 everywhere.
 TEST_P(PipelineDepth, MatchesTheGroundTruth) {
   const DepthCase c = GetParam();
   const SynthBurst generated = GenerateBurst(c.width, c.height, c.frames, c.jpeg_quality);
@@ -66,8 +66,8 @@ TEST_P(PipelineDepth, MatchesTheGroundTruth) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Bursts, PipelineDepth,
-                         ::testing::Values(DepthCase{640, 480, 10, 0, 0.15, 0.35, 0.90},
-                                           DepthCase{640, 480, 10, 90, 0.15, 0.35, 0.90},
+                         ::testing::Values(DepthCase{640, 480, 10, 0, 0.02, 0.95, 0.90},
+                                           DepthCase{640, 480, 10, 90, 0.025, 0.92, 0.90},
                                            DepthCase{1920, 1080, 10, 0, 0.02, 0.95, 0.90},
                                            DepthCase{1920, 1080, 15, 90, 0.02, 0.95, 0.90}));
 
