@@ -3,6 +3,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 
+#include "core/io/bounded_json.h"
 #include "daemon/service/number_text.h"
 
 namespace dfsm::api {
@@ -103,11 +104,9 @@ JobOptions ParseCaptureRequest(const std::string& body, const service::DaemonCon
   if (body.find_first_not_of(" \t\r\n") == std::string::npos) return options;
   nlohmann::json json;
   try {
-    json = nlohmann::json::parse(body);
-  } catch (const nlohmann::json::exception& e) {
-    // parse_error, and out_of_range for a number too large for a double ("1e999"),
-    // which was answered 500 instead of 400.
-    throw RequestError(std::string("the body is not valid JSON: ") + e.what());
+    json = ParseBoundedJson(body);
+  } catch (const JsonInputError& e) {
+    throw RequestError(std::string("the body: ") + e.what());
   }
   if (!json.is_object()) throw RequestError("the body must be a JSON object");
   for (const auto& [field, value] : json.items()) {

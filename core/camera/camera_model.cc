@@ -98,8 +98,11 @@ double RequireNumber(const nlohmann::json& j, const char* key) {
 CameraModel CameraModelFromJson(const nlohmann::json& j) {
   if (!j.is_object()) throw std::runtime_error("calibration: not a JSON object");
   if (j.contains("distortion_model") && j["distortion_model"] != kDistortionModelName)
-    throw std::runtime_error("calibration: distortion_model '" + j["distortion_model"].dump() +
-                             "' is not '" + kDistortionModelName + "'");
+    throw std::runtime_error("calibration: distortion_model " +
+                             (j["distortion_model"].is_string()
+                                  ? "'" + j["distortion_model"].get<std::string>() + "'"
+                                  : std::string("(not a string)")) +
+                             " is not '" + kDistortionModelName + "'");
   CameraModel camera;
   camera.width = static_cast<int>(RequireNumber(j, "width"));
   camera.height = static_cast<int>(RequireNumber(j, "height"));

@@ -5,6 +5,7 @@
 #include <opencv2/imgproc.hpp>
 #include <system_error>
 
+#include "core/io/bounded_json.h"
 #include "core/io/file_util.h"
 
 namespace dfsm {
@@ -30,8 +31,8 @@ bool IsTruncatedJpeg(const std::string& bytes) {
 int RequirePositiveInt(const nlohmann::json& j, const char* key, const std::string& origin) {
   if (!j.contains(key)) throw BurstError(origin + ": required field '" + key + "' is missing");
   if (!j[key].is_number_integer() || j[key].get<int64_t>() <= 0 || j[key].get<int64_t>() > 65535)
-    throw BurstError(origin + ": '" + key + "' must be a positive integer (got " + j[key].dump() +
-                     ")");
+    throw BurstError(origin + ": '" + key + "' must be a positive integer (got " +
+                     DescribeJsonValue(j[key]) + ")");
   return j[key].get<int>();
 }
 
@@ -39,7 +40,8 @@ int64_t OptionalInt(const nlohmann::json& j, const char* key, int64_t fallback,
                     const std::string& where) {
   if (!j.contains(key)) return fallback;
   if (!j[key].is_number_integer())
-    throw BurstError(where + ": '" + key + "' must be an integer (got " + j[key].dump() + ")");
+    throw BurstError(where + ": '" + key + "' must be an integer (got " +
+                     DescribeJsonValue(j[key]) + ")");
   return j[key].get<int64_t>();
 }
 
@@ -48,17 +50,15 @@ int64_t OptionalInt(const nlohmann::json& j, const char* key, int64_t fallback,
 BurstManifest ParseBurstManifest(const std::string& text, const std::string& origin) {
   nlohmann::json j;
   try {
-    j = nlohmann::json::parse(text);
-  } catch (const nlohmann::json::exception& e) {
-    // Not only parse_error: a number too large for a double ("1e999") is an
-    // out_of_range, which escaped as an internal error (fuzz/burst_manifest_fuzzer).
-    throw BurstError(origin + ": not valid JSON (" + e.what() + ")");
+    j = ParseBoundedJson(text);
+  } catch (const JsonInputError& e) {
+    throw BurstError(origin + ": " + e.what());
   }
   if (!j.is_object()) throw BurstError(origin + ": the manifest must be a JSON object");
   if (!j.contains("format")) throw BurstError(origin + ": required field 'format' is missing");
   if (j["format"] != kBurstFormat)
-    throw BurstError(origin + ": format is " + j["format"].dump() + ", expected \"" + kBurstFormat +
-                     "\"");
+    throw BurstError(origin + ": format is " + DescribeJsonValue(j["format"]) + ", expected \"" +
+                     kBurstFormat + "\"");
 
   BurstManifest manifest;
   manifest.width = RequirePositiveInt(j, "width", origin);
@@ -66,7 +66,7 @@ BurstManifest ParseBurstManifest(const std::string& text, const std::string& ori
   if (j.contains("pixel_format")) {
     if (!j["pixel_format"].is_string() ||
         (j["pixel_format"] != "gray8" && j["pixel_format"] != "bgr8"))
-      throw BurstError(origin + ": pixel_format " + j["pixel_format"].dump() +
+      throw BurstError(origin + ": pixel_format " + DescribeJsonValue(j["pixel_format"]) +
                        " is not \"gray8\" or \"bgr8\"");
     manifest.pixel_format = j["pixel_format"].get<std::string>();
   }
@@ -95,6 +95,13 @@ BurstManifest ParseBurstManifest(const std::string& text, const std::string& ori
   manifest.reference = static_cast<int>(reference);
   if (j.contains("source")) manifest.source = j["source"];
   return manifest;
+}
+
+std::vector<int> Burst::frame_indices() const {
+  if (!source_indices.empty()) return source_indices;
+  std::vector<int> indices(gray.size());
+  for (size_t i = 0; i < indices.size(); ++i) indices[i] = static_cast<int>(i);
+  return indices;
 }
 
 BurstManifest ReadBurstManifest(const fs::path& burst_dir) {
@@ -159,10 +166,12 @@ Burst ReadBurst(const fs::path& burst_dir, const ReadBurstOptions& options) {
       throw BurstError("--frames " + std::to_string(options.max_frames) +
                        ": a burst needs at least 3 frames");
     const int count = options.max_frames;
-    const int first = std::max(0, manifest.reference - count + 1);
+    const int total = static_cast<int>(manifest.frames.size());
+    const int first = std::clamp(manifest.reference - count / 2, 0, total - count);
     manifest.frames = std::vector<BurstFrameInfo>(manifest.frames.begin() + first,
                                                   manifest.frames.begin() + first + count);
     manifest.reference -= first;
+    for (int i = 0; i < count; ++i) burst.source_indices.push_back(first + i);
   }
 
   std::error_code ec;

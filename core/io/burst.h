@@ -41,6 +41,11 @@ struct Burst {
   BurstManifest manifest;
   std::vector<cv::Mat> gray;
   cv::Mat reference_color;
+  // Index of each frame in the manifest as stored, when only a window of it was
+  // read (ReadBurstOptions::max_frames); empty means 0..size()-1.
+  std::vector<int> source_indices;
+
+  std::vector<int> frame_indices() const;
 
   int reference() const { return manifest.reference; }
   int width() const { return manifest.width; }
@@ -55,7 +60,8 @@ nlohmann::json ToJson(const BurstManifest& manifest);
 
 struct ReadBurstOptions {
   // Keep at most this many frames (0: all): a contiguous window in capture order
-  // that contains the reference frame. The reference index is remapped.
+  // centred on the reference frame (shifted where it would leave the burst). The
+  // reference index is remapped.
   int max_frames = 0;
 };
 

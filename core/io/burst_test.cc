@@ -77,9 +77,44 @@ TEST_F(BurstTest, MaxFramesKeepsAWindowWithTheReference) {
   EXPECT_EQ(cv::norm(burst.gray[1], ToGray8(frames_[1]), cv::NORM_INF), 0.0);
 }
 
+// --frames N is a window around the reference, not the N frames ending at it.
+TEST_F(BurstTest, MaxFramesCentresTheWindowOnTheReference) {
+  RewriteManifest([](nlohmann::json& j) { j["reference"] = 2; });
+  ReadBurstOptions options;
+  options.max_frames = 3;
+  const Burst burst = ReadBurst(dir_, options);
+  EXPECT_EQ(burst.reference(), 1);
+  EXPECT_EQ(burst.frame_indices(), (std::vector<int>{1, 2, 3}));
+  EXPECT_EQ(cv::norm(burst.gray[1], ToGray8(frames_[2]), cv::NORM_INF), 0.0);
+  // At the end of the burst the window shifts inwards instead of shrinking.
+  RewriteManifest([](nlohmann::json& j) { j["reference"] = 3; });
+  const Burst last = ReadBurst(dir_, options);
+  EXPECT_EQ(last.frame_indices(), (std::vector<int>{1, 2, 3}));
+  EXPECT_EQ(last.reference(), 2);
+  EXPECT_EQ(ReadBurst(dir_).frame_indices(), (std::vector<int>{0, 1, 2, 3}));
+}
+
 TEST_F(BurstTest, RejectsNonJson) {
   WriteFileAtomically(dir_ / "manifest.json", std::string("{not json"));
   EXPECT_NE(ReadError().find("not valid JSON"), std::string::npos);
+}
+
+// A 200 KB manifest of 100 000 nested arrays crashed dfsmd: the error message
+// serialized the value with dump(), which recursed through the whole stack.
+TEST_F(BurstTest, RejectsDeepNestingWithoutRecursing) {
+  const int depth = 100000;
+  WriteFileAtomically(dir_ / "manifest.json",
+                      "{\"format\":\"dfsm-burst/1\",\"height\":480,\"frames\":[],\"width\":" +
+                          std::string(depth, '[') + std::string(depth, ']') + "}");
+  EXPECT_NE(ReadError().find("nested deeper than"), std::string::npos);
+}
+
+TEST_F(BurstTest, QuotesAnOffendingContainerWithoutSerializingIt) {
+  RewriteManifest([](nlohmann::json& j) { j["width"] = nlohmann::json::array({1, 2, 3}); });
+  const std::string error = ReadError();
+  EXPECT_NE(error.find("'width' must be a positive integer (got an array of 3 elements)"),
+            std::string::npos)
+      << error;
 }
 
 TEST_F(BurstTest, RejectsAnotherFormat) {

@@ -208,6 +208,18 @@ TEST_F(DfsmdTest, UploadedBurstIsProcessedTheSameWay) {
   ExpectProblem(broken, 422);
   EXPECT_NE(broken->body.find("000003.png"), std::string::npos) << broken->body;
   EXPECT_EQ(json::parse(client.Get("/api/v1/jobs")->body)["jobs"].size(), 2u);
+
+  // A 200 KB manifest whose width is 100 000 nested arrays killed dfsmd (the
+  // error message serialized it recursively): now a problem, and dfsmd lives on.
+  const int depth = 100000;
+  const std::string nested = R"({"format":"dfsm-burst/1","height":480,"frames":[],"width":)" +
+                             std::string(depth, '[') + std::string(depth, ']') + "}";
+  auto hostile = client.Post("/api/v1/jobs", service::WriteTar({{"manifest.json", nested}}),
+                             "application/x-tar");
+  ExpectProblem(hostile, 422);
+  EXPECT_NE(hostile->body.find("nested deeper than"), std::string::npos) << hostile->body;
+  ASSERT_TRUE(client.Get("/healthz"));
+  EXPECT_EQ(client.Get("/healthz")->status, 200);
   EXPECT_EQ(daemon->Stop(SIGTERM), 0);
 }
 
