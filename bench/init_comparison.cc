@@ -94,7 +94,7 @@ int main(int argc, char** argv) {
               ReconstructSparse(gray, burst.manifest.reference, options);
           run.ok = true;
           run.converged = sparse.bundle_adjustment.converged;
-          run.iterations = sparse.bundle_adjustment.iterations;
+          run.iterations = sparse.runs.front().iterations;  // from the initialization
           for (const auto& [stage, ms] : sparse.timings_ms)
             if (stage == "bundle_adjustment") run.ba_ms = ms;
           run.errors = EvaluateSparse(sparse.state.camera, sparse.state.poses, burst.truth);

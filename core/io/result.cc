@@ -9,12 +9,16 @@ nlohmann::json ToJson(const Result& result) {
   j["format"] = kResultFormat;
   j["status"] = result.ok ? "ok" : "failed";
   if (!result.ok) j["error"] = result.error;
+  j["warnings"] = result.warnings;
   nlohmann::json timings = nlohmann::json::object();
   for (const auto& [stage, ms] : result.timings_ms) timings[stage] = ms;
   j["timings_ms"] = timings;
   if (!result.ok && result.poses.empty()) return j;
 
   j["calibration"] = ToJson(result.calibration);
+  if (result.calibration_detail.is_object())
+    for (const auto& [key, value] : result.calibration_detail.items())
+      j["calibration"][key] = value;
   nlohmann::json poses = nlohmann::json::array();
   for (const Pose& pose : result.poses) poses.push_back(ToJson(pose));
   j["poses"] = poses;
@@ -26,6 +30,13 @@ nlohmann::json ToJson(const Result& result) {
                             {"final_cost", ba.final_cost},
                             {"rms_reprojection_px", ba.rms_reprojection_px},
                             {"termination", ba.termination}};
+  nlohmann::json runs = nlohmann::json::array();
+  for (const BundleAdjustmentRun& run : ba.runs)
+    runs.push_back({{"iterations", run.iterations},
+                    {"converged", run.converged},
+                    {"tracks", run.tracks},
+                    {"final_cost", run.final_cost}});
+  j["bundle_adjustment"]["runs"] = runs;
   j["sparse"] = {{"features", result.features}, {"features_detected", result.features_detected}};
   if (result.depth) {
     const DepthSummary& depth = *result.depth;

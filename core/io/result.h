@@ -15,9 +15,18 @@ namespace dfsm {
 
 inline constexpr const char* kResultFormat = "dfsm-result/1";
 
+// One run of the adjustment (the pipeline reruns it after dropping outliers).
+struct BundleAdjustmentRun {
+  int iterations = 0;
+  bool converged = false;
+  int tracks = 0;
+  double final_cost = 0.0;
+};
+
 struct BundleAdjustmentSummary {
   std::string init = "rank1";  // "rank1" | "naive"
-  int iterations = 0;
+  int iterations = 0;          // of the final run; every run is in `runs`
+  std::vector<BundleAdjustmentRun> runs;
   bool converged = false;
   double initial_cost = 0.0;
   double final_cost = 0.0;
@@ -37,12 +46,17 @@ struct Result {
   bool ok = false;
   std::string error;  // when !ok
   CameraModel calibration;
+  // Further members of "calibration" (uncertainty, quality, source), merged in.
+  nlohmann::json calibration_detail = nlohmann::json::object();
   std::vector<Pose> poses;
   BundleAdjustmentSummary bundle_adjustment;
   int features = 0;           // tracks used by the sparse stage
   int features_detected = 0;  // corners before tracking and outlier rejection
   std::optional<DepthSummary> depth;
   std::vector<std::pair<std::string, double>> timings_ms;  // stage -> ms, in pipeline order
+  // What the pipeline cannot vouch for: a calibration it replaced, a fallback
+  // it took. Empty when nothing needs saying.
+  std::vector<std::string> warnings;
   nlohmann::json extra = nlohmann::json::object();  // further fields, merged at the top level
 };
 

@@ -2,6 +2,7 @@
 
 #include <chrono>
 
+#include "core/dense/radial_inverse.h"
 #include "core/export/calibration_export.h"
 #include "core/export/depth_export.h"
 #include "core/export/ply.h"
@@ -47,11 +48,31 @@ PipelineOutput RunPipeline(const Burst& burst, const PipelineOptions& options,
   const auto start = std::chrono::steady_clock::now();
   try {
     if (on_stage) on_stage("sparse");
-    output.sparse = ReconstructSparse(burst.gray, burst.reference(), options.sparse);
+    SparseOptions sparse_options = options.sparse;
+    if (options.run_dense && !sparse_options.camera_usable)
+      sparse_options.camera_usable = [](const CameraModel& camera, std::string* why) {
+        try {
+          RadialInverse inverse(camera);
+          return true;
+        } catch (const std::invalid_argument& e) {
+          *why = std::string("cannot be inverted for the dense stage (") + e.what() + ")";
+          return false;
+        }
+      };
+    output.sparse = ReconstructSparse(burst.gray, burst.reference(), sparse_options);
     const SparseReconstruction& sparse = *output.sparse;
     result.calibration = sparse.state.camera;
+    result.calibration_detail = {{"uncertainty", ToJson(sparse.uncertainty, sparse.state.camera.f)},
+                                 {"quality", CalibrationQualityName(sparse.verdict.quality)},
+                                 {"quality_reasons", sparse.verdict.reasons},
+                                 {"source", sparse.calibration_used}};
+    if (sparse.rejected_camera)
+      result.calibration_detail["rejected"] = ToJson(*sparse.rejected_camera);
+    if (options.sparse.known) result.calibration_detail["known"] = options.sparse.known->source;
+    result.warnings = sparse.warnings;
     result.poses = sparse.state.poses;
     result.bundle_adjustment = sparse.bundle_adjustment;
+    result.bundle_adjustment.runs = sparse.runs;
     result.features =
         static_cast<int>(std::count(sparse.inliers.begin(), sparse.inliers.end(), true));
     result.features_detected = sparse.feature_stats.corners;
@@ -91,7 +112,8 @@ PipelineOutput RunPipeline(const Burst& burst, const PipelineOptions& options,
   result.extra["input"] = {{"frames", burst.size()},
                            {"width", burst.width()},
                            {"height", burst.height()},
-                           {"reference", burst.reference()}};
+                           {"reference", burst.reference()},
+                           {"frame_indices", burst.frame_indices()}};
   return output;
 }
 

@@ -48,9 +48,45 @@ int ScaleAnchor(const std::vector<double>& inverse_depths, const std::vector<boo
 
 }  // namespace
 
+// The jacobians that MarginalIntrinsicsCovariance needs, at the current values
+// of the problem's parameters: columns ordered intrinsics, poses, inverse
+// depths; the scale anchor and constant intrinsics left out (held constant).
+AdjustmentJacobians EvaluateJacobians(ceres::Problem* problem, double* intrinsics,
+                                      std::vector<std::array<double, 6>>* poses, int reference,
+                                      std::vector<double>* inverse_depths,
+                                      const std::vector<bool>& use, int anchor,
+                                      const std::vector<ceres::ResidualBlockId>& reprojection,
+                                      const std::vector<ceres::ResidualBlockId>& prior) {
+  AdjustmentJacobians jacobians;
+  ceres::Problem::EvaluateOptions evaluate;
+  if (!problem->IsParameterBlockConstant(intrinsics)) {
+    evaluate.parameter_blocks.push_back(intrinsics);
+    jacobians.intrinsics_columns = problem->ParameterBlockTangentSize(intrinsics);
+    // SubsetManifold(3, {1, 2}) keeps f alone.
+    jacobians.intrinsics_indices =
+        jacobians.intrinsics_columns == 3 ? std::vector<int>{0, 1, 2} : std::vector<int>{0};
+  }
+  for (size_t i = 0; i < poses->size(); ++i)
+    if (static_cast<int>(i) != reference) evaluate.parameter_blocks.push_back((*poses)[i].data());
+  jacobians.camera_columns =
+      jacobians.intrinsics_columns + 6 * (static_cast<int>(poses->size()) - 1);
+  for (size_t j = 0; j < inverse_depths->size(); ++j)
+    if (use[j] && static_cast<int>(j) != anchor)
+      evaluate.parameter_blocks.push_back(&(*inverse_depths)[j]);
+  evaluate.residual_blocks = reprojection;
+  problem->Evaluate(evaluate, nullptr, &jacobians.reprojection_residuals, nullptr,
+                    &jacobians.reprojection);
+  if (!prior.empty()) {
+    evaluate.residual_blocks = prior;
+    problem->Evaluate(evaluate, nullptr, nullptr, nullptr, &jacobians.prior);
+  }
+  return jacobians;
+}
+
 BundleAdjustmentSummary RunBundleAdjustment(const FeatureTracks& tracks,
                                             const std::vector<bool>& use, SparseState* state,
-                                            const BundleAdjustmentOptions& options) {
+                                            const BundleAdjustmentOptions& options,
+                                            CalibrationUncertainty* uncertainty) {
   const int n = tracks.num_frames();
   const int m = tracks.num_tracks();
   double intrinsics[3] = {state->camera.f, state->camera.k1, state->camera.k2};
@@ -63,30 +99,41 @@ BundleAdjustmentSummary RunBundleAdjustment(const FeatureTracks& tracks,
   ceres::Problem problem(problem_options);
   ceres::HuberLoss huber(options.huber_px);
   auto* ordering = new ceres::ParameterBlockOrdering;
-  int residual_blocks = 0;
+  std::vector<ceres::ResidualBlockId> reprojection_blocks, prior_blocks;
+  std::vector<std::pair<int, int>> block_track_frame;  // (track, frame) of each block
   for (int j = 0; j < m; ++j) {
     if (!use[j]) continue;
     for (int i = 0; i < n; ++i) {
       if (i == tracks.reference) continue;
-      problem.AddResidualBlock(UndistortedReprojectionError::Create(
-                                   tracks.pixels[tracks.reference].col(j), tracks.pixels[i].col(j),
-                                   state->camera.cx, state->camera.cy),
-                               &huber, intrinsics, poses[i].data(), &inverse_depths[j]);
-      ++residual_blocks;
+      block_track_frame.emplace_back(j, i);
+      reprojection_blocks.push_back(problem.AddResidualBlock(
+          UndistortedReprojectionError::Create(tracks.pixels[tracks.reference].col(j),
+                                               tracks.pixels[i].col(j), state->camera.cx,
+                                               state->camera.cy),
+          &huber, intrinsics, poses[i].data(), &inverse_depths[j]));
     }
     // Inverse depths first: Schur eliminates them, leaving a small dense
     // system over the poses and intrinsics.
     ordering->AddElementToGroup(&inverse_depths[j], 0);
   }
   if (options.log_f_prior_sigma > 0.0)
-    problem.AddResidualBlock(IntrinsicsPrior::Create(state->camera, options.log_f_prior_sigma,
-                                                     options.corner_shift_prior_sigma),
-                             nullptr, intrinsics);
+    prior_blocks.push_back(
+        problem.AddResidualBlock(IntrinsicsPrior::Create(state->camera, options.log_f_prior_sigma,
+                                                         options.corner_shift_prior_sigma),
+                                 nullptr, intrinsics));
+  if (options.known_f_sigma_percent > 0.0)
+    prior_blocks.push_back(problem.AddResidualBlock(
+        KnownIntrinsicsPrior::Create(state->camera, options.known_f_sigma_percent,
+                                     options.known_distortion_sigma_px),
+        nullptr, intrinsics));
   for (int i = 0; i < n; ++i)
     if (i != tracks.reference) ordering->AddElementToGroup(poses[i].data(), 1);
   ordering->AddElementToGroup(intrinsics, 1);
-  problem.SetParameterBlockConstant(&inverse_depths[ScaleAnchor(inverse_depths, use)]);
-  if (!options.refine_distortion)
+  const int anchor = ScaleAnchor(inverse_depths, use);
+  problem.SetParameterBlockConstant(&inverse_depths[anchor]);
+  if (options.fix_intrinsics)
+    problem.SetParameterBlockConstant(intrinsics);
+  else if (!options.refine_distortion)
     problem.SetManifold(intrinsics, new ceres::SubsetManifold(3, {1, 2}));
 
   ceres::Solver::Options solver_options;
@@ -102,6 +149,35 @@ BundleAdjustmentSummary RunBundleAdjustment(const FeatureTracks& tracks,
   state->camera.f = intrinsics[0];
   state->camera.k1 = intrinsics[1];
   state->camera.k2 = intrinsics[2];
+  if (uncertainty) {
+    AdjustmentJacobians jacobians =
+        EvaluateJacobians(&problem, intrinsics, &poses, tracks.reference, &inverse_depths, use,
+                          anchor, reprojection_blocks, prior_blocks);
+    // d residual / d reference pixel, by central differences (a tenth of a
+    // millipixel: the residual is smooth and this only scales a covariance).
+    constexpr double kStep = 1e-4;
+    for (const auto& [j, i] : block_track_frame) {
+      Eigen::Matrix2d B;
+      for (int axis = 0; axis < 2; ++axis) {
+        Eigen::Vector2d plus = tracks.pixels[tracks.reference].col(j);
+        Eigen::Vector2d minus = plus;
+        plus[axis] += kStep;
+        minus[axis] -= kStep;
+        double r_plus[2], r_minus[2];
+        UndistortedReprojectionError(plus, tracks.pixels[i].col(j), state->camera.cx,
+                                     state->camera.cy)(intrinsics, poses[i].data(),
+                                                       &inverse_depths[j], r_plus);
+        UndistortedReprojectionError(minus, tracks.pixels[i].col(j), state->camera.cx,
+                                     state->camera.cy)(intrinsics, poses[i].data(),
+                                                       &inverse_depths[j], r_minus);
+        for (int k = 0; k < 2; ++k) B(k, axis) = (r_plus[k] - r_minus[k]) / (2.0 * kStep);
+      }
+      jacobians.block_track.push_back(j);
+      jacobians.reference_jacobians.push_back(B);
+    }
+    *uncertainty = MarginalIntrinsicsCovariance(jacobians);
+    PropagateToDistortion(state->camera, uncertainty);
+  }
   for (int i = 0; i < n; ++i)
     state->poses[i] = i == tracks.reference ? Pose{} : FromParameters(poses[i]);
 

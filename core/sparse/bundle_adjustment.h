@@ -7,6 +7,7 @@
 #include "core/camera/camera_model.h"
 #include "core/camera/pose.h"
 #include "core/io/result.h"
+#include "core/sparse/calibration_uncertainty.h"
 #include "core/sparse/feature_tracks.h"
 
 namespace dfsm {
@@ -23,6 +24,13 @@ struct BundleAdjustmentOptions {
   // corner's distance from the centre. 0 disables the prior.
   double log_f_prior_sigma = 0.5;
   double corner_shift_prior_sigma = 0.1;
+  // Holds f, k1, k2 at the state's values (a known calibration).
+  bool fix_intrinsics = false;
+  // A known calibration as a prior: the state's initial camera is its centre,
+  // with these widths (0 disables it). The distortion width is in pixels of the
+  // shift of two radii (half-way and the corner), like IntrinsicsPrior.
+  double known_f_sigma_percent = 0.0;
+  double known_distortion_sigma_px = 0.0;
 };
 
 // The state the adjustment refines; the principal point stays at its value.
@@ -34,9 +42,12 @@ struct SparseState {
 
 // Refines `state` in place over the tracks whose `use` flag is set. Returns the
 // summary that result.json reports (init is left for the caller to fill in).
+// With `uncertainty`, also the marginal covariance of the intrinsics at the
+// solution (calibration_uncertainty.h); it costs one jacobian evaluation.
 BundleAdjustmentSummary RunBundleAdjustment(const FeatureTracks& tracks,
                                             const std::vector<bool>& use, SparseState* state,
-                                            const BundleAdjustmentOptions& options = {});
+                                            const BundleAdjustmentOptions& options = {},
+                                            CalibrationUncertainty* uncertainty = nullptr);
 
 // Per-track RMS reprojection error (pixels, undistorted domain) of `state`.
 std::vector<double> TrackReprojectionErrors(const FeatureTracks& tracks, const SparseState& state);

@@ -64,4 +64,47 @@ class IntrinsicsPrior {
   double corner_shift_sigma_px_;
 };
 
+// A known calibration (a file the user gives, or the daemon's fused
+// calibration) as a prior: f within sigma_f_percent of the known f, and the
+// distortion's shift of the same two radii as IntrinsicsPrior within
+// sigma_shift_px of the known model's shift there.
+class KnownIntrinsicsPrior {
+ public:
+  KnownIntrinsicsPrior(const CameraModel& known, double corner_radius_px, double sigma_f_percent,
+                       double sigma_shift_px)
+      : known_(known),
+        corner_radius_px_(corner_radius_px),
+        sigma_f_px_(known.f * sigma_f_percent / 100.0),
+        sigma_shift_px_(sigma_shift_px) {}
+
+  template <typename T>
+  bool operator()(const T* intrinsics, T* residuals) const {
+    const T& f = intrinsics[0];
+    residuals[0] = (f - T(known_.f)) / T(sigma_f_px_);
+    for (int k = 0; k < 2; ++k) {
+      const double radius_px = corner_radius_px_ * (k + 1) / 2.0;
+      const T r = T(radius_px) / f;
+      const double r_known = radius_px / known_.f;
+      const T shift = T(radius_px) * (RadialFactor(intrinsics[1], intrinsics[2], r * r) -
+                                      T(RadialFactor(known_.k1, known_.k2, r_known * r_known)));
+      residuals[1 + k] = shift / T(sigma_shift_px_);
+    }
+    return true;
+  }
+
+  static ceres::CostFunction* Create(const CameraModel& known, double sigma_f_percent,
+                                     double sigma_shift_px) {
+    const double corner = std::hypot(std::max(known.cx, known.width - known.cx),
+                                     std::max(known.cy, known.height - known.cy));
+    return new ceres::AutoDiffCostFunction<KnownIntrinsicsPrior, 3, 3>(
+        new KnownIntrinsicsPrior(known, corner, sigma_f_percent, sigma_shift_px));
+  }
+
+ private:
+  CameraModel known_;
+  double corner_radius_px_;
+  double sigma_f_px_;
+  double sigma_shift_px_;
+};
+
 }  // namespace dfsm

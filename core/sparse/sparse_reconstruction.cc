@@ -73,6 +73,17 @@ InitMode ParseInitMode(const std::string& name) {
 
 const char* InitModeName(InitMode mode) { return mode == InitMode::kRankOne ? "rank1" : "naive"; }
 
+KnownCalibrationMode ParseKnownCalibrationMode(const std::string& name) {
+  if (name == "fixed") return KnownCalibrationMode::kFixed;
+  if (name == "prior") return KnownCalibrationMode::kPrior;
+  throw std::invalid_argument("calibration mode must be \"fixed\" or \"prior\", not \"" + name +
+                              "\"");
+}
+
+const char* KnownCalibrationModeName(KnownCalibrationMode mode) {
+  return mode == KnownCalibrationMode::kFixed ? "fixed" : "prior";
+}
+
 std::vector<double> SparseReconstruction::InlierInverseDepths() const {
   std::vector<double> inverse_depths;
   for (size_t j = 0; j < inliers.size(); ++j)
@@ -98,7 +109,26 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
     throw ReconstructionError("insufficient parallax: median track motion " + Format(parallax) +
                               " px (need >= " + Format(options.min_parallax_px) + " px)");
 
-  const CameraModel initial = CameraModel::Initial(width, height);
+  // A known calibration starts (and, fixed, stays) where the file puts it; it
+  // also makes the rotations of the initialization exact instead of assuming
+  // f = max(w, h) and no distortion.
+  const CameraModel initial =
+      options.known ? options.known->camera : CameraModel::Initial(width, height);
+  if (options.known && (initial.width != width || initial.height != height))
+    throw ReconstructionError("the known calibration is for " + std::to_string(initial.width) +
+                              "x" + std::to_string(initial.height) + ", the burst is " +
+                              std::to_string(width) + "x" + std::to_string(height));
+  BundleAdjustmentOptions ba_options = options.bundle_adjustment;
+  if (options.known) {
+    if (options.known->mode == KnownCalibrationMode::kFixed) {
+      ba_options.fix_intrinsics = true;
+    } else {
+      ba_options.known_f_sigma_percent = options.known->f_sigma_percent;
+      ba_options.known_distortion_sigma_px = options.known->distortion_sigma_px;
+    }
+    sparse.calibration_used =
+        options.known->mode == KnownCalibrationMode::kFixed ? "known-fixed" : "known-prior";
+  }
   SparseState& state = sparse.state;
   state.camera = initial;
   std::vector<bool> use(tracked, true);
@@ -127,8 +157,17 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
                               std::to_string(std::count(use.begin(), use.end(), true)) +
                               " (need >= " + std::to_string(options.min_tracks) + ")");
 
-  sparse.bundle_adjustment =
-      RunBundleAdjustment(sparse.tracks, use, &state, options.bundle_adjustment);
+  const auto run_adjustment = [&](const BundleAdjustmentOptions& ba) {
+    sparse.bundle_adjustment =
+        RunBundleAdjustment(sparse.tracks, use, &state, ba, &sparse.uncertainty);
+    BundleAdjustmentRun run;
+    run.iterations = sparse.bundle_adjustment.iterations;
+    run.converged = sparse.bundle_adjustment.converged;
+    run.tracks = static_cast<int>(std::count(use.begin(), use.end(), true));
+    run.final_cost = sparse.bundle_adjustment.final_cost;
+    sparse.runs.push_back(run);
+  };
+  run_adjustment(ba_options);
   // Judge every track again under the adjusted camera: tracks the initial
   // camera made look wrong come back, tracks that do not fit go, and a short
   // re-run from the adjusted state settles the set. A track on a depth edge
@@ -147,10 +186,7 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
       kept[j] = errors[j] <= threshold && state.inverse_depths[j] > 0.0;
     if (kept == use || std::count(kept.begin(), kept.end(), true) < options.min_tracks) break;
     use = kept;
-    const int iterations = sparse.bundle_adjustment.iterations;
-    sparse.bundle_adjustment =
-        RunBundleAdjustment(sparse.tracks, use, &state, options.bundle_adjustment);
-    sparse.bundle_adjustment.iterations += iterations;
+    run_adjustment(ba_options);
     sparse.bundle_adjustment.initial_cost = first.initial_cost;
   }
   // The residual depends on w_j T_i only, so (w, T) -> (-w, -T) is an exact
@@ -176,20 +212,74 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
   sparse.inliers = use;
   timer.Lap("bundle_adjustment");
 
-  // A burst that does not observe the camera can still leave a distortion that
-  // folds the image over itself: no depth map can be made through it.
-  const CameraModel& camera = state.camera;
-  const double corner_px = std::hypot(std::max(camera.cx, camera.width - camera.cx),
-                                      std::max(camera.cy, camera.height - camera.cy));
-  for (int step = 1; step <= 64; ++step) {
-    const double r = corner_px * step / 64.0 / camera.f;
-    const double r2 = r * r;
-    if (1.0 + 3.0 * camera.k1 * r2 + 5.0 * camera.k2 * r2 * r2 <= 0.0)
+  // The verdict on the estimated calibration, then the camera the later stages
+  // get: a folding lens model, or one the dense stage cannot invert, is
+  // replaced (the known calibration where there is one, else no distortion)
+  // and the poses are refitted under it, so that depth never fails because of
+  // an absurd calibration, and the result says so.
+  const auto inflate = [&]() {
+    if (!sparse.uncertainty.available) return;
+    const double k = options.uncertainty_inflation;
+    sparse.uncertainty.covariance *= k * k;
+    sparse.uncertainty.distortion_sigma_px *= k;
+    sparse.uncertainty.distortion_sigma_max_px *= k;
+    sparse.uncertainty.inflation = k;
+  };
+  inflate();
+  CalibrationEvidence evidence;
+  evidence.tracks = static_cast<int>(std::count(use.begin(), use.end(), true));
+  evidence.rms_reprojection_px = sparse.bundle_adjustment.rms_reprojection_px;
+  evidence.median_track_motion_px = parallax;
+  evidence.intrinsics_estimated = !ba_options.fix_intrinsics;
+  sparse.verdict = JudgeCalibration(state.camera, sparse.uncertainty, evidence, options.quality);
+  std::string unusable;
+  double fold_px = 0.0;
+  if (!RadialModelIsMonotone(state.camera, &fold_px))
+    unusable = "folds the image over itself " + Format(fold_px, 0) + " px from the centre";
+  else if (options.camera_usable && !options.camera_usable(state.camera, &unusable))
+    unusable = unusable.empty() ? "is refused by the dense stage" : unusable;
+  if (!unusable.empty()) {
+    sparse.rejected_camera = state.camera;
+    BundleAdjustmentOptions refit = ba_options;
+    CameraModel fallback = CameraModel::Initial(width, height);
+    if (options.known) {
+      fallback = options.known->camera;
+      refit.fix_intrinsics = true;
+      sparse.calibration_used = "fallback-known";
+    } else {
+      fallback.f =
+          state.camera.f > 0.0 && std::isfinite(state.camera.f) ? state.camera.f : fallback.f;
+      refit.refine_distortion = false;
+      sparse.calibration_used = "fallback-k0";
+    }
+    sparse.warnings.push_back("the estimated calibration (f " + Format(state.camera.f, 1) +
+                              " px, k1 " + Format(state.camera.k1, 4) + ", k2 " +
+                              Format(state.camera.k2, 4) + ") " + unusable + "; " +
+                              (options.known ? "the known calibration was used instead"
+                                             : "refitted with k1 = k2 = 0 instead") +
+                              ", and depth was computed with that camera");
+    state.camera = fallback;
+    run_adjustment(refit);
+    inflate();
+    if (2 * static_cast<int>(std::count_if(state.inverse_depths.begin(), state.inverse_depths.end(),
+                                           [](double w) { return w < 0.0; })) >
+        static_cast<int>(state.inverse_depths.size())) {
+      for (double& w : state.inverse_depths) w = -w;
+      for (Pose& pose : state.poses) pose.T = -pose.T;
+    }
+    for (int j = 0; j < tracked; ++j)
+      if (use[j] && !(state.inverse_depths[j] > 0.0)) use[j] = false;
+    sparse.inliers = use;
+    if (std::count(use.begin(), use.end(), true) < options.min_tracks)
       throw ReconstructionError(
-          "camera not observable: the estimated distortion (k1 " + Format(camera.k1, 4) + ", k2 " +
-          Format(camera.k2, 4) + ") folds the image over " + Format(corner_px * step / 64.0) +
-          " px from the centre; the burst needs more hand rotation or more texture");
+          "too few consistent tracks after refitting without the "
+          "rejected calibration: " +
+          std::to_string(std::count(use.begin(), use.end(), true)));
   }
+  if (sparse.verdict.quality != CalibrationQuality::kReliable && evidence.intrinsics_estimated)
+    sparse.warnings.push_back(std::string("calibration ") +
+                              CalibrationQualityName(sparse.verdict.quality) + ": " +
+                              sparse.verdict.reasons.front());
 
   // A global scale is free: report depths with median inverse depth 1.
   std::vector<double> inverse_depths = sparse.InlierInverseDepths();

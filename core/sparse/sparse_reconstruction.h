@@ -3,6 +3,8 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -11,6 +13,7 @@
 #include "core/io/burst.h"
 #include "core/io/result.h"
 #include "core/sparse/bundle_adjustment.h"
+#include "core/sparse/calibration_quality.h"
 #include "core/sparse/grided_features.h"
 #include "core/sparse/rank_one_init.h"
 #include "core/sparse/rotation_init.h"
@@ -28,6 +31,22 @@ enum class InitMode { kRankOne, kNaive };
 InitMode ParseInitMode(const std::string& name);  // "rank1" | "naive"; throws std::invalid_argument
 const char* InitModeName(InitMode mode);
 
+// How a known calibration (a file, or the daemon's fused one) enters the
+// adjustment: held fixed, or as a prior the burst may move within its widths.
+enum class KnownCalibrationMode { kFixed, kPrior };
+KnownCalibrationMode ParseKnownCalibrationMode(const std::string& name);  // "fixed" | "prior"
+const char* KnownCalibrationModeName(KnownCalibrationMode mode);
+
+struct KnownCalibration {
+  CameraModel camera;  // principal point included: it replaces the image centre
+  KnownCalibrationMode mode = KnownCalibrationMode::kPrior;
+  // Widths of the prior mode: f within this percentage, the distortion's shift
+  // of image points within this many pixels.
+  double f_sigma_percent = 1.0;
+  double distortion_sigma_px = 0.5;
+  std::string source;  // where it came from, for result.json ("file:...", "fused")
+};
+
 struct SparseOptions {
   GridedFeatureOptions features;
   RankOneOptions rank_one;
@@ -43,6 +62,20 @@ struct SparseOptions {
   // depth edges, and keeping them costs 10-25 % of focal accuracy at VGA.
   double outlier_px = 0.3;
   int outlier_rounds = 3;
+  // A known calibration; without one the burst calibrates the camera alone.
+  std::optional<KnownCalibration> known;
+  CalibrationQualityOptions quality;
+  // The adjustment's covariance counts tracking noise only; the errors of real
+  // tracks are not white (interpolation and JPEG biases, corners on depth
+  // edges), so the reported sigmas are the covariance's times this factor.
+  // Measured over the calibration sweep (docs/sparse.md, "Calibration
+  // uncertainty"): the 90th percentile of |error| / sigma was 3.9 for f and 4.3
+  // for the distortion before it, so 2.2 brings both near 2.
+  double uncertainty_inflation = 2.2;
+  // Whether a later stage can use a camera (the dense stage inverts the radial
+  // model); a camera it refuses is replaced as a folding one is. Null: only
+  // the fold check. Returns false and says why.
+  std::function<bool(const CameraModel&, std::string* why)> camera_usable;
 };
 
 struct SparseReconstruction {
@@ -51,6 +84,18 @@ struct SparseReconstruction {
   SparseState state;          // camera, poses, inverse depths of every track
   std::vector<bool> inliers;  // tracks used by the final adjustment
   BundleAdjustmentSummary bundle_adjustment;
+  // Each run of the adjustment (the first, then one per outlier round, then a
+  // fallback refit): its own iterations, not a sum.
+  std::vector<BundleAdjustmentRun> runs;
+  // How well this burst determines the camera, and the verdict on the
+  // calibration it estimated (before any fallback).
+  CalibrationUncertainty uncertainty;
+  CalibrationVerdict verdict;
+  // The camera the adjustment estimated, when a fallback replaced it.
+  std::optional<CameraModel> rejected_camera;
+  // "self" | "known-fixed" | "known-prior" | "fallback-k0" | "fallback-known"
+  std::string calibration_used = "self";
+  std::vector<std::string> warnings;
   RankOneResult rank_one;  // diagnostics of the initialization (rank1 mode)
   std::vector<std::pair<std::string, double>>
       timings_ms;  // features, rotation, rank1, bundle_adjustment

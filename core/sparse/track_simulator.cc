@@ -17,6 +17,8 @@ TrackSimulation SimulateTracks(const TrackSimulatorOptions& options) {
   std::mt19937_64 random(options.seed);
   std::uniform_real_distribution<double> unit(-1.0, 1.0);
   std::normal_distribution<double> noise(0.0, std::max(options.noise_px, 1e-300));
+  std::mt19937_64 noise_random(options.noise_seed);
+  std::mt19937_64& noise_source = options.noise_seed != 0 ? noise_random : random;
 
   // Smooth hand motion: centres on a random ellipse-like path, rotations a
   // random axis sweep, both scaled to the requested extents.
@@ -69,7 +71,7 @@ TrackSimulation SimulateTracks(const TrackSimulatorOptions& options) {
       if (!visible) continue;
       if (options.noise_px > 0.0)
         for (int i = 0; i < n; ++i)
-          pixels[i].col(count) += Eigen::Vector2d(noise(random), noise(random));
+          pixels[i].col(count) += Eigen::Vector2d(noise(noise_source), noise(noise_source));
       sim.inverse_depths.push_back(w);
       ++count;
     }

@@ -29,6 +29,9 @@ struct TrackSimulatorOptions {
   double min_depth = 0.7, max_depth = 3.0;
   double noise_px = 0.0;  // Gaussian pixel noise on every observation
   uint64_t seed = 1;
+  // 0: the noise comes from the scene's random stream (seed); otherwise from a
+  // stream of its own, so that one scene can be observed with many noise draws.
+  uint64_t noise_seed = 0;
 };
 
 // Tracks sit on a grid over the reference image (as grided features do).

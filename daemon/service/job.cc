@@ -53,6 +53,8 @@ nlohmann::json ToJson(const Job& job) {
       {"input", job.input.is_null() ? nlohmann::json::object() : job.input},
   };
   if (!job.error.empty()) json["error"] = job.error;
+  json["warnings"] = job.warnings;
+  if (!job.calibration_quality.empty()) json["calibration_quality"] = job.calibration_quality;
   return json;
 }
 
@@ -83,6 +85,8 @@ Job JobFromJson(const nlohmann::json& json) {
   job.has_burst = json.value("has_burst", false);
   job.bytes = json.value("bytes", int64_t{0});
   job.input = json.value("input", nlohmann::json::object());
+  job.warnings = json.value("warnings", std::vector<std::string>{});
+  job.calibration_quality = json.value("calibration_quality", "");
   return job;
 }
 

@@ -46,6 +46,10 @@ struct Job {
   bool has_burst = false;                                  // burst still stored
   int64_t bytes = 0;                                       // on disk, when finished
   nlohmann::json input;                                    // width, height, frames of the burst
+  // From result.json: what the result cannot vouch for, and the verdict on
+  // its calibration ("reliable" | "uncertain" | "degenerate"; empty before).
+  std::vector<std::string> warnings;
+  std::string calibration_quality;
 };
 
 nlohmann::json ToJson(const Job& job);

@@ -59,6 +59,8 @@ void JobProcessor::Process(const std::string& id, std::shared_ptr<const Burst> p
       return;
     }
     job.timings_ms = output.result.timings_ms;
+    job.warnings = output.result.warnings;
+    job.calibration_quality = output.result.calibration_detail.value("quality", "");
     Finish(&job, output.result.ok, output.result.error);
   } catch (const std::exception& e) {
     Finish(&job, false, e.what());

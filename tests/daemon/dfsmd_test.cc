@@ -198,6 +198,15 @@ TEST_F(DfsmdTest, UploadedBurstIsProcessedTheSameWay) {
   const json other = AwaitFinished(client, second, kJobTimeout);
   EXPECT_EQ(other["status"], "succeeded") << other.dump(2);
   EXPECT_EQ(other["input"]["frames"], 8);
+  // Every finished job says how far its calibration can be trusted, and what
+  // the result cannot vouch for.
+  EXPECT_TRUE(other["warnings"].is_array()) << other.dump(2);
+  const std::string quality = other.value("calibration_quality", "");
+  EXPECT_TRUE(quality == "reliable" || quality == "uncertain" || quality == "degenerate")
+      << other.dump(2);
+  const json calibration = json::parse(client.Get("/api/v1/calibration")->body);
+  EXPECT_TRUE(calibration["calibration"]["uncertainty"].is_object()) << calibration.dump(2);
+  EXPECT_TRUE(calibration["calibration"]["quality"].is_string()) << calibration.dump(2);
 
   // A burst with a frame missing: the upload is refused, naming the file.
   std::vector<service::TarFile> files = service::CollectFiles(root_ / "burst");

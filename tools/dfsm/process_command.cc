@@ -14,12 +14,13 @@ constexpr const char* kHelp =
     "\n"
     "  --out DIR            result directory (dfsm-result/1); created when missing\n"
     "  --init rank1|naive   bundle-adjustment start (default rank1)\n"
-    "  --frames N           use N consecutive frames around the reference (default: all)\n"
+    "  --frames N           use N consecutive frames centred on the reference (default: all)\n"
     "  --grid PX            feature cell size (default: 80 px at 1080p, scaled)\n"
     "  --planes N           plane-sweep planes (default 128)\n"
     "  --no-dense           stop after the sparse stage (no depth map)\n"
     "  --threads N          worker threads (default: all cores)\n"
-    "  --max-iterations N   bundle-adjustment iteration limit (default 100)\n"
+    "  --max-iterations N   bundle-adjustment iteration limit per run (default 100)\n"
+
     "\n"
     "Exit status: 0 ok, 1 the burst could not be processed (result.json says why), 2 usage.\n";
 
@@ -87,9 +88,21 @@ int RunProcessCommand(const Args& args) {
   std::printf("calibration f = %.2f px, k1 = %.5f, k2 = %.5f (init f = %d)\n", result.calibration.f,
               result.calibration.k1, result.calibration.k2,
               std::max(burst.width(), burst.height()));
-  std::printf("bundle adj. init %s, %d iterations, %s, cost %.4g -> %.4g, rms %.3f px\n",
-              ba.init.c_str(), ba.iterations, ba.converged ? "converged" : "NOT converged",
-              ba.initial_cost, ba.final_cost, ba.rms_reprojection_px);
+  const nlohmann::json& detail = result.calibration_detail;
+  const nlohmann::json& uncertainty = detail.value("uncertainty", nlohmann::json::object());
+  if (uncertainty.value("available", false))
+    std::printf("            sigma_f %.2f %%, distortion sigma %.2f px\n",
+                uncertainty.value("sigma_f_percent", 0.0),
+                uncertainty.value("distortion_sigma_px", 0.0));
+  std::printf("            %s (calibration: %s)\n", detail.value("quality", "").c_str(),
+              detail.value("source", "").c_str());
+  std::printf("bundle adj. init %s, %zu runs, iterations", ba.init.c_str(), ba.runs.size());
+  for (const BundleAdjustmentRun& run : ba.runs) std::printf(" %d", run.iterations);
+  std::printf(", %s, cost %.4g -> %.4g, rms %.3f px\n",
+              ba.converged ? "converged" : "NOT converged", ba.initial_cost, ba.final_cost,
+              ba.rms_reprojection_px);
+  for (const std::string& warning : result.warnings)
+    std::printf("warning     %s\n", warning.c_str());
   if (result.depth)
     std::printf("depth       %d planes, %.1f %% valid\n", result.depth->planes,
                 100.0 * result.depth->valid_fraction);

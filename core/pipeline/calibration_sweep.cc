@@ -1,0 +1,144 @@
+#include "core/pipeline/calibration_sweep.h"
+
+#include <chrono>
+#include <cmath>
+#include <nlohmann/json.hpp>
+#include <random>
+
+#include "core/pipeline/evaluation.h"
+
+namespace dfsm {
+
+std::vector<SynthOptions> CalibrationSweepSettings(int count, uint64_t seed) {
+  struct Size {
+    int width, height;
+  };
+  const Size sizes[] = {{320, 240}, {640, 480}, {1280, 720}, {1920, 1080}};
+  const double tremors[] = {0.25, 0.5, 1.0, 2.0};
+  std::mt19937_64 random(seed);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  std::vector<SynthOptions> settings;
+  for (int i = 0; i < count; ++i) {
+    SynthOptions options;
+    options.width = sizes[i % 4].width;
+    options.height = sizes[i % 4].height;
+    options.rotation_deg = tremors[(i / 4) % 4];
+    options.baseline = 0.003 + 0.007 * uniform(random);
+    options.k1 = -0.3 + 0.6 * uniform(random);
+    // k2 of the opposite sign and a third of the size, as fitted real lenses
+    // tend to have, so that the corner stays unfolded at both signs of k1.
+    options.k2 = -options.k1 * uniform(random) / 3.0;
+    options.f = std::max(options.width, options.height) * (0.8 + 0.7 * uniform(random));
+    options.jpeg_quality = uniform(random) < 0.5 ? 0 : 85;
+    options.frames = uniform(random) < 0.5 ? 10 : 15;
+    options.supersampling = 2;
+    options.seed = seed * 1000 + i;
+    settings.push_back(options);
+  }
+  return settings;
+}
+
+bool SweepOutcome::f_within_2_sigma() const {
+  return sigma_f_percent > 0.0 && std::abs(f_error_percent) <= 2.0 * sigma_f_percent;
+}
+bool SweepOutcome::distortion_within_2_sigma() const {
+  return distortion_sigma_px > 0.0 && distortion_error_px <= 2.0 * distortion_sigma_px;
+}
+
+SweepOutcome RunSweepBurst(const SynthOptions& settings, const SparseOptions& options) {
+  SweepOutcome outcome;
+  outcome.settings = settings;
+  const SynthBurst burst = SynthesizeBurst(settings);
+  std::vector<cv::Mat> gray;
+  for (const cv::Mat& frame : burst.frames) gray.push_back(ToGray8(frame));
+  const auto start = std::chrono::steady_clock::now();
+  try {
+    const SparseReconstruction sparse = ReconstructSparse(gray, burst.manifest.reference, options);
+    outcome.reconstructed = true;
+    const CameraModel& camera =
+        sparse.rejected_camera ? *sparse.rejected_camera : sparse.state.camera;
+    outcome.f_error_percent = 100.0 * (camera.f - burst.truth.camera.f) / burst.truth.camera.f;
+    outcome.distortion_error_px = MeanDistortionError(camera, burst.truth.camera);
+    outcome.sigma_f_percent = sparse.uncertainty.available
+                                  ? sparse.uncertainty.sigma_f_percent(sparse.state.camera.f)
+                                  : 0.0;
+    outcome.distortion_sigma_px = sparse.uncertainty.distortion_sigma_px;
+    outcome.quality = CalibrationQualityName(sparse.verdict.quality);
+    outcome.reasons = sparse.verdict.reasons;
+  } catch (const ReconstructionError& e) {
+    outcome.error = e.what();
+  }
+  outcome.sparse_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  return outcome;
+}
+
+nlohmann::json ToJson(const SweepOutcome& o) {
+  nlohmann::json j = {{"width", o.settings.width},
+                      {"height", o.settings.height},
+                      {"frames", o.settings.frames},
+                      {"rotation_deg", o.settings.rotation_deg},
+                      {"baseline_mm", 1000.0 * o.settings.baseline},
+                      {"f_true", o.settings.f},
+                      {"k1", o.settings.k1},
+                      {"k2", o.settings.k2},
+                      {"jpeg", o.settings.jpeg_quality},
+                      {"seed", o.settings.seed},
+                      {"reconstructed", o.reconstructed},
+                      {"sparse_ms", o.sparse_ms}};
+  if (!o.reconstructed) {
+    j["error"] = o.error;
+    return j;
+  }
+  j.update({{"f_error_percent", o.f_error_percent},
+            {"sigma_f_percent", o.sigma_f_percent},
+            {"distortion_error_px", o.distortion_error_px},
+            {"distortion_sigma_px", o.distortion_sigma_px},
+            {"quality", o.quality},
+            {"reasons", o.reasons}});
+  return j;
+}
+
+SweepSummary Summarize(const std::vector<SweepOutcome>& outcomes) {
+  SweepSummary s;
+  int f_in = 0, d_in = 0;
+  for (const SweepOutcome& o : outcomes) {
+    ++s.bursts;
+    if (!o.reconstructed) continue;
+    ++s.reconstructed;
+    f_in += o.f_within_2_sigma();
+    d_in += o.distortion_within_2_sigma();
+    if (o.quality == "reliable") {
+      ++s.reliable;
+      s.reliable_max_f_error_percent =
+          std::max(s.reliable_max_f_error_percent, std::abs(o.f_error_percent));
+      s.reliable_max_distortion_error_px =
+          std::max(s.reliable_max_distortion_error_px, o.distortion_error_px);
+      s.over_5_percent_called_reliable += std::abs(o.f_error_percent) > 5.0;
+    } else if (o.quality == "uncertain") {
+      ++s.uncertain;
+    } else {
+      ++s.degenerate;
+    }
+  }
+  if (s.reconstructed > 0) {
+    s.f_within_2_sigma = double(f_in) / s.reconstructed;
+    s.distortion_within_2_sigma = double(d_in) / s.reconstructed;
+  }
+  return s;
+}
+
+nlohmann::json ToJson(const SweepSummary& s) {
+  return {{"bursts", s.bursts},
+          {"reconstructed", s.reconstructed},
+          {"f_within_2_sigma", s.f_within_2_sigma},
+          {"distortion_within_2_sigma", s.distortion_within_2_sigma},
+          {"reliable", s.reliable},
+          {"uncertain", s.uncertain},
+          {"degenerate", s.degenerate},
+          {"reliable_max_f_error_percent", s.reliable_max_f_error_percent},
+          {"reliable_max_distortion_error_px", s.reliable_max_distortion_error_px},
+          {"over_5_percent_called_reliable", s.over_5_percent_called_reliable}};
+}
+
+}  // namespace dfsm

@@ -1,0 +1,57 @@
+// The calibration sweep: generated bursts over the settings a user meets
+// (320x240-1080p, tremor 0.25-2 deg, baseline 3-10 mm, k1 of either sign, JPEG
+// on and off), each self-calibrated and scored against its ground truth, to
+// measure whether the reported uncertainty and verdict are honest. Shared by
+// bench/calibration_sweep (the docs table) and the long-label test that
+// asserts the targets.
+#pragma once
+
+#include <cstdint>
+#include <nlohmann/json_fwd.hpp>
+#include <string>
+#include <vector>
+
+#include "core/sparse/sparse_reconstruction.h"
+#include "core/synth/burst_synthesizer.h"
+
+namespace dfsm {
+
+// The settings of burst `index` of a sweep of `count`: every resolution and
+// tremor appears equally often, the rest is drawn from `seed` (deterministic).
+std::vector<SynthOptions> CalibrationSweepSettings(int count, uint64_t seed = 1);
+
+struct SweepOutcome {
+  SynthOptions settings;
+  bool reconstructed = false;
+  std::string error;             // when !reconstructed
+  double f_error_percent = 0.0;  // signed
+  double sigma_f_percent = 0.0;
+  double distortion_error_px = 0.0;
+  double distortion_sigma_px = 0.0;
+  std::string quality;
+  std::vector<std::string> reasons;
+  double sparse_ms = 0.0;
+
+  // |f error| <= 2 sigma_f, distortion error <= 2 sigma (0 sigma: false).
+  bool f_within_2_sigma() const;
+  bool distortion_within_2_sigma() const;
+};
+
+SweepOutcome RunSweepBurst(const SynthOptions& settings, const SparseOptions& options = {});
+
+nlohmann::json ToJson(const SweepOutcome& outcome);
+
+struct SweepSummary {
+  int bursts = 0, reconstructed = 0;
+  double f_within_2_sigma = 0.0;  // share of reconstructed bursts
+  double distortion_within_2_sigma = 0.0;
+  int reliable = 0, uncertain = 0, degenerate = 0;
+  double reliable_max_f_error_percent = 0.0;
+  double reliable_max_distortion_error_px = 0.0;
+  int over_5_percent_called_reliable = 0;
+};
+
+SweepSummary Summarize(const std::vector<SweepOutcome>& outcomes);
+nlohmann::json ToJson(const SweepSummary& summary);
+
+}  // namespace dfsm

@@ -1,0 +1,206 @@
+#include "core/sparse/calibration_uncertainty.h"
+
+#include <Eigen/Cholesky>
+#include <cmath>
+#include <nlohmann/json.hpp>
+#include <vector>
+
+namespace dfsm {
+
+double CalibrationUncertainty::sigma_f_px() const { return std::sqrt(covariance(0, 0)); }
+double CalibrationUncertainty::sigma_f_percent(double f) const {
+  return f > 0.0 ? 100.0 * sigma_f_px() / f : 0.0;
+}
+double CalibrationUncertainty::sigma_k1() const { return std::sqrt(covariance(1, 1)); }
+double CalibrationUncertainty::sigma_k2() const { return std::sqrt(covariance(2, 2)); }
+double CalibrationUncertainty::correlation(int a, int b) const {
+  const double scale = std::sqrt(covariance(a, a) * covariance(b, b));
+  return scale > 0.0 ? covariance(a, b) / scale : 0.0;
+}
+
+CalibrationUncertainty MarginalIntrinsicsCovariance(const AdjustmentJacobians& jacobians) {
+  CalibrationUncertainty result;
+  const ceres::CRSMatrix& J = jacobians.reprojection;
+  const int c = jacobians.camera_columns;
+  if (jacobians.intrinsics_columns == 0) {
+    result.unavailable_reason = "the intrinsics were held fixed";
+    return result;
+  }
+  result.degrees_of_freedom = J.num_rows - J.num_cols;
+  if (result.degrees_of_freedom <= 0) {
+    result.unavailable_reason = "fewer residuals than parameters";
+    return result;
+  }
+  const bool with_reference =
+      jacobians.block_track.size() * 2 == static_cast<size_t>(J.num_rows) &&
+      jacobians.reference_jacobians.size() * 2 == static_cast<size_t>(J.num_rows);
+  double sum_sq = 0.0;
+  for (const double r : jacobians.reprojection_residuals) sum_sq += r * r;
+
+  // Accumulated per track (its residual blocks are consecutive), unscaled:
+  // S = sum J_c^T J_c - v v^T / h (v = J_c^T J_w, h = J_w^T J_w), and the
+  // reference noise term N = sum P P^T, P = Q - v q^T / h (Q = J_c^T B, q =
+  // J_w^T B, B = d residual / d reference pixel).
+  Eigen::MatrixXd S = Eigen::MatrixXd::Zero(c, c);
+  Eigen::MatrixXd N = Eigen::MatrixXd::Zero(c, c);
+  Eigen::VectorXd v = Eigen::VectorXd::Zero(c);
+  Eigen::MatrixXd Q = Eigen::MatrixXd::Zero(c, 2);
+  Eigen::RowVector2d q = Eigen::RowVector2d::Zero();
+  double h = 0.0, reference_share = 0.0;
+  int track = -1, depth_seen = -1;
+  const auto close_track = [&]() {
+    if (h > 0.0) S.noalias() -= v * v.transpose() / h;
+    if (with_reference) {
+      const Eigen::MatrixXd P = h > 0.0 ? Eigen::MatrixXd(Q - v * q / h) : Q;
+      N.noalias() += P * P.transpose();
+    }
+    v.setZero();
+    Q.setZero();
+    q.setZero();
+    h = 0.0;
+    depth_seen = -1;
+  };
+  std::vector<int> camera_index;
+  std::vector<double> camera_value;
+  for (int row = 0; row < J.num_rows; ++row) {
+    const int block = row / 2;
+    if (with_reference && jacobians.block_track[block] != track) {
+      close_track();
+      track = jacobians.block_track[block];
+    }
+    camera_index.clear();
+    camera_value.clear();
+    int depth = -1;
+    double depth_value = 0.0;
+    for (int k = J.rows[row]; k < J.rows[row + 1]; ++k) {
+      const int col = J.cols[k];
+      if (col < c) {
+        camera_index.push_back(col);
+        camera_value.push_back(J.values[k]);
+      } else if (depth < 0 || depth == col - c) {
+        depth = col - c;
+        depth_value += J.values[k];
+      } else {
+        result.unavailable_reason = "a residual depends on two inverse depths";
+        return result;
+      }
+    }
+    if (depth >= 0) {
+      // Without track ids, rows of one inverse depth are grouped by it.
+      if (!with_reference && depth != depth_seen && depth_seen >= 0) close_track();
+      depth_seen = depth;
+    }
+    Eigen::RowVector2d b = Eigen::RowVector2d::Zero();
+    if (with_reference) b = jacobians.reference_jacobians[block].row(row % 2);
+    for (size_t a = 0; a < camera_index.size(); ++a) {
+      for (size_t e = 0; e < camera_index.size(); ++e)
+        S(camera_index[a], camera_index[e]) += camera_value[a] * camera_value[e];
+      v[camera_index[a]] += camera_value[a] * depth_value;
+      Q.row(camera_index[a]) += camera_value[a] * b;
+    }
+    h += depth_value * depth_value;
+    q += depth_value * b;
+    if (with_reference) reference_share += b.squaredNorm();
+  }
+  close_track();
+  // E[sum r^2] ~ sigma^2 (rows - columns) (1 + share per row): the reference
+  // pixel's noise reaches each residual through B.
+  const double rows = J.num_rows;
+  const double variance = sum_sq / (result.degrees_of_freedom * (1.0 + reference_share / rows));
+  result.residual_sigma_px = std::sqrt(variance);
+  if (!(variance > 0.0)) {
+    result.unavailable_reason = "the residuals are all zero (noise-free tracks)";
+    return result;
+  }
+  // Whitened: A = S / sigma^2 + H_p, the score's covariance (S + N) / sigma^2 + H_p.
+  S /= variance;
+  Eigen::MatrixXd score = S + N / variance;
+  const ceres::CRSMatrix& P = jacobians.prior;
+  for (int row = 0; row < P.num_rows; ++row)
+    for (int a = P.rows[row]; a < P.rows[row + 1]; ++a)
+      for (int b = P.rows[row]; b < P.rows[row + 1]; ++b)
+        if (P.cols[a] < c && P.cols[b] < c) {
+          S(P.cols[a], P.cols[b]) += P.values[a] * P.values[b];
+          score(P.cols[a], P.cols[b]) += P.values[a] * P.values[b];
+        }
+
+  // Equilibrate before factoring: f is in pixels, k1/k2 and rotations are O(1)
+  // and O(1e-3), so the raw matrix spans many orders of magnitude.
+  Eigen::VectorXd scale = S.diagonal().cwiseSqrt();
+  for (int i = 0; i < c; ++i)
+    if (!(scale[i] > 0.0)) {
+      result.unavailable_reason = "a parameter is not observed by any residual";
+      return result;
+    }
+  const Eigen::MatrixXd normalized =
+      scale.cwiseInverse().asDiagonal() * S * scale.cwiseInverse().asDiagonal();
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(normalized);
+  if (ldlt.info() != Eigen::Success || !ldlt.isPositive() ||
+      ldlt.vectorD().minCoeff() <= 1e-14 * ldlt.vectorD().maxCoeff()) {
+    result.unavailable_reason =
+        "the information matrix is singular: the burst does not observe "
+        "the camera";
+    return result;
+  }
+  // A^-1 score A^-1, in the equilibrated variables; only the intrinsics rows.
+  const int n = jacobians.intrinsics_columns;
+  Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(c, n);
+  for (int i = 0; i < n; ++i) rhs(i, i) = 1.0;
+  const Eigen::MatrixXd columns = ldlt.solve(rhs);  // c x n of A^-1 (normalized)
+  const Eigen::MatrixXd normalized_score =
+      scale.cwiseInverse().asDiagonal() * score * scale.cwiseInverse().asDiagonal();
+  const Eigen::MatrixXd block = columns.transpose() * normalized_score * columns;
+  for (int a = 0; a < n; ++a)
+    for (int b = 0; b < n; ++b)
+      result.covariance(jacobians.intrinsics_indices[a], jacobians.intrinsics_indices[b]) =
+          block(a, b) / (scale[a] * scale[b]);
+  result.available = true;
+  return result;
+}
+
+void PropagateToDistortion(const CameraModel& camera, CalibrationUncertainty* uncertainty,
+                           int step) {
+  if (!uncertainty->available) return;
+  const Eigen::Matrix3d& C = uncertainty->covariance;
+  double sum = 0.0, largest = 0.0;
+  int count = 0;
+  for (int v = 0; v < camera.height; v += step) {
+    for (int u = 0; u < camera.width; u += step) {
+      // The metric compares models through the undistorted image's pixel
+      // grid, u_ideal = c + (u - c) F(r^2), r = |u - c| / f, F = 1 + k1 r^2
+      // + k2 r^4: only F moves a pixel, by |u - c| dF, with dF/dk1 = r^2,
+      // dF/dk2 = r^4, dF/df = -(2 k1 r^2 + 4 k2 r^4) / f.
+      const double rho = std::hypot(u - camera.cx, v - camera.cy);
+      const double r2 = rho * rho / (camera.f * camera.f);
+      const Eigen::Vector3d g(-(2.0 * camera.k1 * r2 + 4.0 * camera.k2 * r2 * r2) / camera.f, r2,
+                              r2 * r2);
+      const double sigma = rho * std::sqrt(std::max(0.0, g.dot(C * g)));
+      sum += sigma;
+      largest = std::max(largest, sigma);
+      ++count;
+    }
+  }
+  uncertainty->distortion_sigma_px = count > 0 ? sum / count : 0.0;
+  uncertainty->distortion_sigma_max_px = largest;
+}
+
+nlohmann::json ToJson(const CalibrationUncertainty& uncertainty, double f) {
+  if (!uncertainty.available)
+    return {{"available", false}, {"reason", uncertainty.unavailable_reason}};
+  return {{"available", true},
+          {"sigma_f_px", uncertainty.sigma_f_px()},
+          {"sigma_f_percent", uncertainty.sigma_f_percent(f)},
+          {"sigma_k1", uncertainty.sigma_k1()},
+          {"sigma_k2", uncertainty.sigma_k2()},
+          {"correlation",
+           {{"f_k1", uncertainty.correlation(0, 1)},
+            {"f_k2", uncertainty.correlation(0, 2)},
+            {"k1_k2", uncertainty.correlation(1, 2)}}},
+          {"distortion_sigma_px", uncertainty.distortion_sigma_px},
+          {"distortion_sigma_max_px", uncertainty.distortion_sigma_max_px},
+          {"residual_sigma_px", uncertainty.residual_sigma_px},
+          {"degrees_of_freedom", uncertainty.degrees_of_freedom},
+          {"inflation", uncertainty.inflation}};
+}
+
+}  // namespace dfsm
