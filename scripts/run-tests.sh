@@ -15,7 +15,25 @@
 #   DFSM_FUZZ_SECONDS  seconds each fuzz harness runs in it (default 20)
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+# Every stage prints its duration as it ends, and all of them at the end: CI has
+# 90 minutes and the run is kept under 45.
+durations=()
+stage_start=$SECONDS
+stage_done() {
+  local line="$1: $((SECONDS - stage_start)) s"
+  echo "== duration of $line"
+  durations+=("$line")
+  stage_start=$SECONDS
+}
+print_durations() {
+  echo "== stage durations (total $SECONDS s):"
+  local line
+  for line in "${durations[@]}"; do echo "   $line"; done
+}
+trap print_durations EXIT
+
 "$root/scripts/install-deps.sh"
+stage_done "install-deps"
 jobs="$(nproc)"
 
 exclude=()
@@ -24,7 +42,9 @@ exclude=()
 echo "== release build, -Werror"
 BUILD_DIR="$root/build" "$root/scripts/build.sh" \
   -DDFSM_WERROR=ON -DDFSM_BUILD_TESTS=ON -DDFSM_BUILD_BENCH=ON
+stage_done "release build"
 (cd "$root/build" && ctest --output-on-failure --timeout 900 -j "$jobs" "${exclude[@]}")
+stage_done "release tests"
 
 # --- sanitizers ---
 # asan: every test of the default run (labels unit, e2e, daemon, fuzz replays;
@@ -36,6 +56,7 @@ case "${DFSM_SANITIZE:-1}" in
   asan | tsan) "$root/scripts/run-sanitizers.sh" "$DFSM_SANITIZE" ;;
   *) "$root/scripts/run-sanitizers.sh" asan tsan ;;
 esac
+stage_done "sanitizers (${DFSM_SANITIZE:-asan tsan})"
 # --- end sanitizers ---
 
 # --- fuzz ---
@@ -51,6 +72,7 @@ if [ "${DFSM_FUZZ:-1}" != 0 ]; then
   cmake --build "$root/build-fuzz" --parallel "$jobs" --target burst_manifest_fuzzer config_fuzzer \
     tar_upload_fuzzer frame_convert_fuzzer http_fuzzer
   (cd "$root/build-fuzz" && ctest --output-on-failure -j "$jobs" -L fuzz)
+  stage_done "fuzz"
 fi
 # --- end fuzz ---
 
@@ -78,5 +100,6 @@ if [ "${DFSM_TEST_VM:-1}" != 0 ]; then
     echo "VM tests skipped: qemu-system-x86_64 or busybox-static is not installed" \
       "(scripts/vm-packages.txt lists them; they could not be installed here)"
   fi
+  stage_done "VM tests"
 fi
 # --- end capture ---
