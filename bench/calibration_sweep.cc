@@ -4,10 +4,13 @@
 //   calibration_sweep [--bursts N] [--seed S] [--no-weak-prior]
 #include "core/pipeline/calibration_sweep.h"
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <nlohmann/json.hpp>
+#include <string>
 #include <vector>
 
 int main(int argc, char** argv) {
@@ -34,5 +37,30 @@ int main(int argc, char** argv) {
     std::fflush(stdout);
   }
   std::printf("%s\n", nlohmann::json{{"summary", ToJson(Summarize(outcomes))}}.dump().c_str());
+
+  // The docs table: one row per resolution, then all.
+  std::printf(
+      "\n| size | bursts | median / max f error %% | f within 2 sigma | distortion within 2 "
+      "sigma | reliable / uncertain / degenerate | max f error of reliable %% |\n"
+      "|---|---|---|---|---|---|---|\n");
+  const auto row = [](const char* name, const std::vector<SweepOutcome>& group) {
+    std::vector<double> errors;
+    for (const SweepOutcome& o : group)
+      if (o.reconstructed) errors.push_back(std::abs(o.f_error_percent));
+    std::sort(errors.begin(), errors.end());
+    const SweepSummary s = Summarize(group);
+    std::printf("| %s | %d | %.2f / %.2f | %.0f %% | %.0f %% | %d / %d / %d | %.2f |\n", name,
+                s.bursts, errors.empty() ? 0.0 : errors[errors.size() / 2],
+                errors.empty() ? 0.0 : errors.back(), 100.0 * s.f_within_2_sigma,
+                100.0 * s.distortion_within_2_sigma, s.reliable, s.uncertain, s.degenerate,
+                s.reliable_max_f_error_percent);
+  };
+  for (const int width : {320, 640, 1280, 1920}) {
+    std::vector<SweepOutcome> group;
+    for (const SweepOutcome& o : outcomes)
+      if (o.settings.width == width) group.push_back(o);
+    if (!group.empty()) row(std::to_string(width).c_str(), group);
+  }
+  row("all", outcomes);
   return 0;
 }

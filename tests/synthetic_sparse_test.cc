@@ -141,6 +141,17 @@ TEST(SyntheticSparseCalibration, AKnownCalibrationIsHeldOrUsedAsAPrior) {
             std::abs(self.state.camera.f - truth_f) + 1e-9);
   EXPECT_LT(prior.uncertainty.sigma_f_px(), self.uncertainty.sigma_f_px());
   EXPECT_EQ(prior.calibration_used, "known-prior");
+  EXPECT_FALSE(prior.self_estimate.has_value());
+
+  // What a fusion may add: the burst's own estimate beside the prior's result,
+  // the same as calibrating alone on the final tracks.
+  known.also_self_calibrate = true;
+  options.known = known;
+  const SparseReconstruction both = ReconstructSparse(burst.gray, burst.reference(), options);
+  ASSERT_TRUE(both.self_estimate.has_value());
+  EXPECT_TRUE(both.self_estimate->uncertainty.available);
+  EXPECT_NEAR(both.self_estimate->camera.f, self.state.camera.f, 0.005 * truth_f);
+  EXPECT_GT(both.self_estimate->uncertainty.sigma_f_px(), prior.uncertainty.sigma_f_px());
 
   // A calibration of another size is refused by name.
   known.camera.width = 1920;

@@ -175,6 +175,7 @@ BundleAdjustmentSummary RunBundleAdjustment(const FeatureTracks& tracks,
       jacobians.block_track.push_back(j);
       jacobians.reference_jacobians.push_back(B);
     }
+    jacobians.noise_inflation = options.uncertainty_inflation;
     *uncertainty = MarginalIntrinsicsCovariance(jacobians);
     PropagateToDistortion(state->camera, uncertainty);
   }

@@ -31,6 +31,12 @@ struct BundleAdjustmentOptions {
   // shift of two radii (half-way and the corner), like IntrinsicsPrior.
   double known_f_sigma_percent = 0.0;
   double known_distortion_sigma_px = 0.0;
+  // The covariance of the intrinsics counts tracking noise only, and the
+  // errors of real tracks are not white (interpolation and JPEG biases,
+  // corners on depth edges, local minima): the noise is taken as this many
+  // times what the residuals show. Measured over the calibration sweep
+  // (docs/sparse.md, "Calibration uncertainty").
+  double uncertainty_inflation = 2.8;
 };
 
 // The state the adjustment refines; the principal point stays at its value.

@@ -112,9 +112,12 @@ CalibrationUncertainty MarginalIntrinsicsCovariance(const AdjustmentJacobians& j
     result.unavailable_reason = "the residuals are all zero (noise-free tracks)";
     return result;
   }
-  // Whitened: A = S / sigma^2 + H_p, the score's covariance (S + N) / sigma^2 + H_p.
-  S /= variance;
-  Eigen::MatrixXd score = S + N / variance;
+  // Whitened: A = S / s^2 + H_p, the score's covariance (S + N) / s^2 + H_p,
+  // with s the tracking noise inflated for model error.
+  const double inflated = variance * jacobians.noise_inflation * jacobians.noise_inflation;
+  result.inflation = jacobians.noise_inflation;
+  S /= inflated;
+  Eigen::MatrixXd score = S + N / inflated;
   const ceres::CRSMatrix& P = jacobians.prior;
   for (int row = 0; row < P.num_rows; ++row)
     for (int a = P.rows[row]; a < P.rows[row + 1]; ++a)

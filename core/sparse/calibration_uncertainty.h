@@ -32,8 +32,7 @@ struct CalibrationUncertainty {
   // scale of the covariance.
   double residual_sigma_px = 0.0;
   int degrees_of_freedom = 0;
-  // Factor the sigmas were multiplied by for model error (1: the bare
-  // covariance; see SparseOptions::uncertainty_inflation).
+  // The noise inflation the covariance was computed with (1: none).
   double inflation = 1.0;
   // Propagated to the grid of MeanDistortionError: the standard deviation of
   // where the estimated D->U model sends a pixel in the undistorted image, in
@@ -69,6 +68,10 @@ struct AdjustmentJacobians {
   // its track, so its noise is shared by them: the covariance counts it.
   std::vector<int> block_track;
   std::vector<Eigen::Matrix2d> reference_jacobians;
+  // The tracking noise is taken as this many times what the residuals show
+  // (model error: BundleAdjustmentOptions::uncertainty_inflation). It scales
+  // the data's share only, not the priors'.
+  double noise_inflation = 1.0;
 };
 
 // The marginal covariance of the intrinsics. The adjustment is least squares

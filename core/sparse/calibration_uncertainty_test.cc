@@ -29,7 +29,9 @@ Trial AdjustSimulation(const TrackSimulatorOptions& options) {
   state.poses = init.poses;
   state.inverse_depths = init.inverse_depths;
   Trial trial;
-  RunBundleAdjustment(sim.tracks, init.inliers, &state, {}, &trial.uncertainty);
+  BundleAdjustmentOptions bare;  // the covariance itself, without the model-error inflation
+  bare.uncertainty_inflation = 1.0;
+  RunBundleAdjustment(sim.tracks, init.inliers, &state, bare, &trial.uncertainty);
   trial.camera = state.camera;
   return trial;
 }
@@ -97,6 +99,32 @@ TEST(CalibrationUncertainty, SigmaGrowsWithNoiseAndShrinksWithRotation) {
   options.rotation_deg = 0.25;
   const double less_rotation = AdjustSimulation(options).uncertainty.sigma_f_px();
   EXPECT_GT(less_rotation, 2.0 * base);
+}
+
+// The inflation for model error scales the data's share: without priors that
+// is every sigma, times the factor.
+TEST(CalibrationUncertainty, InflationScalesTheDataShare) {
+  TrackSimulatorOptions options;
+  options.noise_px = 0.05;
+  const TrackSimulation sim = SimulateTracks(options);
+  SparseState start;
+  start.camera = CameraModel::Initial(sim.camera.width, sim.camera.height);
+  const RankOneResult init =
+      RankOneInit(sim.tracks, start.camera, EstimateRotations(sim.tracks, start.camera));
+  start.poses = init.poses;
+  start.inverse_depths = init.inverse_depths;
+  BundleAdjustmentOptions options_1, options_3;
+  options_1.log_f_prior_sigma = options_3.log_f_prior_sigma = 0.0;  // no prior
+  options_1.uncertainty_inflation = 1.0;
+  options_3.uncertainty_inflation = 3.0;
+  SparseState a = start, b = start;
+  CalibrationUncertainty u1, u3;
+  RunBundleAdjustment(sim.tracks, init.inliers, &a, options_1, &u1);
+  RunBundleAdjustment(sim.tracks, init.inliers, &b, options_3, &u3);
+  ASSERT_TRUE(u1.available && u3.available);
+  EXPECT_NEAR(u3.sigma_f_px() / u1.sigma_f_px(), 3.0, 1e-6);
+  EXPECT_NEAR(u3.distortion_sigma_px / u1.distortion_sigma_px, 3.0, 1e-6);
+  EXPECT_EQ(u3.inflation, 3.0);
 }
 
 TEST(CalibrationUncertainty, HeldIntrinsicsHaveNoUncertainty) {

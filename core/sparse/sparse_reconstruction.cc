@@ -189,6 +189,21 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
     run_adjustment(ba_options);
     sparse.bundle_adjustment.initial_cost = first.initial_cost;
   }
+  if (options.known && options.known->mode == KnownCalibrationMode::kPrior &&
+      options.known->also_self_calibrate) {
+    SparseState self = state;
+    SparseReconstruction::SelfEstimate estimate;
+    const BundleAdjustmentSummary summary = RunBundleAdjustment(
+        sparse.tracks, use, &self, options.bundle_adjustment, &estimate.uncertainty);
+    CalibrationEvidence self_evidence;
+    self_evidence.tracks = static_cast<int>(std::count(use.begin(), use.end(), true));
+    self_evidence.rms_reprojection_px = summary.rms_reprojection_px;
+    self_evidence.median_track_motion_px = parallax;
+    estimate.camera = self.camera;
+    estimate.verdict =
+        JudgeCalibration(self.camera, estimate.uncertainty, self_evidence, options.quality);
+    sparse.self_estimate = estimate;
+  }
   // The residual depends on w_j T_i only, so (w, T) -> (-w, -T) is an exact
   // symmetry the adjustment may cross: choose the sign that puts most tracks
   // in front of the camera. A track still behind it is no point of the scene,
@@ -217,15 +232,6 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
   // replaced (the known calibration where there is one, else no distortion)
   // and the poses are refitted under it, so that depth never fails because of
   // an absurd calibration, and the result says so.
-  const auto inflate = [&]() {
-    if (!sparse.uncertainty.available) return;
-    const double k = options.uncertainty_inflation;
-    sparse.uncertainty.covariance *= k * k;
-    sparse.uncertainty.distortion_sigma_px *= k;
-    sparse.uncertainty.distortion_sigma_max_px *= k;
-    sparse.uncertainty.inflation = k;
-  };
-  inflate();
   CalibrationEvidence evidence;
   evidence.tracks = static_cast<int>(std::count(use.begin(), use.end(), true));
   evidence.rms_reprojection_px = sparse.bundle_adjustment.rms_reprojection_px;
@@ -260,7 +266,6 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
                               ", and depth was computed with that camera");
     state.camera = fallback;
     run_adjustment(refit);
-    inflate();
     if (2 * static_cast<int>(std::count_if(state.inverse_depths.begin(), state.inverse_depths.end(),
                                            [](double w) { return w < 0.0; })) >
         static_cast<int>(state.inverse_depths.size())) {

@@ -45,6 +45,10 @@ struct KnownCalibration {
   double f_sigma_percent = 1.0;
   double distortion_sigma_px = 0.5;
   std::string source;  // where it came from, for result.json ("file:...", "fused")
+  // Also estimate the camera from this burst alone (one more adjustment run
+  // on the final tracks, without this prior): what a fusion of bursts may add
+  // without counting the prior twice (SparseReconstruction::self_estimate).
+  bool also_self_calibrate = false;
 };
 
 struct SparseOptions {
@@ -65,13 +69,6 @@ struct SparseOptions {
   // A known calibration; without one the burst calibrates the camera alone.
   std::optional<KnownCalibration> known;
   CalibrationQualityOptions quality;
-  // The adjustment's covariance counts tracking noise only; the errors of real
-  // tracks are not white (interpolation and JPEG biases, corners on depth
-  // edges), so the reported sigmas are the covariance's times this factor.
-  // Measured over the calibration sweep (docs/sparse.md, "Calibration
-  // uncertainty"): the 90th percentile of |error| / sigma was 3.9 for f and 4.3
-  // for the distortion before it, so 2.2 brings both near 2.
-  double uncertainty_inflation = 2.2;
   // Whether a later stage can use a camera (the dense stage inverts the radial
   // model); a camera it refuses is replaced as a folding one is. Null: only
   // the fold check. Returns false and says why.
@@ -91,6 +88,14 @@ struct SparseReconstruction {
   // calibration it estimated (before any fallback).
   CalibrationUncertainty uncertainty;
   CalibrationVerdict verdict;
+  // The burst's own calibration when the adjustment used a known one as a
+  // prior and KnownCalibration::also_self_calibrate asked for it.
+  struct SelfEstimate {
+    CameraModel camera;
+    CalibrationUncertainty uncertainty;
+    CalibrationVerdict verdict;
+  };
+  std::optional<SelfEstimate> self_estimate;
   // The camera the adjustment estimated, when a fallback replaced it.
   std::optional<CameraModel> rejected_camera;
   // "self" | "known-fixed" | "known-prior" | "fallback-k0" | "fallback-known"

@@ -2,6 +2,7 @@
 #include <cstdio>
 #include <opencv2/core/utility.hpp>
 
+#include "core/export/calibration_import.h"
 #include "core/pipeline/pipeline.h"
 #include "tools/dfsm/arg_parser.h"
 #include "tools/dfsm/command.h"
@@ -20,6 +21,12 @@ constexpr const char* kHelp =
     "  --no-dense           stop after the sparse stage (no depth map)\n"
     "  --threads N          worker threads (default: all cores)\n"
     "  --max-iterations N   bundle-adjustment iteration limit per run (default 100)\n"
+    "  --calibration FILE   a known calibration: dfsm's calibration.json/.yaml, an OpenCV\n"
+    "                       FileStorage (camera_matrix, distortion_coefficients) or a ROS\n"
+    "                       CameraInfo YAML; its principal point replaces the image centre\n"
+    "  --calibration-mode fixed|prior\n"
+    "                       hold it fixed, or use it as a prior (f 1 %, distortion 0.5 px;\n"
+    "                       default prior)\n"
 
     "\n"
     "Exit status: 0 ok, 1 the burst could not be processed (result.json says why), 2 usage.\n";
@@ -27,7 +34,8 @@ constexpr const char* kHelp =
 }  // namespace
 
 int RunProcessCommand(const Args& args) {
-  ArgParser parser({"out", "init", "frames", "grid", "planes", "threads", "max-iterations"},
+  ArgParser parser({"out", "init", "frames", "grid", "planes", "threads", "max-iterations",
+                    "calibration", "calibration-mode"},
                    {"no-dense", "help"});
   parser.Parse(args);
   if (parser.Has("help")) {
@@ -69,6 +77,32 @@ int RunProcessCommand(const Args& args) {
   } catch (const BurstError& e) {
     std::fprintf(stderr, "dfsm process: %s\n", e.what());
     return 1;
+  }
+  if (parser.Has("calibration")) {
+    KnownCalibration known;
+    try {
+      known.mode = ParseKnownCalibrationMode(parser.String("calibration-mode", "prior"));
+    } catch (const std::invalid_argument& e) {
+      throw UsageError(std::string("--calibration-mode: ") + e.what());
+    }
+    const std::string file = parser.String("calibration", "");
+    try {
+      const ImportedCalibration imported = ReadCalibrationFile(file, burst.width(), burst.height());
+      known.camera = imported.camera;
+      known.source = "file:" + file + " (" + imported.format + ")";
+      if (imported.fit_max_error_px > 0.0)
+        std::fprintf(stderr,
+                     "dfsm process: %s: fitted to ha2016-d2u, max error %.3f px, RMS %.3f px\n",
+                     file.c_str(), imported.fit_max_error_px, imported.fit_rms_error_px);
+      for (const std::string& note : imported.notes)
+        std::fprintf(stderr, "dfsm process: %s: %s\n", file.c_str(), note.c_str());
+    } catch (const CalibrationFileError& e) {
+      std::fprintf(stderr, "dfsm process: %s\n", e.what());
+      return 1;
+    }
+    options.sparse.known = known;
+  } else if (parser.Has("calibration-mode")) {
+    throw UsageError("--calibration-mode needs --calibration FILE");
   }
   PipelineOutput output = RunPipeline(burst, options, [](const std::string& stage) {
     std::fprintf(stderr, "dfsm process: %s...\n", stage.c_str());
