@@ -79,9 +79,12 @@ void ApplyField(const std::string& field, const nlohmann::json& value, bool uplo
     options->dense = boolean();
   } else if (field == "keep_burst") {
     options->keep_burst = boolean();
+  } else if (field == "calibration") {
+    options->calibration = text();
+    CheckChoice(field, options->calibration, "auto", "self");
   } else {
     throw RequestError("unknown field '" + field + "' (known: frames, " + (upload ? "" : "when, ") +
-                       "planes, grid, init, dense, keep_burst)");
+                       "planes, grid, init, dense, keep_burst, calibration)");
   }
 }
 

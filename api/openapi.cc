@@ -64,7 +64,8 @@ json Schemas() {
                     {"grid", {{"type", "integer"}, {"minimum", 0}}},
                     {"init", {{"type", "string"}, {"enum", {"rank1", "naive"}}}},
                     {"dense", boolean},
-                    {"keep_burst", boolean}}}};
+                    {"keep_burst", boolean},
+                    {"calibration", {{"type", "string"}, {"enum", {"auto", "self"}}}}}}};
   json schemas;
   schemas["Problem"] = {
       {"type", "object"},
@@ -99,6 +100,7 @@ json Schemas() {
   calibration["calibration"] = {{"type", "object"}};
   calibration["rms_reprojection_px"] = {{"type", "number"}};
   calibration["links"] = {{"type", "object"}};
+  calibration["fused"] = {{"type", "object"}};
   schemas["Calibration"] = {{"type", "object"}, {"properties", calibration}};
   return schemas;
 }
@@ -125,7 +127,9 @@ nlohmann::json OpenApiDocument() {
         QueryParameter("grid", {{"type", "integer"}}, "feature grid cell, pixels"),
         QueryParameter("init", {{"type", "string"}, {"enum", {"rank1", "naive"}}}, ""),
         QueryParameter("dense", {{"type", "boolean"}}, ""),
-        QueryParameter("keep_burst", {{"type", "boolean"}}, "")}},
+        QueryParameter("keep_burst", {{"type", "boolean"}}, ""),
+        QueryParameter("calibration", {{"type", "string"}, {"enum", {"auto", "self"}}},
+                       "auto: the configured or fused calibration; self: this burst alone")}},
       {"requestBody",
        {{"required", true},
         {"content",
@@ -178,10 +182,16 @@ nlohmann::json OpenApiDocument() {
         {"409", Problem("Job not finished")},
         {"410", Problem("Burst deleted (keep_burst false)")}}}};
   paths["/api/v1/calibration"]["get"] = {
-      {"summary", "The camera's current calibration: that of the newest successful job"},
+      {"summary",
+       "The camera's calibration: the newest successful job's (with its uncertainty and "
+       "verdict) and the fusion of every job's estimate (fused, sigma, bursts, history)"},
       {"responses",
        {{"200", JsonBody("Calibration", Ref("Calibration"))},
         {"404", Problem("No job has succeeded yet")}}}};
+  paths["/api/v1/calibration"]["delete"] = {
+      {"summary", "Forget the fused calibration (a new camera, a new lens)"},
+      {"responses",
+       {{"204", {{"description", "Reset"}}}, {"507", Problem("The reset could not be stored")}}}};
   paths["/api/v1/camera"]["get"] = {
       {"summary", "State of the capture source"},
       {"responses", {{"200", JsonBody("Capture state", Ref("Camera"))}}}};

@@ -231,27 +231,45 @@ void GetJobFile(const ApiContext& context, const httplib::Request& request,
 }
 
 void GetCalibration(const ApiContext& context, httplib::Response& response) {
-  // The newest successful job: it saw the camera as it is now (focus, zoom).
+  // The newest successful job (it saw the camera as it is now: focus, zoom),
+  // and the fusion of every job's estimate with its sigma and history.
   const std::optional<Job> job = context.store->LatestSucceeded();
+  nlohmann::json body = nlohmann::json::object();
+  if (context.calibration) body["fused"] = context.calibration->Snapshot();
   if (!job) {
+    if (context.calibration && !context.calibration->Snapshot().value("empty", true))
+      return SetJson(response, 200, body);
     return SetProblem(response, 404, "no-calibration", "No calibration yet",
                       "no job has succeeded yet; POST /api/v1/captures to make one");
   }
   try {
     const nlohmann::json result =
         nlohmann::json::parse(ReadFileToString(context.store->OutputDir(job->id) / "result.json"));
-    SetJson(response, 200,
-            {{"job", job->id},
-             {"finished_ms", job->finished_ms},
-             {"calibration", result.at("calibration")},
-             {"rms_reprojection_px", result.value("bundle_adjustment", nlohmann::json::object())
-                                         .value("rms_reprojection_px", 0.0)},
-             {"links",
-              {{"json", JobPath(job->id) + "/calibration.json"},
-               {"yaml", JobPath(job->id) + "/calibration.yaml"}}}});
+    body.update({{"job", job->id},
+                 {"finished_ms", job->finished_ms},
+                 {"calibration", result.at("calibration")},
+                 {"rms_reprojection_px", result.value("bundle_adjustment", nlohmann::json::object())
+                                             .value("rms_reprojection_px", 0.0)},
+                 {"links",
+                  {{"json", JobPath(job->id) + "/calibration.json"},
+                   {"yaml", JobPath(job->id) + "/calibration.yaml"}}}});
+    SetJson(response, 200, body);
   } catch (const std::exception& e) {
     SetProblem(response, 503, "calibration-unreadable", "Calibration unreadable", e.what());
   }
+}
+
+void DeleteCalibration(const ApiContext& context, httplib::Response& response) {
+  if (!context.calibration)
+    return SetProblem(response, 404, "no-fusion", "No fused calibration",
+                      "this daemon keeps no fused calibration");
+  try {
+    context.calibration->Reset();
+  } catch (const std::exception& e) {
+    return SetProblem(response, 507, "calibration-not-stored", "Calibration reset not stored",
+                      e.what());
+  }
+  response.status = 204;
 }
 
 void GetCamera(const ApiContext& context, httplib::Response& response) {
@@ -357,6 +375,10 @@ void RegisterRoutes(const ApiContext& context, httplib::Server* server) {
                  }));
   server->Get("/api/v1/jobs/" + id + "/" + id,
               [c](const httplib::Request& q, httplib::Response& r) { GetJobFile(c, q, r); });
+  server->Delete("/api/v1/calibration",
+                 BoundedBody(max_body, [c](const httplib::Request&, httplib::Response& r) {
+                   DeleteCalibration(c, r);
+                 }));
 
   RegisterBodyCatchAlls(max_body, server);
   server->set_error_handler(

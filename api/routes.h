@@ -8,6 +8,7 @@
 #include <httplib.h>
 
 #include "daemon/capture/capture_service.h"
+#include "daemon/service/calibration_keeper.h"
 #include "daemon/service/config.h"
 #include "daemon/service/job_intake.h"
 #include "daemon/service/job_scheduler.h"
@@ -24,6 +25,7 @@ struct ApiContext {
   service::JobIntake* intake = nullptr;
   capture::CaptureService* capture = nullptr;  // may be null (no capture source)
   service::Metrics* metrics = nullptr;
+  service::CalibrationKeeper* calibration = nullptr;  // may be null (no fusion)
 };
 
 // Registers every route, the CORS headers when configured, and the error and

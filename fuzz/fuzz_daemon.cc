@@ -98,6 +98,8 @@ void WriteSucceededOutput(const fs::path& dir) {
 FuzzDaemon::FuzzDaemon() : config_(FuzzConfig(dir_.path())) {
   WriteTinyBurst(dir_.path() / "replay", 8);
   store_ = std::make_unique<service::JobStore>(config_.jobs.state_dir);
+  calibration_ =
+      std::make_unique<service::CalibrationKeeper>(config_.calibration, config_.jobs.state_dir);
   scheduler_ = std::make_unique<service::JobScheduler>(
       config_.jobs.workers, config_.jobs.queue,
       [](const std::string&, std::shared_ptr<const Burst>) {});  // never started
@@ -124,6 +126,7 @@ FuzzDaemon::FuzzDaemon() : config_(FuzzConfig(dir_.path())) {
   context.intake = intake_.get();
   context.capture = capture_.get();
   context.metrics = &metrics_;
+  context.calibration = calibration_.get();
   api::RegisterRoutes(context, http_->server());
 
   for (int i = 0; i < kFixtures; ++i) fixtures_[i] = MakeFixture(i);

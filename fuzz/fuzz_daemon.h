@@ -12,6 +12,7 @@
 
 #include "api/http_server.h"
 #include "daemon/capture/capture_service.h"
+#include "daemon/service/calibration_keeper.h"
 #include "daemon/service/config.h"
 #include "daemon/service/job_intake.h"
 #include "daemon/service/job_scheduler.h"
@@ -46,6 +47,7 @@ class FuzzDaemon {
   service::DaemonConfig config_;
   service::Metrics metrics_;
   std::unique_ptr<service::JobStore> store_;
+  std::unique_ptr<service::CalibrationKeeper> calibration_;
   std::unique_ptr<service::JobScheduler> scheduler_;
   std::unique_ptr<capture::CaptureService> capture_;
   std::unique_ptr<service::JobIntake> intake_;

@@ -70,6 +70,15 @@ const std::vector<Key>& Keys() {
       DFSM_KEY("pipeline.dense", KeyType::kBool, pipeline.dense, "compute the dense depth map"),
       DFSM_KEY("pipeline.burst_timeout_ms", KeyType::kInt, pipeline.burst_timeout_ms,
                "longest wait for a 'next' burst"),
+      DFSM_KEY("calibration.file", KeyType::kPath, calibration.file,
+               "known calibration for every job (calibration.json/.yaml, OpenCV, ROS); empty: "
+               "none"),
+      DFSM_KEY("calibration.mode", KeyType::kString, calibration.mode,
+               "prior | fixed: how calibration.file enters the adjustment"),
+      DFSM_KEY("calibration.fuse", KeyType::kBool, calibration.fuse,
+               "fuse every job's calibration (GET/DELETE /api/v1/calibration)"),
+      DFSM_KEY("calibration.use_fused", KeyType::kString, calibration.use_fused,
+               "prior: jobs use the fused calibration once reliable | off"),
       DFSM_KEY("jobs.state_dir", KeyType::kPath, jobs.state_dir,
                "jobs, bursts and results (default $STATE_DIRECTORY or /var/lib/dfsmd)"),
       DFSM_KEY("jobs.workers", KeyType::kInt, jobs.workers, "pipeline jobs run at once"),
@@ -259,6 +268,14 @@ void Validate(const DaemonConfig& c) {
                    "must be \"rank1\" or \"naive\", got \"" + c.pipeline.init + "\"");
   }
   RequireRange("pipeline.burst_timeout_ms", c.pipeline.burst_timeout_ms, 1, 600000);
+  if (c.calibration.mode != "prior" && c.calibration.mode != "fixed") {
+    throw KeyError("calibration.mode",
+                   "must be \"prior\" or \"fixed\", got \"" + c.calibration.mode + "\"");
+  }
+  if (c.calibration.use_fused != "prior" && c.calibration.use_fused != "off") {
+    throw KeyError("calibration.use_fused",
+                   "must be \"prior\" or \"off\", got \"" + c.calibration.use_fused + "\"");
+  }
   if (c.jobs.state_dir.empty()) throw KeyError("jobs.state_dir", "must not be empty");
   RequireRange("jobs.workers", c.jobs.workers, 1, 64);
   RequireRange("jobs.queue", c.jobs.queue, 1, 100000);

@@ -62,6 +62,18 @@ struct PipelineSection {
   int burst_timeout_ms = 5000;  // "next" bursts wait at most this long
 };
 
+// Known and fused calibration (daemon/service/calibration_keeper.h).
+struct CalibrationSection {
+  // A known calibration (dfsm's calibration.json/.yaml, an OpenCV FileStorage,
+  // a ROS CameraInfo YAML) for every job; empty: none.
+  std::filesystem::path file;
+  std::string mode = "prior";  // "prior" | "fixed": how `file` enters the adjustment
+  bool fuse = true;            // fuse each job's calibration into the state directory's
+  // "prior": once the fused calibration is reliable, jobs without `file` use it
+  // as a prior with its own sigma; "off": every job calibrates alone.
+  std::string use_fused = "prior";
+};
+
 struct JobsSection {
   std::filesystem::path state_dir = "/var/lib/dfsmd";
   int workers = 1;
@@ -91,6 +103,7 @@ struct DaemonConfig {
   ServerConfig server;
   CaptureSection capture;
   PipelineSection pipeline;
+  CalibrationSection calibration;
   JobsSection jobs;
   RetentionSection retention;
   LimitsSection limits;

@@ -8,6 +8,7 @@
 #include "api/http_server.h"
 #include "api/routes.h"
 #include "daemon/capture/capture_service.h"
+#include "daemon/service/calibration_keeper.h"
 #include "daemon/service/job_intake.h"
 #include "daemon/service/job_processor.h"
 #include "daemon/service/job_scheduler.h"
@@ -45,6 +46,7 @@ int64_t MonotonicNs() {
 struct Daemon::Parts {
   Metrics metrics;
   std::unique_ptr<JobStore> store;
+  std::unique_ptr<CalibrationKeeper> calibration;
   std::unique_ptr<JobProcessor> processor;
   std::unique_ptr<JobScheduler> scheduler;
   std::unique_ptr<capture::CaptureService> capture;
@@ -73,7 +75,9 @@ int Daemon::Run() {
   } catch (const JobStoreError& e) {
     throw ConfigError(std::string("jobs.state_dir: ") + e.what());
   }
-  p.processor = std::make_unique<JobProcessor>(p.store.get(), &p.metrics, config_.retention);
+  p.calibration = std::make_unique<CalibrationKeeper>(config_.calibration, config_.jobs.state_dir);
+  p.processor = std::make_unique<JobProcessor>(p.store.get(), &p.metrics, config_.retention,
+                                               p.calibration.get());
   p.scheduler = std::make_unique<JobScheduler>(
       config_.jobs.workers, config_.jobs.queue,
       [processor = p.processor.get()](const std::string& id, std::shared_ptr<const Burst> burst) {
@@ -119,6 +123,7 @@ int Daemon::Run() {
   context.intake = p.intake.get();
   context.capture = p.capture.get();
   context.metrics = &p.metrics;
+  context.calibration = p.calibration.get();
   api::RegisterRoutes(context, p.http->server());
   int port = 0;
   try {

@@ -42,7 +42,8 @@ nlohmann::json ToJson(const Job& job) {
         {"grid", job.options.grid},
         {"init", job.options.init},
         {"dense", job.options.dense},
-        {"keep_burst", job.options.keep_burst}}},
+        {"keep_burst", job.options.keep_burst},
+        {"calibration", job.options.calibration}}},
       {"created_ms", job.created_ms},
       {"started_ms", job.started_ms},
       {"finished_ms", job.finished_ms},
@@ -74,6 +75,7 @@ Job JobFromJson(const nlohmann::json& json) {
   job.options.init = options.at("init").get<std::string>();
   job.options.dense = options.value("dense", true);
   job.options.keep_burst = options.value("keep_burst", true);
+  job.options.calibration = options.value("calibration", "auto");
   job.created_ms = json.at("created_ms").get<int64_t>();
   job.started_ms = json.value("started_ms", int64_t{0});
   job.finished_ms = json.value("finished_ms", int64_t{0});

@@ -29,6 +29,9 @@ struct JobOptions {
   std::string init = "rank1";
   bool dense = true;
   bool keep_burst = true;
+  // "auto": the configured or the fused calibration where there is one
+  // (calibration_keeper.h); "self": this burst calibrates the camera alone.
+  std::string calibration = "auto";
 };
 
 struct Job {

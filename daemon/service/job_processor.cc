@@ -44,7 +44,14 @@ void JobProcessor::Process(const std::string& id, std::shared_ptr<const Burst> p
       job.stage = stage;
       store_->SetStage(id, stage);
     };
-    PipelineOutput output = RunPipeline(*burst, ToPipelineOptions(job.options), on_stage);
+    PipelineOptions pipeline = ToPipelineOptions(job.options);
+    KnownCalibration known;
+    if (calibration_ && calibration_->ForJob(job.options, burst->width(), burst->height(), &known))
+      pipeline.sparse.known = known;
+    PipelineOutput output = RunPipeline(*burst, pipeline, on_stage);
+    if (calibration_ && output.result.ok && output.sparse)
+      output.result.extra["calibration_fusion"] =
+          calibration_->Record(id, NowUnixMs(), *output.sparse);
     on_stage("writing");
     const std::filesystem::path staged = store_->NewStagingDir();
     try {

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "core/io/burst.h"
+#include "daemon/service/calibration_keeper.h"
 #include "daemon/service/config.h"
 #include "daemon/service/job_store.h"
 #include "daemon/service/metrics.h"
@@ -21,8 +22,10 @@ class JobProcessor {
   // failed instead of run again: it may be what kills the daemon.
   static constexpr int kMaxAttempts = 3;
 
-  JobProcessor(JobStore* store, Metrics* metrics, RetentionSection retention)
-      : store_(store), metrics_(metrics), retention_(retention) {}
+  // `calibration` may be null: every job then calibrates alone.
+  JobProcessor(JobStore* store, Metrics* metrics, RetentionSection retention,
+               CalibrationKeeper* calibration = nullptr)
+      : store_(store), metrics_(metrics), retention_(retention), calibration_(calibration) {}
 
   // Never throws.
   void Process(const std::string& id, std::shared_ptr<const Burst> preloaded);
@@ -33,6 +36,7 @@ class JobProcessor {
   JobStore* store_;
   Metrics* metrics_;
   const RetentionSection retention_;
+  CalibrationKeeper* calibration_;
 };
 
 }  // namespace dfsm::service

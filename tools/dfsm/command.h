@@ -12,5 +12,6 @@ using Args = std::vector<std::string>;
 int RunProcessCommand(const Args& args);
 int RunSynthCommand(const Args& args);
 int RunEvaluateCommand(const Args& args);
+int RunCalibrateCommand(const Args& args);
 
 }  // namespace dfsm::tools

@@ -17,6 +17,8 @@ constexpr const char* kUsage =
     "        run the pipeline on a dfsm-burst/1 directory, write a dfsm-result/1 directory\n"
     "  synth --out DIR [--width W --height H --frames N --f F --k1 K1 --k2 K2 ...]\n"
     "        render a handheld small-motion burst of a textured scene with ground truth\n"
+    "  calibrate BURST... --out DIR [--frames N]\n"
+    "        calibrate one camera from several of its bursts (fused, with sigma)\n"
     "  evaluate --result DIR --truth BURST\n"
     "        compare a result against a synthetic burst's ground truth (prints JSON)\n"
     "\n"
@@ -35,6 +37,7 @@ int main(int argc, char** argv) {
     if (command == "process") return dfsm::tools::RunProcessCommand(args);
     if (command == "synth") return dfsm::tools::RunSynthCommand(args);
     if (command == "evaluate") return dfsm::tools::RunEvaluateCommand(args);
+    if (command == "calibrate") return dfsm::tools::RunCalibrateCommand(args);
   } catch (const dfsm::tools::UsageError& e) {
     std::fprintf(stderr, "dfsm %s: %s\n", command.c_str(), e.what());
     return 2;

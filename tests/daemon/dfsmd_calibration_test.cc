@@ -1,0 +1,129 @@
+// The real dfsmd calibrating one camera over several of its bursts: each job's
+// own estimate is fused (GET /api/v1/calibration "fused"), the fused sigma
+// falls as bursts arrive and the fused camera nears the truth, the fusion
+// survives a restart, and DELETE resets it.
+#include <gtest/gtest.h>
+#include <signal.h>
+
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "core/synth/burst_synthesizer.h"
+#include "daemon/service/ustar.h"
+#include "tests/daemon/fault_helpers.h"
+
+namespace dfsm::test {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+// Five bursts of one 640x480 camera: other scenes, other hand motions.
+constexpr int kBursts = 5;
+
+class DfsmdCalibrationTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    root_ = fs::temp_directory_path() / ("dfsmd-calibration-test-" + std::to_string(::getpid()));
+    fs::remove_all(root_);
+    for (int i = 0; i < kBursts; ++i) {
+      SynthOptions options;
+      options.width = 640;
+      options.height = 480;
+      options.frames = 10;
+      options.rotation_deg = 2.0;
+      options.supersampling = 2;
+      options.seed = 11 + i;
+      const SynthBurst burst = SynthesizeBurst(options);
+      truth_f_ = burst.truth.camera.f;
+      truth_ = burst.truth.camera;
+      WriteSynthBurst(root_ / ("burst" + std::to_string(i)), burst);
+    }
+    WriteTestBurst(root_ / "replay");
+  }
+  static void TearDownTestSuite() { fs::remove_all(root_); }
+
+  std::unique_ptr<DfsmdProcess> Start(const fs::path& state) {
+    auto daemon = std::make_unique<DfsmdProcess>(
+        DFSMD_BINARY,
+        std::vector<std::string>{"--capture.source", "replay:" + (root_ / "replay").string(),
+                                 "--jobs.state_dir", state.string()},
+        state.parent_path() / "dfsmd.log");
+    EXPECT_TRUE(daemon->ok()) << daemon->Log();
+    return daemon;
+  }
+
+  static fs::path root_;
+  static double truth_f_;
+  static CameraModel truth_;
+};
+
+fs::path DfsmdCalibrationTest::root_;
+double DfsmdCalibrationTest::truth_f_ = 0.0;
+CameraModel DfsmdCalibrationTest::truth_;
+
+TEST_F(DfsmdCalibrationTest, FusesTheBurstsOfOneCameraAndKeepsItAcrossARestart) {
+  const fs::path dir = root_ / "run";
+  fs::create_directories(dir);
+  auto daemon = Start(dir / "state");
+  httplib::Client client = daemon->Client();
+  std::vector<double> sigmas;
+  for (int i = 0; i < kBursts; ++i) {
+    const std::string tar =
+        service::WriteTar(service::CollectFiles(root_ / ("burst" + std::to_string(i))));
+    const std::string location = AcceptedLocation(
+        client.Post("/api/v1/jobs?dense=false&keep_burst=false", tar, "application/x-tar"));
+    const json job = AwaitFinished(client, location);
+    ASSERT_EQ(job["status"], "succeeded") << job.dump(2);
+    const json result = json::parse(client.Get((location + "/result.json").c_str())->body);
+    EXPECT_TRUE(result.contains("calibration_fusion")) << result.dump(2);
+    const json fused = json::parse(client.Get("/api/v1/calibration")->body)["fused"];
+    ASSERT_FALSE(fused.value("empty", true)) << fused.dump(2);
+    sigmas.push_back(fused["sigma_f_percent"].get<double>());
+  }
+  const json calibration = json::parse(client.Get("/api/v1/calibration")->body);
+  const json fused = calibration["fused"];
+  std::cout << "fused: bursts " << fused["bursts"] << ", f " << fused["camera"]["fx"] << " (truth "
+            << truth_f_ << "), sigma_f " << fused["sigma_f_percent"] << " %, distortion sigma "
+            << fused["distortion_sigma_px"] << " px\n";
+  EXPECT_GE(fused["bursts"].get<int>(), kBursts - 1);  // at most one outlier
+  EXPECT_LT(sigmas.back(), 0.7 * sigmas.front());      // sigma falls as bursts are added
+  const double f = fused["camera"]["fx"].get<double>();
+  const double error_percent = 100.0 * std::abs(f - truth_f_) / truth_f_;
+  EXPECT_LE(error_percent, 2.0 * fused["sigma_f_percent"].get<double>());
+  EXPECT_LE(error_percent, 1.0);
+  EXPECT_EQ(fused["history"].size(), static_cast<size_t>(kBursts));
+
+  // The fusion is stored: a restart keeps it.
+  EXPECT_EQ(daemon->Stop(SIGTERM), 0) << daemon->Log();
+  daemon = Start(dir / "state");
+  httplib::Client restarted = daemon->Client();
+  const json again = json::parse(restarted.Get("/api/v1/calibration")->body)["fused"];
+  EXPECT_EQ(again["bursts"], fused["bursts"]);
+  EXPECT_EQ(again["camera"]["fx"], fused["camera"]["fx"]);
+
+  // DELETE forgets it (the history stays).
+  const auto reset = restarted.Delete("/api/v1/calibration");
+  ASSERT_TRUE(reset);
+  EXPECT_EQ(reset->status, 204) << reset->body;
+  const json after = json::parse(restarted.Get("/api/v1/calibration")->body)["fused"];
+  EXPECT_TRUE(after.value("empty", false)) << after.dump(2);
+  EXPECT_EQ(daemon->Stop(SIGTERM), 0) << daemon->Log();
+}
+
+// A damaged fusion file never keeps dfsmd from starting: it is moved aside and
+// the fusion restarts, and the API says so.
+TEST_F(DfsmdCalibrationTest, ADamagedFusionFileIsMovedAside) {
+  const fs::path dir = root_ / "damaged";
+  fs::create_directories(dir / "state" / "calibration");
+  std::ofstream(dir / "state" / "calibration" / "fusion.json") << "{\"format\": 12, [";
+  auto daemon = Start(dir / "state");
+  httplib::Client client = daemon->Client();
+  const auto answer = client.Get("/api/v1/calibration");
+  ASSERT_TRUE(answer);
+  EXPECT_TRUE(fs::exists(dir / "state" / "calibration" / "fusion.json.damaged"));
+  EXPECT_EQ(daemon->Stop(SIGTERM), 0) << daemon->Log();
+}
+
+}  // namespace
+}  // namespace dfsm::test

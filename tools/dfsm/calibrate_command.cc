@@ -1,0 +1,99 @@
+// dfsm calibrate BURST... --out DIR: the calibration of one camera from several
+// of its bursts, as dfsmd fuses it (core/sparse/calibration_fusion.h): each
+// burst calibrated alone, with its uncertainty and verdict, then fused by
+// information weight; a burst inconsistent with the fusion is left out as an
+// outlier, two in a row restart it (the camera changed).
+#include <cstdio>
+#include <nlohmann/json.hpp>
+
+#include "core/export/calibration_export.h"
+#include "core/io/file_util.h"
+#include "core/sparse/calibration_fusion.h"
+#include "core/sparse/sparse_reconstruction.h"
+#include "tools/dfsm/arg_parser.h"
+#include "tools/dfsm/command.h"
+
+namespace dfsm::tools {
+namespace {
+
+constexpr const char* kHelp =
+    "usage: dfsm calibrate BURST... --out DIR [--frames N]\n"
+    "\n"
+    "  --out DIR     written: calibration.json and calibration.yaml of the fused camera\n"
+    "                (as 'dfsm process' writes them) and fusion.json (the fusion's state,\n"
+    "                sigma, and each burst's estimate and outcome)\n"
+    "  --frames N    use N frames of each burst, centred on its reference (default: all)\n"
+    "\n"
+    "Bursts must share one image size. Exit status: 0 a fused calibration was written,\n"
+    "1 no burst could be fused, 2 usage.\n";
+
+}  // namespace
+
+int RunCalibrateCommand(const Args& args) {
+  ArgParser parser({"out", "frames"}, {"help"});
+  parser.Parse(args);
+  if (parser.Has("help")) {
+    std::fputs(kHelp, stdout);
+    return 0;
+  }
+  if (parser.positionals().empty()) throw UsageError("expected one or more BURST directories");
+  if (!parser.Has("out")) throw UsageError("--out DIR is required");
+  ReadBurstOptions read_options;
+  read_options.max_frames = parser.Int("frames", 0);
+  if (read_options.max_frames < 0 || read_options.max_frames == 1 || read_options.max_frames == 2)
+    throw UsageError("--frames must be at least 3");
+
+  CalibrationFusion fusion;
+  for (const std::string& burst_dir : parser.positionals()) {
+    std::string outcome;
+    try {
+      const Burst burst = ReadBurst(burst_dir, read_options);
+      const SparseReconstruction sparse = ReconstructSparse(burst.gray, burst.reference());
+      const CameraModel& camera = sparse.state.camera;
+      std::printf("%s: f %.2f px (sigma %.2f %%), k1 %.5f, k2 %.5f, %s", burst_dir.c_str(),
+                  camera.f,
+                  sparse.uncertainty.available ? sparse.uncertainty.sigma_f_percent(camera.f) : 0.0,
+                  camera.k1, camera.k2, CalibrationQualityName(sparse.verdict.quality));
+      if (sparse.calibration_used != "self") {
+        outcome = "not fused: " + sparse.calibration_used;
+      } else if (!sparse.uncertainty.available) {
+        outcome = "not fused: " + sparse.uncertainty.unavailable_reason;
+      } else if (sparse.verdict.quality == CalibrationQuality::kDegenerate) {
+        outcome = "not fused: degenerate (" + sparse.verdict.reasons.front() + ")";
+      } else {
+        CalibrationSample sample;
+        sample.camera = camera;
+        sample.covariance = sparse.uncertainty.covariance;
+        sample.job = burst_dir;
+        std::string reason;
+        outcome = FusionOutcomeName(fusion.Add(sample, &reason));
+        if (!reason.empty()) outcome += ": " + reason;
+      }
+    } catch (const BurstError& e) {
+      std::printf("%s: unreadable", burst_dir.c_str());
+      outcome = std::string("not fused: ") + e.what();
+    } catch (const ReconstructionError& e) {
+      std::printf("%s: failed", burst_dir.c_str());
+      outcome = std::string("not fused: ") + e.what();
+    }
+    std::printf(" -> %s\n", outcome.c_str());
+  }
+  if (fusion.empty()) {
+    std::fprintf(stderr, "dfsm calibrate: no burst could be fused\n");
+    return 1;
+  }
+  const std::string out_dir = parser.String("out", "");
+  std::filesystem::create_directories(out_dir);
+  WriteCalibrationFiles(out_dir, fusion.camera());
+  WriteFileAtomically(std::filesystem::path(out_dir) / "fusion.json",
+                      fusion.ToJson().dump(2) + "\n");
+  const CameraModel fused = fusion.camera();
+  std::printf(
+      "fused       f %.2f px (sigma %.2f %%), k1 %.5f, k2 %.5f, distortion sigma %.2f px, "
+      "%d bursts, %s\n",
+      fused.f, fusion.sigma_f_percent(), fused.k1, fused.k2, fusion.distortion_sigma_px(),
+      fusion.bursts(), fusion.reliable() ? "reliable" : "not yet reliable");
+  return 0;
+}
+
+}  // namespace dfsm::tools
