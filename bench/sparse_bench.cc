@@ -33,7 +33,11 @@ void BM_RotationAndRankOne(benchmark::State& state) {
 }
 BENCHMARK(BM_RotationAndRankOne)->Unit(benchmark::kMillisecond);
 
+// Argument 1: also the covariance of the intrinsics (what every run of the
+// pipeline's adjustment computes); 0: the adjustment alone. Their ratio in one
+// run is the uncertainty's cost.
 void BM_BundleAdjustment(benchmark::State& state) {
+  const bool with_uncertainty = state.range(0) != 0;
   const TrackSimulation sim = Simulation();
   SparseState start;
   start.camera = CameraModel::Initial(sim.camera.width, sim.camera.height);
@@ -42,14 +46,20 @@ void BM_BundleAdjustment(benchmark::State& state) {
   start.poses = init.poses;
   start.inverse_depths = init.inverse_depths;
   BundleAdjustmentSummary summary;
+  CalibrationUncertainty uncertainty;
   for (auto _ : state) {
     SparseState adjusted = start;
-    summary = RunBundleAdjustment(sim.tracks, init.inliers, &adjusted);
+    summary = RunBundleAdjustment(sim.tracks, init.inliers, &adjusted, {},
+                                  with_uncertainty ? &uncertainty : nullptr);
   }
   state.counters["iterations"] = summary.iterations;
   state.counters["converged"] = summary.converged;
 }
-BENCHMARK(BM_BundleAdjustment)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_BundleAdjustment)
+    ->Arg(0)
+    ->Arg(1)
+    ->ArgName("uncertainty")
+    ->Unit(benchmark::kMillisecond);
 
 void BM_FeaturesAndKlt(benchmark::State& state) {
   SynthOptions options;

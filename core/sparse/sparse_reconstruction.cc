@@ -158,8 +158,7 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
                               " (need >= " + std::to_string(options.min_tracks) + ")");
 
   const auto run_adjustment = [&](const BundleAdjustmentOptions& ba) {
-    sparse.bundle_adjustment =
-        RunBundleAdjustment(sparse.tracks, use, &state, ba, &sparse.uncertainty);
+    sparse.bundle_adjustment = RunBundleAdjustment(sparse.tracks, use, &state, ba);
     BundleAdjustmentRun run;
     run.iterations = sparse.bundle_adjustment.iterations;
     run.converged = sparse.bundle_adjustment.converged;
@@ -225,6 +224,16 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
                               Format(parallax) + " px: too little baseline to separate depths)");
   sparse.bundle_adjustment.init = InitModeName(options.init);
   sparse.inliers = use;
+  // The covariance once, at the final state and tracks: an adjustment of no
+  // iterations only evaluates (computing it in every outlier round cost 60 %
+  // of a run each, sparse_bench BM_BundleAdjustment/uncertainty).
+  const auto estimate_uncertainty = [&](const BundleAdjustmentOptions& ba) {
+    BundleAdjustmentOptions evaluate_only = ba;
+    evaluate_only.max_iterations = 0;
+    SparseState at = state;
+    RunBundleAdjustment(sparse.tracks, use, &at, evaluate_only, &sparse.uncertainty);
+  };
+  estimate_uncertainty(ba_options);
   timer.Lap("bundle_adjustment");
 
   // The verdict on the estimated calibration, then the camera the later stages
@@ -275,6 +284,7 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
     for (int j = 0; j < tracked; ++j)
       if (use[j] && !(state.inverse_depths[j] > 0.0)) use[j] = false;
     sparse.inliers = use;
+    estimate_uncertainty(refit);
     if (std::count(use.begin(), use.end(), true) < options.min_tracks)
       throw ReconstructionError(
           "too few consistent tracks after refitting without the "
