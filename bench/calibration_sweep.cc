@@ -18,6 +18,7 @@ int main(int argc, char** argv) {
   int bursts = 64;
   uint64_t seed = 1;
   SparseOptions options;
+  double cell_scale = 1.0;  // feature cell against the default (0.5: four times the cells)
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--bursts") && i + 1 < argc)
       bursts = std::atoi(argv[++i]);
@@ -25,14 +26,25 @@ int main(int argc, char** argv) {
       seed = std::strtoull(argv[++i], nullptr, 10);
     else if (!std::strcmp(argv[i], "--no-weak-prior"))
       options.bundle_adjustment.log_f_prior_sigma = 0.0;
+    else if (!std::strcmp(argv[i], "--lens-prior") && i + 1 < argc)
+      options.bundle_adjustment.lens_k_prior_sigma = std::atof(argv[++i]);
+    else if (!std::strcmp(argv[i], "--cell-scale") && i + 1 < argc)
+      cell_scale = std::atof(argv[++i]);
     else {
-      std::fprintf(stderr, "usage: calibration_sweep [--bursts N] [--seed S] [--no-weak-prior]\n");
+      std::fprintf(stderr,
+                   "usage: calibration_sweep [--bursts N] [--seed S] [--no-weak-prior]\n"
+                   "                         [--lens-prior SIGMA] [--cell-scale S]\n");
       return 2;
     }
   }
   std::vector<SweepOutcome> outcomes;
   for (const SynthOptions& settings : CalibrationSweepSettings(bursts, seed)) {
-    outcomes.push_back(RunSweepBurst(settings, options));
+    SparseOptions burst_options = options;
+    if (cell_scale != 1.0)  // the default cell of this size, scaled
+      burst_options.features.cell_px = std::max(
+          8, static_cast<int>(
+                 std::lround(cell_scale * GridCellSize({}, settings.width, settings.height))));
+    outcomes.push_back(RunSweepBurst(settings, burst_options));
     std::printf("%s\n", ToJson(outcomes.back()).dump().c_str());
     std::fflush(stdout);
   }

@@ -8,6 +8,7 @@ packages=(
   build-essential cmake ninja-build pkg-config git
   libopencv-dev libeigen3-dev libceres-dev libopengv-dev
   nlohmann-json3-dev libcpp-httplib-dev libsystemd-dev
+  libexif-dev   # EXIF focal length of uploaded JPEG bursts (core/io/exif_focal)
   libgtest-dev libgmock-dev libbenchmark-dev
   opencv-doc   # real photographs used as textures of the synthetic bursts
 )

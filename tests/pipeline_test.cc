@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -115,6 +116,42 @@ TEST(Pipeline, AStillBurstFailsWithAReasonAndAResultFile) {
   EXPECT_EQ(result["status"], "failed");
   EXPECT_FALSE(std::filesystem::exists(dir / "depth.tiff"));
   std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace dfsm
+
+namespace dfsm {
+namespace {
+
+// A JPEG burst's EXIF focal length (35 mm equivalent) is a prior on f when no
+// calibration is known: result.json names it, and the burst's own estimate is
+// still made beside it.
+TEST(Pipeline, AnExifFocalLengthIsAPriorAndTheResultSaysSo) {
+  SynthOptions options;
+  options.width = 640;
+  options.height = 480;
+  options.rotation_deg = 2.0;
+  options.supersampling = 2;
+  const SynthBurst synth = SynthesizeBurst(options);
+  Burst burst = ToBurst(synth);
+  // The 35 mm equivalent of the true focal length.
+  burst.exif_focal_35mm = std::round(synth.truth.camera.f * 43.2666 / std::hypot(640.0, 480.0));
+  PipelineOptions pipeline;
+  pipeline.run_dense = false;
+  const PipelineOutput output = RunPipeline(burst, pipeline);
+  ASSERT_TRUE(output.result.ok) << output.result.error;
+  const nlohmann::json& detail = output.result.calibration_detail;
+  EXPECT_EQ(detail.value("source", ""), "known-prior");
+  EXPECT_EQ(detail.value("known", "").rfind("exif: ", 0), 0u) << detail.dump(2);
+  ASSERT_TRUE(output.sparse->self_estimate.has_value());
+  // The prior narrows f: its sigma is below the burst's own.
+  EXPECT_LT(output.sparse->uncertainty.sigma_f_px(),
+            output.sparse->self_estimate->uncertainty.sigma_f_px());
+
+  pipeline.exif_focal_sigma_percent = 0.0;  // ignored on request
+  const PipelineOutput ignored = RunPipeline(burst, pipeline);
+  EXPECT_EQ(ignored.result.calibration_detail.value("source", ""), "self");
 }
 
 }  // namespace

@@ -6,6 +6,7 @@
 #include <system_error>
 
 #include "core/io/bounded_json.h"
+#include "core/io/exif_focal.h"
 #include "core/io/file_util.h"
 
 namespace dfsm {
@@ -209,6 +210,7 @@ Burst ReadBurst(const fs::path& burst_dir, const ReadBurstOptions& options) {
                        " channels; expected gray or BGR");
     burst.gray.push_back(ToGray8(frame));
     if (static_cast<int>(i) == manifest.reference) {
+      burst.exif_focal_35mm = ReadExifFocalLength35mm(bytes);
       if (frame.channels() == 1) {
         burst.reference_color = burst.gray.back();
       } else {

@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -44,6 +45,9 @@ struct Burst {
   // Index of each frame in the manifest as stored, when only a window of it was
   // read (ReadBurstOptions::max_frames); empty means 0..size()-1.
   std::vector<int> source_indices;
+  // The reference frame's EXIF FocalLengthIn35mmFilm (exif_focal.h), when it
+  // is a JPEG that has one.
+  std::optional<double> exif_focal_35mm;
 
   std::vector<int> frame_indices() const;
 

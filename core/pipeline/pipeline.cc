@@ -6,6 +6,7 @@
 #include "core/export/calibration_export.h"
 #include "core/export/depth_export.h"
 #include "core/export/ply.h"
+#include "core/io/exif_focal.h"
 
 namespace dfsm {
 namespace {
@@ -59,6 +60,18 @@ PipelineOutput RunPipeline(const Burst& burst, const PipelineOptions& options,
           return false;
         }
       };
+    if (!sparse_options.known && burst.exif_focal_35mm && options.exif_focal_sigma_percent > 0.0) {
+      KnownCalibration exif;
+      exif.camera = CameraModel::Initial(burst.width(), burst.height());
+      exif.camera.f = FocalPixelsFrom35mm(*burst.exif_focal_35mm, burst.width(), burst.height());
+      exif.mode = KnownCalibrationMode::kPrior;
+      exif.f_sigma_percent = options.exif_focal_sigma_percent;
+      exif.distortion_sigma_px = 0.0;  // EXIF says nothing of the distortion
+      exif.also_self_calibrate = true;
+      exif.source = "exif: " + std::to_string(static_cast<int>(*burst.exif_focal_35mm)) +
+                    " mm (35 mm equivalent)";
+      sparse_options.known = exif;
+    }
     output.sparse = ReconstructSparse(burst.gray, burst.reference(), sparse_options);
     const SparseReconstruction& sparse = *output.sparse;
     result.calibration = sparse.state.camera;
@@ -68,7 +81,7 @@ PipelineOutput RunPipeline(const Burst& burst, const PipelineOptions& options,
                                  {"source", sparse.calibration_used}};
     if (sparse.rejected_camera)
       result.calibration_detail["rejected"] = ToJson(*sparse.rejected_camera);
-    if (options.sparse.known) result.calibration_detail["known"] = options.sparse.known->source;
+    if (sparse_options.known) result.calibration_detail["known"] = sparse_options.known->source;
     result.warnings = sparse.warnings;
     result.poses = sparse.state.poses;
     result.bundle_adjustment = sparse.bundle_adjustment;

@@ -18,6 +18,10 @@ struct PipelineOptions {
   SparseOptions sparse;
   DenseOptions dense;
   bool run_dense = true;
+  // Without a known calibration, a JPEG burst's EXIF 35 mm equivalent focal
+  // length is a prior on f of this width (0: ignored). Nominal focal lengths,
+  // digital crops and video modes make it approximate, hence wide.
+  double exif_focal_sigma_percent = 5.0;
 };
 
 struct PipelineOutput {

@@ -121,6 +121,9 @@ BundleAdjustmentSummary RunBundleAdjustment(const FeatureTracks& tracks,
         problem.AddResidualBlock(IntrinsicsPrior::Create(state->camera, options.log_f_prior_sigma,
                                                          options.corner_shift_prior_sigma),
                                  nullptr, intrinsics));
+  if (options.lens_k_prior_sigma > 0.0)
+    prior_blocks.push_back(problem.AddResidualBlock(LensPrior::Create(options.lens_k_prior_sigma),
+                                                    nullptr, intrinsics));
   if (options.known_f_sigma_percent > 0.0)
     prior_blocks.push_back(problem.AddResidualBlock(
         KnownIntrinsicsPrior::Create(state->camera, options.known_f_sigma_percent,

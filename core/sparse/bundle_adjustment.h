@@ -24,11 +24,15 @@ struct BundleAdjustmentOptions {
   // corner's distance from the centre. 0 disables the prior.
   double log_f_prior_sigma = 0.5;
   double corner_shift_prior_sigma = 0.1;
+  // A lens prior: k1 and k2 each zero-mean with this sigma (0: off). Measured
+  // on and off over the calibration sweep (docs/sparse.md, "Lens prior").
+  double lens_k_prior_sigma = 0.0;
   // Holds f, k1, k2 at the state's values (a known calibration).
   bool fix_intrinsics = false;
   // A known calibration as a prior: the state's initial camera is its centre,
-  // with these widths (0 disables it). The distortion width is in pixels of the
-  // shift of two radii (half-way and the corner), like IntrinsicsPrior.
+  // with these widths (f 0: no prior). The distortion width is in pixels of
+  // the shift of two radii (half-way and the corner), like IntrinsicsPrior;
+  // 0 leaves the distortion free (only f is known, e.g. from EXIF).
   double known_f_sigma_percent = 0.0;
   double known_distortion_sigma_px = 0.0;
   // The covariance of the intrinsics counts tracking noise only, and the

@@ -64,10 +64,30 @@ class IntrinsicsPrior {
   double corner_shift_sigma_px_;
 };
 
+// A lens prior: real lenses need |k1|, |k2| of a few tenths at most in this
+// model; each coefficient is zero-mean with the given sigma.
+class LensPrior {
+ public:
+  explicit LensPrior(double sigma) : sigma_(sigma) {}
+  template <typename T>
+  bool operator()(const T* intrinsics, T* residuals) const {
+    residuals[0] = intrinsics[1] / T(sigma_);
+    residuals[1] = intrinsics[2] / T(sigma_);
+    return true;
+  }
+  static ceres::CostFunction* Create(double sigma) {
+    return new ceres::AutoDiffCostFunction<LensPrior, 2, 3>(new LensPrior(sigma));
+  }
+
+ private:
+  double sigma_;
+};
+
 // A known calibration (a file the user gives, or the daemon's fused
 // calibration) as a prior: f within sigma_f_percent of the known f, and the
 // distortion's shift of the same two radii as IntrinsicsPrior within
-// sigma_shift_px of the known model's shift there.
+// sigma_shift_px of the known model's shift there (0: no distortion term, only
+// f is known).
 class KnownIntrinsicsPrior {
  public:
   KnownIntrinsicsPrior(const CameraModel& known, double corner_radius_px, double sigma_f_percent,
@@ -82,6 +102,10 @@ class KnownIntrinsicsPrior {
     const T& f = intrinsics[0];
     residuals[0] = (f - T(known_.f)) / T(sigma_f_px_);
     for (int k = 0; k < 2; ++k) {
+      if (!(sigma_shift_px_ > 0.0)) {  // f alone is known (EXIF)
+        residuals[1 + k] = T(0.0);
+        continue;
+      }
       const double radius_px = corner_radius_px_ * (k + 1) / 2.0;
       const T r = T(radius_px) / f;
       const double r_known = radius_px / known_.f;

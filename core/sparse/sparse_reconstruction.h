@@ -43,7 +43,7 @@ struct KnownCalibration {
   // Widths of the prior mode: f within this percentage, the distortion's shift
   // of image points within this many pixels.
   double f_sigma_percent = 1.0;
-  double distortion_sigma_px = 0.5;
+  double distortion_sigma_px = 0.5;  // 0: only f is known
   std::string source;  // where it came from, for result.json ("file:...", "fused")
   // Also estimate the camera from this burst alone (one more adjustment run
   // on the final tracks, without this prior): what a fusion of bursts may add
