@@ -1,6 +1,7 @@
 #include "core/io/burst.h"
 
 #include <algorithm>
+#include <cstdio>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <system_error>
@@ -85,6 +86,18 @@ BurstManifest ParseBurstManifest(const std::string& text, const std::string& ori
       throw BurstError(where + ": required field 'file' is missing or not a non-empty string");
     BurstFrameInfo info;
     info.file = frame["file"].get<std::string>();
+    // Refused before any file system call sees the name: a NUL would end it
+    // early ("000000.png\0.jpg" is "000000.png" to stat, open and the error
+    // message alike), and no frame needs a control character.
+    for (size_t k = 0; k < info.file.size(); ++k) {
+      const unsigned char c = static_cast<unsigned char>(info.file[k]);
+      if (c < 0x20 || c == 0x7F) {
+        char code[8];
+        std::snprintf(code, sizeof code, "0x%02X", c);
+        throw BurstError(where + ": 'file' contains the control character " + code + " at byte " +
+                         std::to_string(k));
+      }
+    }
     info.timestamp_ns = OptionalInt(frame, "timestamp_ns", 0, where);
     info.sequence = OptionalInt(frame, "sequence", static_cast<int64_t>(i), where);
     manifest.frames.push_back(std::move(info));

@@ -171,6 +171,20 @@ TEST_F(BurstTest, RejectsPathsOutsideTheBurst) {
   }
 }
 
+// "frames/000000.png\0.jpg" passed the containment check as "frames/000000.png"
+// and was cut short in the error message: control characters are refused by
+// the manifest parser, before any file system call.
+TEST_F(BurstTest, RejectsControlCharactersInFrameNamesByName) {
+  for (const std::string& path :
+       {std::string("frames/000000.png\0.jpg", 22), std::string("frames/\n000000.png"),
+        std::string("frames/000000.png\x7F")}) {
+    RewriteManifest([&](nlohmann::json& j) { j["frames"][0]["file"] = path; });
+    const std::string error = ReadError();
+    EXPECT_NE(error.find("'file' contains the control character 0x"), std::string::npos) << error;
+    EXPECT_EQ(error.find('\0'), std::string::npos);
+  }
+}
+
 TEST_F(BurstTest, RejectsASymlinkLeadingOut) {
   const fs::path outside = dir_.string() + "_outside.png";
   fs::copy_file(dir_ / "frames/000000.png", outside, fs::copy_options::overwrite_existing);

@@ -93,9 +93,28 @@ void PutOctal(char* header, Field field, int64_t value) {
   PutString(header, field, digits);
 }
 
+// The compressed formats `tar -czf` and friends write: named, instead of
+// failing on the first header's checksum as if the bytes were a damaged tar.
+const char* CompressionName(std::string_view archive) {
+  const auto starts = [&](std::string_view magic) {
+    return archive.size() >= magic.size() && archive.substr(0, magic.size()) == magic;
+  };
+  if (starts("\x1F\x8B")) return "gzip";
+  if (starts("BZh")) return "bzip2";
+  if (starts(std::string_view("\xFD"
+                              "7zXZ\x00",
+                              6)))
+    return "xz";
+  if (starts("\x28\xB5\x2F\xFD")) return "zstd";
+  return nullptr;
+}
+
 }  // namespace
 
 std::vector<TarEntry> ReadTar(std::string_view archive, const TarLimits& limits) {
+  if (const char* compression = CompressionName(archive))
+    throw TarError(std::string("a ") + compression +
+                   "-compressed archive: upload an uncompressed tar (tar -cf, not tar -czf)");
   std::vector<TarEntry> entries;
   std::set<std::string> seen;
   int64_t total = 0;

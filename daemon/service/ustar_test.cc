@@ -104,6 +104,21 @@ TEST(UstarTest, RejectsLinksDevicesAndExtendedHeaders) {
   }
 }
 
+// A gzip upload was reported as "checksum in base-256 is not supported".
+TEST(UstarTest, NamesACompressedArchive) {
+  const std::string tar = WriteTar({{"manifest.json", "{}"}});
+  EXPECT_EQ(ErrorOf("\x1F\x8B\x08" + tar),
+            "a gzip-compressed archive: upload an uncompressed tar (tar -cf, not tar -czf)");
+  EXPECT_NE(ErrorOf("BZh9" + tar).find("a bzip2-compressed archive"), std::string::npos);
+  EXPECT_NE(ErrorOf(std::string("\xFD"
+                                "7zXZ\x00",
+                                6) +
+                    tar)
+                .find("a xz-compressed archive"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf("\x28\xB5\x2F\xFD" + tar).find("a zstd-compressed archive"), std::string::npos);
+}
+
 TEST(UstarTest, RejectsDamageAndOversize) {
   std::string archive = WriteTar({{"manifest.json", std::string(600, 'm')}});
   std::string corrupt = archive;
