@@ -18,7 +18,9 @@ int main(int argc, char** argv) {
   int bursts = 64;
   uint64_t seed = 1;
   SparseOptions options;
-  double cell_scale = 1.0;  // feature cell against the default (0.5: four times the cells)
+  double cell_scale = 1.0;
+  std::string camera = "ideal";  // camera effects preset of the generated bursts  // feature cell
+                                 // against the default (0.5: four times the cells)
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--bursts") && i + 1 < argc)
       bursts = std::atoi(argv[++i]);
@@ -30,15 +32,19 @@ int main(int argc, char** argv) {
       options.bundle_adjustment.lens_k_prior_sigma = std::atof(argv[++i]);
     else if (!std::strcmp(argv[i], "--cell-scale") && i + 1 < argc)
       cell_scale = std::atof(argv[++i]);
+    else if (!std::strcmp(argv[i], "--camera") && i + 1 < argc)
+      camera = argv[++i];
     else {
       std::fprintf(stderr,
                    "usage: calibration_sweep [--bursts N] [--seed S] [--no-weak-prior]\n"
-                   "                         [--lens-prior SIGMA] [--cell-scale S]\n");
+                   "                         [--lens-prior SIGMA] [--cell-scale S]\n"
+                   "                         [--camera ideal|webcam|phone]\n");
       return 2;
     }
   }
   std::vector<SweepOutcome> outcomes;
-  for (const SynthOptions& settings : CalibrationSweepSettings(bursts, seed)) {
+  for (SynthOptions settings : CalibrationSweepSettings(bursts, seed)) {
+    settings.effects = CameraEffects::Preset(camera);
     SparseOptions burst_options = options;
     if (cell_scale != 1.0)  // the default cell of this size, scaled
       burst_options.features.cell_px = std::max(

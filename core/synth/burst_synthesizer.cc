@@ -33,6 +33,7 @@ void Validate(const SynthOptions& o) {
           "noise_sigma must be between 0 and 50 grey levels");
   Require(o.jpeg_quality >= 0 && o.jpeg_quality <= 100, "jpeg_quality must be between 0 and 100");
   Require(o.supersampling >= 1 && o.supersampling <= 8, "supersampling must be between 1 and 8");
+  o.effects.Check();
 }
 
 // The D->U map must be monotonic out to the image corner, or the captured
@@ -48,15 +49,19 @@ void RequireInvertibleDistortion(const CameraModel& camera) {
   }
 }
 
-// Renders the frame seen by a camera at `pose`: the mean of supersampling^2
-// rays per pixel, spread over the pixel's footprint (anti-aliasing).
-cv::Mat RenderFrame(const TexturedScene& scene, const CameraModel& camera, const Pose& pose,
-                    int supersampling) {
+// Renders frame `frame` of the path: the mean of supersampling^2 rays per
+// pixel, spread over the pixel's footprint (anti-aliasing). With a rolling
+// shutter each row is seen from the pose at its own exposure time.
+cv::Mat RenderFrame(const TexturedScene& scene, const CameraModel& camera,
+                    const std::vector<Pose>& path, int frame, double readout, int supersampling) {
   cv::Mat image(camera.height, camera.width, CV_32FC3);
-  const Eigen::Matrix3d to_reference = pose.R.transpose();
-  const Eigen::Vector3d centre = pose.Centre();
   cv::parallel_for_(cv::Range(0, camera.height), [&](const cv::Range& rows) {
     for (int v = rows.start; v < rows.end; ++v) {
+      const Pose pose = readout > 0.0
+                            ? PoseAtTime(path, frame + readout * ((v + 0.5) / camera.height - 0.5))
+                            : path[frame];
+      const Eigen::Matrix3d to_reference = pose.R.transpose();
+      const Eigen::Vector3d centre = pose.Centre();
       cv::Vec3f* out = image.ptr<cv::Vec3f>(v);
       for (int u = 0; u < camera.width; ++u) {
         cv::Vec3f sum(0.0f, 0.0f, 0.0f);
@@ -134,6 +139,7 @@ nlohmann::json OptionsJson(const SynthOptions& o, const CameraModel& camera,
           {"jpeg_quality", o.jpeg_quality},
           {"supersampling", o.supersampling},
           {"seed", o.seed},
+          {"effects", ToJson(o.effects)},
           {"textures", textures}};
 }
 
@@ -178,8 +184,9 @@ SynthBurst SynthesizeBurst(const SynthOptions& options) {
                            {"fps", 30.0},
                            {"synthetic", OptionsJson(options, camera, scene.texture_names())}};
   for (int i = 0; i < options.frames; ++i) {
-    const cv::Mat radiance =
-        RenderFrame(scene, camera, burst.truth.poses[i], options.supersampling);
+    cv::Mat radiance = RenderFrame(scene, camera, burst.truth.poses, i,
+                                   options.effects.rolling_shutter_readout, options.supersampling);
+    if (options.effects.any()) ApplyPhotometricEffects(options.effects, i, options.seed, &radiance);
     burst.frames.push_back(Capture(radiance, options, i));
     BurstFrameInfo info;
     char name[32];

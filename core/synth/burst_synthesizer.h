@@ -12,6 +12,7 @@
 
 #include "core/io/burst.h"
 #include "core/io/ground_truth.h"
+#include "core/synth/camera_effects.h"
 
 namespace dfsm {
 
@@ -28,6 +29,7 @@ struct SynthOptions {
   int jpeg_quality = 0;       // 1..100: JPEG round trip of every frame; 0: none
   int supersampling = 3;      // samples per pixel side (anti-aliasing)
   bool color = true;          // bgr8 frames, else gray8
+  CameraEffects effects;      // rolling shutter, exposure, white balance, vignetting (off)
   uint64_t seed = 1;
   // Where real photographs are looked for (Debian's opencv-doc); a procedural
   // texture replaces any that is missing.

@@ -28,13 +28,23 @@ constexpr const char* kHelp =
     "  --gray                gray8 frames instead of bgr8\n"
     "  --seed N              scene and motion seed (default 1)\n"
     "  --textures DIR        photographs to texture the scene with\n"
-    "                        (default /usr/share/doc/opencv-doc/examples/data)\n";
+    "                        (default /usr/share/doc/opencv-doc/examples/data)\n"
+    "\n"
+    "What a real camera adds (core/synth/camera_effects.h), each switchable:\n"
+    "  --camera ideal|webcam|phone\n"
+    "                        preset of the effects below (default ideal: none; phone:\n"
+    "                        readout 0.6, exposure 0.12, white balance 0.03, vignetting 0.3)\n"
+    "  --rolling-shutter R   readout time as a fraction of the frame interval (0: global)\n"
+    "  --exposure-drift D    per-frame exposure/gain change, up to +-D (0.12: +-12 %)\n"
+    "  --white-balance-drift D  per-frame, per-channel gain change, up to +-D\n"
+    "  --vignetting V        brightness falls by V at the corners\n";
 
 }  // namespace
 
 int RunSynthCommand(const Args& args) {
   ArgParser parser({"out", "width", "height", "frames", "f", "k1", "k2", "baseline", "rotation",
-                    "noise", "jpeg", "supersampling", "seed", "textures"},
+                    "noise", "jpeg", "supersampling", "seed", "textures", "camera",
+                    "rolling-shutter", "exposure-drift", "white-balance-drift", "vignetting"},
                    {"gray", "help"});
   parser.Parse(args);
   if (parser.Has("help")) {
@@ -58,6 +68,17 @@ int RunSynthCommand(const Args& args) {
   options.seed = static_cast<uint64_t>(parser.Int("seed", 1));
   options.color = !parser.Has("gray");
   options.texture_dir = parser.String("textures", options.texture_dir);
+  try {
+    options.effects = CameraEffects::Preset(parser.String("camera", "ideal"));
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(std::string("--camera: ") + e.what());
+  }
+  CameraEffects& effects = options.effects;
+  effects.rolling_shutter_readout =
+      parser.Double("rolling-shutter", effects.rolling_shutter_readout);
+  effects.exposure_drift = parser.Double("exposure-drift", effects.exposure_drift);
+  effects.white_balance_drift = parser.Double("white-balance-drift", effects.white_balance_drift);
+  effects.vignetting = parser.Double("vignetting", effects.vignetting);
 
   SynthBurst burst;
   try {
