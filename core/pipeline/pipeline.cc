@@ -72,7 +72,16 @@ PipelineOutput RunPipeline(const Burst& burst, const PipelineOptions& options,
                     " mm (35 mm equivalent)";
       sparse_options.known = exif;
     }
-    output.sparse = ReconstructSparse(burst.gray, burst.reference(), sparse_options);
+    // Both stages see the frames on the reference's brightness; the Mats of
+    // frames left as they are stay shared with the caller's burst.
+    Burst compensated = burst;
+    const std::vector<FrameCompensation> photometric =
+        CompensateExposure(&compensated.gray, burst.reference(), options.photometric);
+    nlohmann::json gains = nlohmann::json::array();
+    for (const FrameCompensation& c : photometric)
+      gains.push_back({{"gain", c.gain}, {"applied", c.applied}});
+    result.extra["photometric_compensation"] = gains;
+    output.sparse = ReconstructSparse(compensated.gray, burst.reference(), sparse_options);
     const SparseReconstruction& sparse = *output.sparse;
     result.calibration = sparse.state.camera;
     result.calibration_detail = {{"uncertainty", ToJson(sparse.uncertainty, sparse.state.camera.f)},
@@ -100,7 +109,7 @@ PipelineOutput RunPipeline(const Burst& burst, const PipelineOptions& options,
     if (options.run_dense) {
       if (on_stage) on_stage("dense");
       const auto dense_start = std::chrono::steady_clock::now();
-      output.dense = ComputeDenseDepth(burst, sparse.state.camera, sparse.state.poses,
+      output.dense = ComputeDenseDepth(compensated, sparse.state.camera, sparse.state.poses,
                                        sparse.InlierInverseDepths(), options.dense);
       result.timings_ms.emplace_back("dense", MillisecondsSince(dense_start));
       DepthSummary depth;

@@ -10,6 +10,7 @@
 #include "core/dense/dense_depth.h"
 #include "core/io/burst.h"
 #include "core/io/result.h"
+#include "core/pipeline/photometric_compensation.h"
 #include "core/sparse/sparse_reconstruction.h"
 
 namespace dfsm {
@@ -22,6 +23,7 @@ struct PipelineOptions {
   // length is a prior on f of this width (0: ignored). Nominal focal lengths,
   // digital crops and video modes make it approximate, hence wide.
   double exif_focal_sigma_percent = 5.0;
+  PhotometricCompensationOptions photometric;
 };
 
 struct PipelineOutput {
