@@ -46,4 +46,17 @@ void SetDefaultProblem(const httplib::Request& request, httplib::Response& respo
   }
 }
 
+std::string HideStateDirectory(std::string detail, const std::filesystem::path& state_dir) {
+  std::error_code error;
+  for (const std::filesystem::path& form :
+       {state_dir, std::filesystem::weakly_canonical(state_dir, error)}) {
+    std::string text = form.string();
+    while (text.size() > 1 && text.back() == '/') text.pop_back();
+    if (text.size() <= 1) continue;  // "/" or "": nothing to hide
+    for (size_t at; (at = detail.find(text)) != std::string::npos;)
+      detail.replace(at, text.size(), "<state_dir>");
+  }
+  return detail;
+}
+
 }  // namespace dfsm::api

@@ -5,6 +5,7 @@
 
 #include <httplib.h>
 
+#include <filesystem>
 #include <string>
 
 namespace dfsm::api {
@@ -15,6 +16,11 @@ inline constexpr const char* kJsonContentType = "application/json";
 // `slug` becomes the type "urn:dfsm:problem:<slug>" (e.g. "queue-full").
 void SetProblem(httplib::Response& response, int status, const std::string& slug,
                 const std::string& title, const std::string& detail);
+
+// `detail` with every mention of the state directory (as configured or as
+// resolved) written "<state_dir>": a client learns which file, not where the
+// daemon keeps its state.
+std::string HideStateDirectory(std::string detail, const std::filesystem::path& state_dir);
 
 // A problem body for a status that httplib produced on its own (404 of an
 // unknown path, 413 of an oversized body, 400 of a malformed request).

@@ -75,8 +75,10 @@ void QueueFull(const ApiContext& context, httplib::Response& response, const std
 
 // The request was fine; the state directory could not take the burst (full,
 // read-only, gone). Nothing was stored.
-void StorageFailed(httplib::Response& response, const std::string& what) {
-  SetProblem(response, 507, "storage-failed", "Cannot store the burst", what);
+void StorageFailed(const ApiContext& context, httplib::Response& response,
+                   const std::string& what) {
+  SetProblem(response, 507, "storage-failed", "Cannot store the burst",
+             HideStateDirectory(what, context.config->jobs.state_dir));
 }
 
 // --- handlers --------------------------------------------------------------
@@ -99,7 +101,7 @@ void PostCapture(const ApiContext& context, const httplib::Request& request,
     response.set_header("Retry-After", "1");
     SetProblem(response, 503, "capture-unavailable", "No burst available", e.what());
   } catch (const service::JobStoreError& e) {
-    StorageFailed(response, e.what());
+    StorageFailed(context, response, e.what());
   }
 }
 
@@ -127,9 +129,10 @@ void PostJob(const ApiContext& context, const httplib::Request& request,
   } catch (const service::QueueFull& e) {
     QueueFull(context, response, e.what());
   } catch (const service::BadUpload& e) {
-    SetProblem(response, 422, "invalid-burst", "Upload is not a usable burst", e.what());
+    SetProblem(response, 422, "invalid-burst", "Upload is not a usable burst",
+               HideStateDirectory(e.what(), context.config->jobs.state_dir));
   } catch (const service::JobStoreError& e) {
-    StorageFailed(response, e.what());
+    StorageFailed(context, response, e.what());
   }
 }
 
@@ -226,7 +229,8 @@ void GetJobFile(const ApiContext& context, const httplib::Request& request,
     response.set_content(ReadFileToString(path), content_type);
   } catch (const std::exception& e) {
     // Deleted by retention or DELETE between the lookup and the read.
-    SetProblem(response, 404, "file-gone", "File no longer available", e.what());
+    SetProblem(response, 404, "file-gone", "File no longer available",
+               HideStateDirectory(e.what(), context.config->jobs.state_dir));
   }
 }
 
@@ -255,7 +259,8 @@ void GetCalibration(const ApiContext& context, httplib::Response& response) {
                    {"yaml", JobPath(job->id) + "/calibration.yaml"}}}});
     SetJson(response, 200, body);
   } catch (const std::exception& e) {
-    SetProblem(response, 503, "calibration-unreadable", "Calibration unreadable", e.what());
+    SetProblem(response, 503, "calibration-unreadable", "Calibration unreadable",
+               HideStateDirectory(e.what(), context.config->jobs.state_dir));
   }
 }
 
@@ -267,7 +272,7 @@ void DeleteCalibration(const ApiContext& context, httplib::Response& response) {
     context.calibration->Reset();
   } catch (const std::exception& e) {
     return SetProblem(response, 507, "calibration-not-stored", "Calibration reset not stored",
-                      e.what());
+                      HideStateDirectory(e.what(), context.config->jobs.state_dir));
   }
   response.status = 204;
 }

@@ -11,6 +11,7 @@
 #include <chrono>
 #include <opencv2/imgcodecs.hpp>
 
+#include "api/problem.h"
 #include "api/routes_test_harness.h"
 #include "core/io/burst.h"
 #include "core/io/file_util.h"
@@ -254,6 +255,31 @@ TEST_F(SecurityRoutesTest, UploadLimitsAreNamed) {
             std::string::npos);
   EXPECT_TRUE(routes_->store().List().empty());
   EXPECT_EQ(upload(BurstTar(3, Png(8, 8), 8, 8))->status, 202);
+}
+
+// A problem names the file, never where the daemon keeps its state. An upload's
+// 422 names the file inside the burst; the 507, file-gone and calibration
+// details (which showed absolute paths) go through HideStateDirectory, which
+// writes "<state_dir>" for it.
+TEST_F(SecurityRoutesTest, ProblemsDoNotShowTheStateDirectory) {
+  std::vector<service::TarFile> files = {
+      {"burst/manifest.json",
+       nlohmann::json(
+           {{"format", "dfsm-burst/1"},
+            {"width", 8},
+            {"height", 8},
+            {"frames",
+             {{{"file", "frames/0.png"}}, {{"file", "frames/1.png"}}, {{"file", "frames/2.png"}}}}})
+           .dump()},
+      {"burst/frames/0.png", Png(8, 8)},
+      {"burst/frames/1.png", Png(8, 8)}};
+  const std::string detail = ExpectProblem(
+      client_->Post("/api/v1/jobs", service::WriteTar(files), "application/x-tar"), 422);
+  EXPECT_NE(detail.find("frames/2.png"), std::string::npos) << detail;
+  EXPECT_EQ(detail.find(routes_->dir().string()), std::string::npos) << detail;
+  EXPECT_EQ(HideStateDirectory("/var/lib/dfsmd/jobs/x/job.json.tmp: No space left on device",
+                               "/var/lib/dfsmd/"),
+            "<state_dir>/jobs/x/job.json.tmp: No space left on device");
 }
 
 }  // namespace
