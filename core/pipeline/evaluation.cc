@@ -64,15 +64,17 @@ DepthEvaluation EvaluateDepth(const cv::Mat& depth, const cv::Mat& truth_depth,
   std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
   evaluation.scale = sorted[sorted.size() / 2];
   double abs_rel = 0.0;
-  int within = 0;
+  int within = 0, within_25 = 0;
   for (const float ratio : ratios) {
     // ratio = d* / d, so s d / d* = s / ratio.
     const double aligned = evaluation.scale / ratio;
     abs_rel += std::abs(aligned - 1.0);
     if (std::max(aligned, 1.0 / aligned) < 1.05) ++within;
+    if (std::max(aligned, 1.0 / aligned) < 1.25) ++within_25;
   }
   evaluation.abs_rel = abs_rel / ratios.size();
   evaluation.within_5_percent = static_cast<double>(within) / ratios.size();
+  evaluation.within_25_percent = static_cast<double>(within_25) / ratios.size();
   evaluation.evaluated_pixels = static_cast<int>(ratios.size());
   return evaluation;
 }
@@ -89,6 +91,7 @@ nlohmann::json ToJson(const DepthEvaluation& e) {
   return {{"scale", e.scale},
           {"abs_rel", e.abs_rel},
           {"within_5_percent", e.within_5_percent},
+          {"within_25_percent", e.within_25_percent},
           {"coverage", e.coverage},
           {"evaluated_pixels", e.evaluated_pixels}};
 }

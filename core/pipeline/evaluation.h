@@ -22,10 +22,11 @@ SparseEvaluation EvaluateSparse(const CameraModel& camera, const std::vector<Pos
                                 const GroundTruth& truth);
 
 struct DepthEvaluation {
-  double scale = 0.0;             // truth ≈ scale * estimate (median ratio)
-  double abs_rel = 0.0;           // mean |s d - d*| / d* over valid, textured pixels
-  double within_5_percent = 0.0;  // share with max(s d / d*, d* / s d) < 1.05
-  double coverage = 0.0;          // share of textured pixels with an estimate
+  double scale = 0.0;              // truth ≈ scale * estimate (median ratio)
+  double abs_rel = 0.0;            // mean |s d - d*| / d* over valid, textured pixels
+  double within_5_percent = 0.0;   // share with max(s d / d*, d* / s d) < 1.05
+  double within_25_percent = 0.0;  // the same below 1.25 (the delta < 1.25 of depth benchmarks)
+  double coverage = 0.0;           // share of textured pixels with an estimate
   int evaluated_pixels = 0;
 };
 
