@@ -106,6 +106,8 @@ int main(int argc, char** argv) {
     DepthEvaluation score, constant;
     double f = 0.0;
     std::string quality;
+    double disagreement = 0.0;  // the depth check's median, without ground truth
+    bool confirmed = false;
   };
   std::vector<Row> rows;
   for (int first = 0; first + frames <= static_cast<int>(rgb.size()); first += step) {
@@ -128,6 +130,11 @@ int main(int argc, char** argv) {
         row.score = EvaluateDepth(output.dense->depth, truth, cv::Mat());
         row.f = output.result.calibration.f;
         row.quality = output.result.calibration_detail.value("quality", "");
+        const nlohmann::json check = output.result.extra.value("depth_check", nlohmann::json());
+        row.disagreement = check.value("median_disagreement", 0.0);
+        row.confirmed = check.value("confirmed", false);
+        line["depth_check"] = check;
+        line["warnings"] = output.result.warnings;
         line.update({{"depth", ToJson(row.score)},
                      {"f", row.f},
                      {"quality", row.quality},
@@ -142,13 +149,15 @@ int main(int argc, char** argv) {
   }
   std::printf(
       "\n| window | mode | f (px) | verdict | AbsRel | within 5 %% | within 25 %% | coverage | "
-      "constant AbsRel |\n|---|---|---|---|---|---|---|---|---|\n");
+      "constant AbsRel | depth check |\n|---|---|---|---|---|---|---|---|---|---|\n");
   for (const Row& r : rows)
-    std::printf("| %d-%d | %s | %.0f | %s | %.1f %% | %.1f %% | %.1f %% | %.1f %% | %.1f %% |\n",
-                r.first, r.first + frames - 1, r.mode.c_str(), r.f, r.quality.c_str(),
-                100.0 * r.score.abs_rel, 100.0 * r.score.within_5_percent,
-                100.0 * r.score.within_25_percent, 100.0 * r.score.coverage,
-                100.0 * r.constant.abs_rel);
+    std::printf(
+        "| %d-%d | %s | %.0f | %s | %.1f %% | %.1f %% | %.1f %% | %.1f %% | %.1f %% | %s (%.1f %%) "
+        "|\n",
+        r.first, r.first + frames - 1, r.mode.c_str(), r.f, r.quality.c_str(),
+        100.0 * r.score.abs_rel, 100.0 * r.score.within_5_percent,
+        100.0 * r.score.within_25_percent, 100.0 * r.score.coverage, 100.0 * r.constant.abs_rel,
+        r.confirmed ? "confirmed" : "warned", 100.0 * r.disagreement);
   for (const std::string mode : {"known", "self"}) {
     std::vector<double> abs_rel;
     for (const Row& r : rows)

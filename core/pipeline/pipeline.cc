@@ -6,6 +6,7 @@
 #include "core/export/calibration_export.h"
 #include "core/export/depth_export.h"
 #include "core/export/ply.h"
+#include "core/pipeline/depth_check.h"
 #include "core/io/exif_focal.h"
 
 namespace dfsm {
@@ -121,6 +122,9 @@ PipelineOutput RunPipeline(const Burst& burst, const PipelineOptions& options,
       nlohmann::json dense_timings = nlohmann::json::object();
       for (const auto& [stage, ms] : output.dense->timings_ms) dense_timings[stage] = ms;
       result.extra["dense_timings_ms"] = dense_timings;
+      const DepthCheck check = CheckDepthAgainstTracks(sparse, *output.dense);
+      result.extra["depth_check"] = ToJson(check);
+      result.warnings.insert(result.warnings.end(), check.warnings.begin(), check.warnings.end());
     }
     result.ok = true;
   } catch (const ReconstructionError& e) {

@@ -1,0 +1,69 @@
+#include "core/pipeline/depth_check.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <nlohmann/json.hpp>
+
+namespace dfsm {
+namespace {
+
+std::string Percent(double share) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.0f %%", 100.0 * share);
+  return text;
+}
+
+}  // namespace
+
+DepthCheck CheckDepthAgainstTracks(const SparseReconstruction& sparse, const DenseDepth& dense,
+                                   const DepthCheckOptions& options) {
+  DepthCheck check;
+  const FeatureTracks& tracks = sparse.tracks;
+  std::vector<double> disagreement;
+  for (int j = 0; j < tracks.num_tracks(); ++j) {
+    if (!sparse.inliers[j]) continue;
+    ++check.tracks;
+    const Eigen::Vector2d pixel = tracks.pixels[tracks.reference].col(j);
+    const int u = static_cast<int>(std::lround(pixel.x())),
+              v = static_cast<int>(std::lround(pixel.y()));
+    if (u < 0 || v < 0 || u >= dense.depth.cols || v >= dense.depth.rows) continue;
+    const float depth = dense.depth.at<float>(v, u);
+    if (!(depth > 0.0f)) continue;
+    ++check.compared;
+    disagreement.push_back(std::abs(1.0 / depth / sparse.state.inverse_depths[j] - 1.0));
+  }
+  if (!disagreement.empty()) {
+    check.within_10_percent =
+        static_cast<double>(std::count_if(disagreement.begin(), disagreement.end(),
+                                          [](double d) { return d <= 0.10; })) /
+        disagreement.size();
+    std::nth_element(disagreement.begin(), disagreement.begin() + disagreement.size() / 2,
+                     disagreement.end());
+    check.median_disagreement = disagreement[disagreement.size() / 2];
+  }
+  const double covered = check.tracks > 0 ? double(check.compared) / check.tracks : 0.0;
+  if (check.median_disagreement > options.max_median_disagreement)
+    check.warnings.push_back(
+        "depth not confirmed: the dense map disagrees with the sparse points "
+        "by a median of " +
+        Percent(check.median_disagreement) + " (" + Percent(check.within_10_percent) + " of " +
+        std::to_string(check.compared) + " tracks within 10 %)");
+  if (covered < options.min_tracks_covered)
+    check.warnings.push_back("depth sparse: the dense map has depth at " + Percent(covered) +
+                             " of the tracked points");
+  if (dense.valid_fraction < options.min_valid_fraction)
+    check.warnings.push_back("depth sparse: " + Percent(dense.valid_fraction) +
+                             " of the pixels have a depth");
+  return check;
+}
+
+nlohmann::json ToJson(const DepthCheck& check) {
+  return {{"tracks", check.tracks},
+          {"compared", check.compared},
+          {"median_disagreement", check.median_disagreement},
+          {"within_10_percent", check.within_10_percent},
+          {"confirmed", check.warnings.empty()}};
+}
+
+}  // namespace dfsm

@@ -1,0 +1,44 @@
+// Whether the dense depth can be vouched for without ground truth: the
+// bundle adjustment's inlier tracks are points whose inverse depth the burst
+// measured directly, in the same scale as the dense map, so the map must agree
+// with them where it has depth. A map that disagrees, or covers little of the
+// image, is reported with a warning instead of a silent "ok". What it cannot
+// see is a geometry that is wrong as a whole (calibration, poses): the dense
+// map then agrees with equally wrong sparse points; the calibration verdict is
+// the check for that.
+#pragma once
+
+#include <nlohmann/json_fwd.hpp>
+#include <string>
+#include <vector>
+
+#include "core/dense/dense_depth.h"
+#include "core/sparse/sparse_reconstruction.h"
+
+namespace dfsm {
+
+struct DepthCheckOptions {
+  // Warn when the median |w_dense / w_track - 1| over the tracks exceeds this
+  // (docs/dense.md: 0.7-1.5 % on generated bursts, 0.1-2.3 % on TUM windows:
+  // the dense stage follows the sparse geometry, right or wrong) ...
+  double max_median_disagreement = 0.10;
+  // ... or when the map has depth at fewer than this share of the tracks or
+  // of the pixels.
+  double min_tracks_covered = 0.5;
+  double min_valid_fraction = 0.5;
+};
+
+struct DepthCheck {
+  int tracks = 0;                     // inlier tracks
+  int compared = 0;                   // of them, with a dense depth at their pixel
+  double median_disagreement = 0.0;   // median |w_dense / w_track - 1|
+  double within_10_percent = 0.0;     // share of the compared tracks
+  std::vector<std::string> warnings;  // empty: nothing to say
+};
+
+DepthCheck CheckDepthAgainstTracks(const SparseReconstruction& sparse, const DenseDepth& dense,
+                                   const DepthCheckOptions& options = {});
+
+nlohmann::json ToJson(const DepthCheck& check);
+
+}  // namespace dfsm
