@@ -207,15 +207,19 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
   // symmetry the adjustment may cross: choose the sign that puts most tracks
   // in front of the camera. A track still behind it is no point of the scene,
   // whatever its reprojection error.
-  int behind = 0, used = 0;
-  for (int j = 0; j < tracked; ++j)
-    if (use[j]) ++used, behind += state.inverse_depths[j] < 0.0;
-  if (2 * behind > used) {
-    for (double& w : state.inverse_depths) w = -w;
-    for (Pose& pose : state.poses) pose.T = -pose.T;
-  }
-  for (int j = 0; j < tracked; ++j)
-    if (use[j] && !(state.inverse_depths[j] > 0.0)) use[j] = false;
+  // Also after a fallback refit, which can cross the same symmetry.
+  const auto settle_sign = [&]() {
+    int behind = 0, used = 0;
+    for (int j = 0; j < tracked; ++j)
+      if (use[j]) ++used, behind += state.inverse_depths[j] < 0.0;
+    if (2 * behind > used) {
+      for (double& w : state.inverse_depths) w = -w;
+      for (Pose& pose : state.poses) pose.T = -pose.T;
+    }
+    for (int j = 0; j < tracked; ++j)
+      if (use[j] && !(state.inverse_depths[j] > 0.0)) use[j] = false;
+  };
+  settle_sign();
   if (std::count(use.begin(), use.end(), true) < options.min_tracks)
     throw ReconstructionError("too few consistent tracks after bundle adjustment: " +
                               std::to_string(std::count(use.begin(), use.end(), true)) +
@@ -275,14 +279,7 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
                               ", and depth was computed with that camera");
     state.camera = fallback;
     run_adjustment(refit);
-    if (2 * static_cast<int>(std::count_if(state.inverse_depths.begin(), state.inverse_depths.end(),
-                                           [](double w) { return w < 0.0; })) >
-        static_cast<int>(state.inverse_depths.size())) {
-      for (double& w : state.inverse_depths) w = -w;
-      for (Pose& pose : state.poses) pose.T = -pose.T;
-    }
-    for (int j = 0; j < tracked; ++j)
-      if (use[j] && !(state.inverse_depths[j] > 0.0)) use[j] = false;
+    settle_sign();
     sparse.inliers = use;
     estimate_uncertainty(refit);
     if (std::count(use.begin(), use.end(), true) < options.min_tracks)
