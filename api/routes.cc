@@ -241,7 +241,7 @@ void GetCalibration(const ApiContext& context, httplib::Response& response) {
   nlohmann::json body = nlohmann::json::object();
   if (context.calibration) body["fused"] = context.calibration->Snapshot();
   if (!job) {
-    if (context.calibration && !context.calibration->Snapshot().value("empty", true))
+    if (body.contains("fused") && !body["fused"].value("empty", true))
       return SetJson(response, 200, body);
     return SetProblem(response, 404, "no-calibration", "No calibration yet",
                       "no job has succeeded yet; POST /api/v1/captures to make one");
