@@ -56,31 +56,39 @@ BearerAuth::Verdict BearerAuth::Check(const std::string& authorization) const {
   return ConstantTimeEquals(presented, token_) ? Verdict::kAllowed : Verdict::kWrongToken;
 }
 
-bool BearerAuth::Authorize(const httplib::Request& request, httplib::Response& response) const {
-  if (!enabled() || IsPublic(request.method, request.path)) return true;
-  const Verdict verdict = Check(request.get_header_value("Authorization"));
-  if (verdict == Verdict::kAllowed) return true;
-  std::string challenge = "Bearer realm=\"dfsmd\"";
-  std::string detail;
+std::optional<BearerAuth::Failure> BearerAuth::Refusal(const std::string& method,
+                                                       const std::string& path,
+                                                       const std::string& authorization) const {
+  if (!enabled() || IsPublic(method, path)) return std::nullopt;
+  const Verdict verdict = Check(authorization);
+  if (verdict == Verdict::kAllowed) return std::nullopt;
+  Failure failure{"Bearer realm=\"dfsmd\"", ""};
   switch (verdict) {
     case Verdict::kMissing:
-      detail = request.method + " " + request.path +
-               " needs an 'Authorization: Bearer <token>' header: this dfsmd has an access "
-               "token configured (server.token_file or the dfsmd-token credential)";
+      failure.detail = method + " " + path +
+                       " needs an 'Authorization: Bearer <token>' header: this dfsmd has an "
+                       "access token configured (server.token_file or the dfsmd-token credential)";
       break;
     case Verdict::kNotBearer:
-      challenge += ", error=\"invalid_request\"";
-      detail =
+      failure.challenge += ", error=\"invalid_request\"";
+      failure.detail =
           "the Authorization header must use the Bearer scheme: 'Authorization: Bearer "
           "<token>'";
       break;
     default:
-      challenge += ", error=\"invalid_token\"";
-      detail = "the bearer token is not the one this dfsmd is configured with";
+      failure.challenge += ", error=\"invalid_token\"";
+      failure.detail = "the bearer token is not the one this dfsmd is configured with";
       break;
   }
-  response.set_header("WWW-Authenticate", challenge);
-  SetProblem(response, 401, "unauthorized", "Authentication required", detail);
+  return failure;
+}
+
+bool BearerAuth::Authorize(const httplib::Request& request, httplib::Response& response) const {
+  const std::optional<Failure> failure =
+      Refusal(request.method, request.path, request.get_header_value("Authorization"));
+  if (!failure) return true;
+  response.set_header("WWW-Authenticate", failure->challenge);
+  SetProblem(response, 401, "unauthorized", "Authentication required", failure->detail);
   return false;
 }
 

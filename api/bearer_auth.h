@@ -12,6 +12,7 @@
 
 #include <httplib.h>
 
+#include <optional>
 #include <string>
 #include <string_view>
 
@@ -36,6 +37,16 @@ class BearerAuth {
 
   // Judges an Authorization header value ("" when absent).
   Verdict Check(const std::string& authorization) const;
+
+  // Why a request with this method, path and Authorization value ("" when
+  // absent) is refused: the WWW-Authenticate challenge and the problem
+  // detail of its 401. nullopt when it is allowed.
+  struct Failure {
+    std::string challenge;
+    std::string detail;
+  };
+  std::optional<Failure> Refusal(const std::string& method, const std::string& path,
+                                 const std::string& authorization) const;
 
   // Allows the request, or answers it 401 problem+json with
   // WWW-Authenticate and returns false.

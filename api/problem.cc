@@ -4,9 +4,8 @@
 
 namespace dfsm::api {
 
-void SetProblem(httplib::Response& response, int status, const std::string& slug,
-                const std::string& title, const std::string& detail) {
-  response.status = status;
+std::string ProblemBody(int status, const std::string& slug, const std::string& title,
+                        const std::string& detail) {
   const nlohmann::json body = {{"type", "urn:dfsm:problem:" + slug},
                                {"title", title},
                                {"status", status},
@@ -14,8 +13,46 @@ void SetProblem(httplib::Response& response, int status, const std::string& slug
   // The detail often quotes the request (a path, a query value), which need not
   // be UTF-8: replace bad bytes with U+FFFD instead of throwing, which turned a
   // 404 or 401 into a 500 (found by fuzz/http_fuzzer).
-  response.set_content(body.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n",
-                       kProblemContentType);
+  return body.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
+}
+
+void SetProblem(httplib::Response& response, int status, const std::string& slug,
+                const std::string& title, const std::string& detail) {
+  response.status = status;
+  response.set_content(ProblemBody(status, slug, title, detail), kProblemContentType);
+}
+
+const char* StatusTitle(int status) {
+  switch (status) {
+    case 400:
+      return "Malformed request";
+    case 401:
+      return "Authentication required";
+    case 403:
+      return "Forbidden";
+    case 404:
+      return "Not found";
+    case 405:
+      return "Method not allowed";
+    case 408:
+      return "Request timeout";
+    case 413:
+      return "Request body too large";
+    case 415:
+      return "Unsupported media type";
+    case 421:
+      return "Misdirected request";
+    case 431:
+      return "Request header fields too large";
+    case 501:
+      return "Not implemented";
+    case 503:
+      return "Service unavailable";
+    case 505:
+      return "HTTP version not supported";
+    default:
+      return "HTTP error";
+  }
 }
 
 void SetDefaultProblem(const httplib::Request& request, httplib::Response& response,

@@ -13,6 +13,13 @@ namespace dfsm::api {
 inline constexpr const char* kProblemContentType = "application/problem+json";
 inline constexpr const char* kJsonContentType = "application/json";
 
+// The JSON text of a problem (what SetProblem sends).
+std::string ProblemBody(int status, const std::string& slug, const std::string& title,
+                        const std::string& detail);
+
+// The standard title of an HTTP status dfsmd answers on its own (reason phrase).
+const char* StatusTitle(int status);
+
 // `slug` becomes the type "urn:dfsm:problem:<slug>" (e.g. "queue-full").
 void SetProblem(httplib::Response& response, int status, const std::string& slug,
                 const std::string& title, const std::string& detail);

@@ -18,6 +18,17 @@ namespace dfsm::api {
 
 using BodyHandler = std::function<void(const httplib::Request&, httplib::Response&)>;
 
+// Reads the body of `request` (if any) through `reader` into `sink`, at most
+// `max_bytes`. Returns false after answering a body over the limit (413),
+// unreadable (400) or multipart (415) with problem+json. `sink` may throw;
+// the exception propagates.
+bool ReadBody(const httplib::Request& request, const httplib::ContentReader& reader,
+              size_t max_bytes, httplib::Response& response,
+              const std::function<void(const char*, size_t)>& sink);
+
+// Whether the request announces a body (Content-Length or Transfer-Encoding).
+bool HasBody(const httplib::Request& request);
+
 // A handler that reads the body (at most `max_bytes`) into a copy of the
 // request and passes that to `handler`; a body over the limit, unreadable or
 // multipart is answered with problem+json without calling it.

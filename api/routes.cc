@@ -1,6 +1,11 @@
 #include "api/routes.h"
 
+#include <sys/statvfs.h>
+
+#include <cerrno>
+#include <cstring>
 #include <opencv2/imgcodecs.hpp>
+#include <regex>
 
 #include "api/bearer_auth.h"
 #include "api/job_request.h"
@@ -105,27 +110,32 @@ void PostCapture(const ApiContext& context, const httplib::Request& request,
   }
 }
 
+// The queue place is taken before the body is read (a full queue answers 503
+// at once) and the body goes straight to a staging file (no upload is held in
+// memory); the frames are decoded by the job.
 void PostJob(const ApiContext& context, const httplib::Request& request,
-             httplib::Response& response) {
-  const std::string type = request.get_header_value("Content-Type");
-  if (!type.empty() && type.rfind("application/x-tar", 0) != 0 &&
-      type.rfind("application/octet-stream", 0) != 0) {
-    return SetProblem(
-        response, 415, "unsupported-media-type", "Unsupported upload type",
-        "upload a tar of a dfsm-burst/1 directory as application/x-tar, not '" + type + "'");
-  }
+             httplib::Response& response, const httplib::ContentReader& reader) {
   service::JobOptions options;
   try {
     options = ParseUploadQuery(request.params, *context.config);
   } catch (const RequestError& e) {
     return SetProblem(response, 400, "invalid-request", "Invalid upload options", e.what());
   }
-  if (request.body.empty()) {
+  if (!HasBody(request) || request.get_header_value("Content-Length") == "0") {
     return SetProblem(response, 400, "invalid-upload", "Empty upload",
                       "the body must be a tar of a dfsm-burst/1 directory");
   }
   try {
-    Accepted(response, context.intake->FromArchive(request.body, options));
+    service::PendingUpload upload = context.intake->BeginUpload();
+    if (!ReadBody(request, reader, static_cast<size_t>(context.config->server.max_body_bytes),
+                  response,
+                  [&upload](const char* data, size_t size) { upload.Append(data, size); }))
+      return;
+    if (upload.size() == 0) {
+      return SetProblem(response, 400, "invalid-upload", "Empty upload",
+                        "the body must be a tar of a dfsm-burst/1 directory");
+    }
+    Accepted(response, context.intake->FromUpload(std::move(upload), options));
   } catch (const service::QueueFull& e) {
     QueueFull(context, response, e.what());
   } catch (const service::BadUpload& e) {
@@ -311,6 +321,20 @@ void GetReady(const ApiContext& context, httplib::Response& response) {
     }
   }
   if (context.scheduler->Full()) problems.push_back("the job queue is full");
+  // A burst and its result take megabytes: below this the next job fails.
+  constexpr int64_t kMinFreeStateBytes = 16LL << 20;
+  struct statvfs disk {};
+  if (::statvfs(context.store->state_dir().c_str(), &disk) == 0) {
+    const int64_t free_bytes =
+        static_cast<int64_t>(disk.f_bavail) * static_cast<int64_t>(disk.f_frsize);
+    if (free_bytes < kMinFreeStateBytes) {
+      problems.push_back("the state directory is full (" + std::to_string(free_bytes >> 10) +
+                         " KiB free); DELETE /api/v1/jobs/{id} frees space");
+    }
+  } else {
+    problems.push_back("the state directory cannot be examined (" +
+                       std::string(std::strerror(errno)) + ")");
+  }
   if (problems.empty()) return SetJson(response, 200, {{"status", "ready"}});
   std::string detail;
   for (const std::string& p : problems) detail += (detail.empty() ? "" : "; ") + p;
@@ -342,8 +366,28 @@ const char* JobFileContentType(const std::string& file) {
   return nullptr;
 }
 
-void RegisterRoutes(const ApiContext& context, httplib::Server* server) {
+std::string AllowedMethods(const std::string& path) {
+  static const std::pair<std::regex, const char*> kResources[] = {
+      {std::regex("/(healthz|readyz|metrics)"), "GET, HEAD"},
+      {std::regex("/api/v1/(openapi\\.json|camera|snapshot\\.jpg)"), "GET, HEAD"},
+      {std::regex("/api/v1/calibration"), "GET, HEAD, DELETE"},
+      {std::regex("/api/v1/captures"), "POST"},
+      {std::regex("/api/v1/jobs"), "GET, HEAD, POST"},
+      {std::regex("/api/v1/jobs/[^/]+"), "GET, HEAD, DELETE"},
+      {std::regex("/api/v1/jobs/[^/]+/[^/]+"), "GET, HEAD"},
+  };
+  for (const auto& [pattern, methods] : kResources) {
+    if (std::regex_match(path, pattern)) return methods;
+  }
+  return "";
+}
+
+void RegisterRoutes(const ApiContext& context, HttpServer* http) {
   const ApiContext c = context;
+  http->SetGuard(RequestGuard(context.config->server, AllowedMethods));
+  httplib::Server* server = http->server();
+  // The guard already refused unauthenticated requests; this second check
+  // covers requests that reach httplib without the gate (the fuzzers).
   BearerAuth(context.config->server.token).Install(server);
   const std::string id = "([^/]+)";
   server->Get("/healthz", [](const httplib::Request&, httplib::Response& response) {
@@ -367,9 +411,8 @@ void RegisterRoutes(const ApiContext& context, httplib::Server* server) {
                  PostCapture(c, q, r);
                }));
   server->Post("/api/v1/jobs",
-               BoundedBody(max_body, [c](const httplib::Request& q, httplib::Response& r) {
-                 PostJob(c, q, r);
-               }));
+               [c](const httplib::Request& q, httplib::Response& r,
+                   const httplib::ContentReader& reader) { PostJob(c, q, r, reader); });
   server->Get("/api/v1/jobs",
               [c](const httplib::Request& q, httplib::Response& r) { ListJobs(c, q, r); });
   server->Get("/api/v1/jobs/" + id,

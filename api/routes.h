@@ -7,6 +7,7 @@
 
 #include <httplib.h>
 
+#include "api/http_server.h"
 #include "daemon/capture/capture_service.h"
 #include "daemon/service/calibration_keeper.h"
 #include "daemon/service/config.h"
@@ -29,8 +30,13 @@ struct ApiContext {
 };
 
 // Registers every route, the CORS headers when configured, and the error and
-// exception handlers that turn anything else into problem+json.
-void RegisterRoutes(const ApiContext& context, httplib::Server* server);
+// exception handlers that turn anything else into problem+json; sets the
+// server's request guard (request_guard.h) from the configuration.
+void RegisterRoutes(const ApiContext& context, HttpServer* server);
+
+// The methods the API has on `path` ("GET, HEAD, DELETE"), "" for none: the
+// Allow header of a 405.
+std::string AllowedMethods(const std::string& path);
 
 // Content type of a job file, or nullptr when `file` is not a job file.
 const char* JobFileContentType(const std::string& file);

@@ -147,7 +147,7 @@ TEST(CorsTest, HeadersOnlyWhenConfigured) {
     service::Metrics metrics;
     service::JobIntake intake(&store, &scheduler, nullptr, &metrics, {});
     HttpServer server(config.server);
-    RegisterRoutes({&config, &store, &scheduler, &intake, nullptr, &metrics}, server.server());
+    RegisterRoutes({&config, &store, &scheduler, &intake, nullptr, &metrics}, &server);
     httplib::Client client("127.0.0.1", server.Bind());
     server.Start();
     const auto result = client.Get("/api/v1/jobs");

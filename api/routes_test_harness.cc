@@ -24,7 +24,7 @@ RoutesTestHarness::RoutesTestHarness(const std::string& name, const service::Dae
   const ApiContext context{&config_,      store_.get(), scheduler_.get(),
                            intake_.get(), nullptr,      &metrics_};
   server_ = std::make_unique<HttpServer>(config_.server);
-  RegisterRoutes(context, server_->server());
+  RegisterRoutes(context, server_.get());
   port_ = server_->Bind();
   server_->Start();
 }

@@ -140,20 +140,20 @@ TEST_F(SecurityRoutesTest, ProbesAndTheApiDescriptionArePublic) {
 TEST_F(SecurityRoutesTest, AnUnauthenticatedUploadIsRefusedBeforeItsBodyIsRead) {
   // Expect: 100-continue: the client gets the 401 instead of "100 Continue"
   // and never sends the 10 MB it announced.
-  const std::string answer =
-      RawExchange(routes_->port(),
-                  "POST /api/v1/jobs HTTP/1.1\r\nHost: x\r\nContent-Type: application/x-tar\r\n"
-                  "Content-Length: 10000000\r\nExpect: 100-continue\r\n\r\n");
+  const std::string answer = RawExchange(
+      routes_->port(),
+      "POST /api/v1/jobs HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Type: application/x-tar\r\n"
+      "Content-Length: 10000000\r\nExpect: 100-continue\r\n\r\n");
   EXPECT_EQ(answer.rfind("HTTP/1.1 401", 0), 0u) << answer;
   EXPECT_EQ(answer.find("100 Continue"), std::string::npos) << answer;
   EXPECT_NE(answer.find("WWW-Authenticate: Bearer realm=\"dfsmd\""), std::string::npos);
   // Without Expect, the 401 still comes first, as soon as the headers are in
   // (well before a body over server.max_body_bytes would be refused as 413).
-  const std::string direct =
-      RawExchange(routes_->port(),
-                  "POST /api/v1/jobs HTTP/1.1\r\nHost: x\r\nContent-Type: application/x-tar\r\n"
-                  "Content-Length: 10000000\r\n\r\n" +
-                      std::string(1000, 'x'));
+  const std::string direct = RawExchange(
+      routes_->port(),
+      "POST /api/v1/jobs HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Type: application/x-tar\r\n"
+      "Content-Length: 10000000\r\n\r\n" +
+          std::string(1000, 'x'));
   EXPECT_EQ(direct.rfind("HTTP/1.1 401", 0), 0u) << direct;
   EXPECT_TRUE(routes_->store().List().empty());
 }
@@ -191,7 +191,7 @@ TEST_F(SecurityRoutesTest, BodyHeaderAndUriLimitsAreProblems) {
           .find("server.max_body_bytes (262144 bytes)"),
       std::string::npos);
   const std::string chunk = std::string(64 * 1024, 'x');
-  std::string chunked = "POST /api/v1/jobs HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer " +
+  std::string chunked = "POST /api/v1/jobs HTTP/1.1\r\nHost: 127.0.0.1\r\nAuthorization: Bearer " +
                         std::string(kToken) +
                         "\r\nContent-Type: application/x-tar\r\nTransfer-Encoding: chunked\r\n\r\n";
   for (int i = 0; i < 5; ++i) chunked += "10000\r\n" + chunk + "\r\n";
@@ -213,24 +213,26 @@ TEST_F(SecurityRoutesTest, RequestsWithoutContentLengthHaveNoBody) {
   const std::string auth = "Authorization: Bearer " + std::string(kToken) + "\r\n";
   const std::string id = AddFinishedJob();
   const auto start = std::chrono::steady_clock::now();
-  const std::string deleted = RawExchange(
-      routes_->port(), "DELETE /api/v1/jobs/" + id + " HTTP/1.1\r\nHost: x\r\n" + auth + "\r\n");
+  const std::string deleted =
+      RawExchange(routes_->port(),
+                  "DELETE /api/v1/jobs/" + id + " HTTP/1.1\r\nHost: 127.0.0.1\r\n" + auth + "\r\n");
   EXPECT_EQ(deleted.rfind("HTTP/1.1 204", 0), 0u) << deleted;
   const std::string captured =
-      RawExchange(routes_->port(), "POST /api/v1/captures HTTP/1.1\r\nHost: x\r\n" + auth + "\r\n");
+      RawExchange(routes_->port(), "POST /api/v1/captures HTTP/1.1\r\nHost: 127.0.0.1\r\n" + auth +
+                                       "Content-Type: application/json\r\n\r\n");
   EXPECT_EQ(captured.rfind("HTTP/1.1 503", 0), 0u) << captured;  // no capture source here
   EXPECT_NE(captured.find("capture-unavailable"), std::string::npos) << captured;
   EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(5));
   // An unknown path with a chunked body over the limit: refused, not buffered.
-  std::string chunked =
-      "POST /no/such/path HTTP/1.1\r\nHost: x\r\n" + auth + "Transfer-Encoding: chunked\r\n\r\n";
+  std::string chunked = "POST /no/such/path HTTP/1.1\r\nHost: 127.0.0.1\r\n" + auth +
+                        "Transfer-Encoding: chunked\r\n\r\n";
   for (int i = 0; i < 5; ++i) chunked += "10000\r\n" + std::string(0x10000, 'x') + "\r\n";
   const std::string unknown = RawExchange(routes_->port(), chunked + "0\r\n\r\n");
   EXPECT_EQ(unknown.rfind("HTTP/1.1 413", 0), 0u) << unknown.substr(0, 300);
   // Multipart is not a way around the body rules.
   const std::string multipart = RawExchange(
       routes_->port(),
-      "POST /api/v1/jobs HTTP/1.1\r\nHost: x\r\n" + auth +
+      "POST /api/v1/jobs HTTP/1.1\r\nHost: 127.0.0.1\r\n" + auth +
           "Content-Type: multipart/form-data; boundary=b\r\nContent-Length: 4\r\n\r\n--b\n");
   EXPECT_EQ(multipart.rfind("HTTP/1.1 415", 0), 0u) << multipart;
 }

@@ -127,7 +127,7 @@ FuzzDaemon::FuzzDaemon() : config_(FuzzConfig(dir_.path())) {
   context.capture = capture_.get();
   context.metrics = &metrics_;
   context.calibration = calibration_.get();
-  api::RegisterRoutes(context, http_->server());
+  api::RegisterRoutes(context, http_.get());
 
   for (int i = 0; i < kFixtures; ++i) fixtures_[i] = MakeFixture(i);
   // Captures and snapshots need frames in the ring: wait for the replay.

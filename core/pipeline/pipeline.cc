@@ -6,8 +6,8 @@
 #include "core/export/calibration_export.h"
 #include "core/export/depth_export.h"
 #include "core/export/ply.h"
-#include "core/pipeline/depth_check.h"
 #include "core/io/exif_focal.h"
+#include "core/pipeline/depth_check.h"
 
 namespace dfsm {
 namespace {
@@ -93,6 +93,15 @@ PipelineOutput RunPipeline(const Burst& burst, const PipelineOptions& options,
       result.calibration_detail["rejected"] = ToJson(*sparse.rejected_camera);
     if (sparse_options.known) result.calibration_detail["known"] = sparse_options.known->source;
     result.warnings = sparse.warnings;
+    const int requested_cell = sparse_options.features.cell_px;
+    const int least_cell = MinGridCellSize(burst.width(), burst.height());
+    if (requested_cell > 0 && requested_cell < least_cell) {
+      result.warnings.push_back("grid " + std::to_string(requested_cell) + " px raised to " +
+                                std::to_string(least_cell) + " px, the least for " +
+                                std::to_string(burst.width()) + "x" +
+                                std::to_string(burst.height()) + " (at most " +
+                                std::to_string(kMaxGridCells) + " cells)");
+    }
     result.poses = sparse.state.poses;
     result.bundle_adjustment = sparse.bundle_adjustment;
     result.bundle_adjustment.runs = sparse.runs;

@@ -7,9 +7,17 @@
 
 namespace dfsm {
 
+int MinGridCellSize(int width, int height) {
+  const double area = static_cast<double>(width) * static_cast<double>(height);
+  return std::max(1, static_cast<int>(std::ceil(std::sqrt(area / kMaxGridCells))));
+}
+
 int GridCellSize(const GridedFeatureOptions& options, int width, int height) {
-  if (options.cell_px > 0) return options.cell_px;
-  return std::max(8, static_cast<int>(std::lround(80.0 * std::min(width, height) / 1080.0)));
+  const int cell =
+      options.cell_px > 0
+          ? options.cell_px
+          : std::max(8, static_cast<int>(std::lround(80.0 * std::min(width, height) / 1080.0)));
+  return std::max(cell, MinGridCellSize(width, height));
 }
 
 std::vector<cv::Point2f> DetectGridedCorners(const cv::Mat& gray, int cell_px, double min_quality,

@@ -35,9 +35,21 @@ const std::vector<Key>& Keys() {
   static const std::vector<Key> keys = {
       DFSM_KEY("server.listen", KeyType::kString, server.listen, "address to bind"),
       DFSM_KEY("server.port", KeyType::kInt, server.port, "TCP port (0: any free port)"),
-      DFSM_KEY("server.threads", KeyType::kInt, server.threads, "HTTP worker threads"),
+      DFSM_KEY("server.threads", KeyType::kInt, server.threads,
+               "HTTP workers for uploads, captures and downloads"),
+      DFSM_KEY("server.control_threads", KeyType::kInt, server.control_threads,
+               "HTTP workers for probes, status and lists"),
       DFSM_KEY("server.max_body_bytes", KeyType::kInt64, server.max_body_bytes,
                "largest request body (uploads), bytes"),
+      DFSM_KEY("server.max_connections", KeyType::kInt, server.max_connections,
+               "connections open at once (the oldest waiting one is closed for a new one)"),
+      DFSM_KEY("server.head_timeout_ms", KeyType::kInt, server.head_timeout_ms,
+               "time for a request's line and headers to arrive (else 408)"),
+      DFSM_KEY("server.max_head_bytes", KeyType::kInt, server.max_head_bytes,
+               "largest request line and headers, bytes (else 431)"),
+      DFSM_KEY("server.allowed_hosts", KeyType::kString, server.allowed_hosts,
+               "Host names accepted, comma-separated (empty: localhost, host name, listen; "
+               "IP addresses always; *: any)"),
       DFSM_KEY("server.cors_origin", KeyType::kString, server.cors_origin,
                "Access-Control-Allow-Origin value; empty: CORS off"),
       DFSM_KEY("server.token_file", KeyType::kPath, server.token_file,
@@ -230,7 +242,14 @@ void Validate(const DaemonConfig& c) {
   if (c.server.listen.empty()) throw KeyError("server.listen", "must not be empty");
   RequireRange("server.port", c.server.port, 0, 65535);
   RequireRange("server.threads", c.server.threads, 2, 256);
+  RequireRange("server.control_threads", c.server.control_threads, 1, 64);
   RequireRange("server.max_body_bytes", c.server.max_body_bytes, 1024, 16LL << 30);
+  RequireRange("server.max_connections", c.server.max_connections, 8, 65536);
+  RequireRange("server.head_timeout_ms", c.server.head_timeout_ms, 100, 600000);
+  RequireRange("server.max_head_bytes", c.server.max_head_bytes, 1024, 1 << 20);
+  if (c.server.allowed_hosts.find_first_of("\r\n") != std::string::npos) {
+    throw KeyError("server.allowed_hosts", "must not contain line breaks");
+  }
   if (c.server.cors_origin.find_first_of("\r\n") != std::string::npos) {
     throw KeyError("server.cors_origin", "must not contain line breaks");
   }

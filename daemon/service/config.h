@@ -27,9 +27,19 @@ inline constexpr int kExitConfig = 78;
 
 struct ServerConfig {
   std::string listen = "127.0.0.1";
-  int port = 8080;  // 0: any free port (printed at start-up)
-  int threads = 8;  // HTTP worker threads (each keep-alive connection holds one)
+  int port = 8080;          // 0: any free port (printed at start-up)
+  int threads = 8;          // workers for uploads, captures and downloads (api/request_guard.h)
+  int control_threads = 2;  // workers for probes, status and lists: never starved by uploads
   int64_t max_body_bytes = 256LL << 20;
+  // The connection gate (api/connection_gate.h): connections open at once,
+  // the time and bytes a request head may take.
+  int max_connections = 128;
+  int head_timeout_ms = 10000;
+  int max_head_bytes = 16384;
+  // Host names accepted in the Host header, comma-separated; empty: localhost,
+  // this machine's name and the listen address. IP addresses are always
+  // accepted; "*" accepts any name (api/request_guard.h, DNS rebinding).
+  std::string allowed_hosts;
   std::string cors_origin;  // empty: no CORS headers at all
   // Bearer token (access_token.h): read from this file, else from the systemd
   // credential of this name; required unless `listen` is a loopback address.

@@ -33,6 +33,9 @@ capture::CaptureConfig ToCaptureConfig(const CaptureSection& section) {
   return config;
 }
 
+// The watchdog's API probe waits this long for /healthz (api/http_server.h).
+constexpr int kApiProbeTimeoutMs = 2000;
+
 int64_t MonotonicNs() {
   timespec now{};
   clock_gettime(CLOCK_MONOTONIC, &now);
@@ -90,10 +93,23 @@ int Daemon::Run() {
     Job queued = job;
     queued.status = JobStatus::kQueued;
     queued.stage.clear();
-    p.store->Update(queued);
+    try {
+      p.store->Update(queued);
+    } catch (const JobStoreError& e) {
+      // A full state directory must not keep dfsmd down (systemd would
+      // restart it in a loop, and the API that can free space with DELETE
+      // would never come up): the job is queued all the same, /readyz
+      // reports the disk, and the job's own writes will say what fails.
+      std::cerr << "dfsmd: cannot record job " << job.id << " as queued: " << e.what()
+                << " (starting anyway; see /readyz)\n";
+    }
     p.scheduler->SubmitRecovered(job.id);
   }
-  p.store->EnforceRetention(config_.retention, NowUnixMs());
+  try {
+    p.store->EnforceRetention(config_.retention, NowUnixMs());
+  } catch (const std::exception& e) {
+    std::cerr << "dfsmd: retention at start-up: " << e.what() << "\n";
+  }
   p.scheduler->Start();
 
   try {
@@ -124,7 +140,7 @@ int Daemon::Run() {
   context.capture = p.capture.get();
   context.metrics = &p.metrics;
   context.calibration = p.calibration.get();
-  api::RegisterRoutes(context, p.http->server());
+  api::RegisterRoutes(context, p.http.get());
   int port = 0;
   try {
     port = p.http->Bind();
@@ -150,11 +166,20 @@ int Daemon::Run() {
   p.notifier.Ready("serving on " + config_.server.listen + ":" + std::to_string(port));
   const int64_t stall_ns = int64_t{config_.capture.stall_timeout_ms} * 1000000;
   capture::CaptureService* capture = p.capture.get();
-  p.notifier.StartWatchdog([capture, stall_ns] {
-    if (stall_ns == 0) return true;
-    const capture::CaptureStatus s = capture->Status();
-    return s.streaming ||
-           (s.last_frame_monotonic_ns != 0 && MonotonicNs() - s.last_frame_monotonic_ns < stall_ns);
+  api::HttpServer* http = p.http.get();
+  p.notifier.StartWatchdog([capture, http, stall_ns]() -> std::string {
+    if (stall_ns != 0) {
+      const capture::CaptureStatus s = capture->Status();
+      if (!s.streaming &&
+          (s.last_frame_monotonic_ns == 0 || MonotonicNs() - s.last_frame_monotonic_ns >= stall_ns))
+        return "capture is stuck";
+    }
+    // The API's own health probe through the listening port: a server whose
+    // workers or connections are all taken is restarted too.
+    if (!http->Probe(std::chrono::milliseconds(kApiProbeTimeoutMs)))
+      return "the API does not answer GET /healthz within " + std::to_string(kApiProbeTimeoutMs) +
+             " ms";
+    return "";
   });
 
   int signal_number = 0;

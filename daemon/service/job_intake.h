@@ -4,6 +4,7 @@
 #pragma once
 
 #include <chrono>
+#include <filesystem>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -29,6 +30,30 @@ class BadUpload : public std::invalid_argument {
   using std::invalid_argument::invalid_argument;
 };
 
+// An upload being received: it holds its place in the queue (taken before the
+// first body byte is read, so a full queue costs the client nothing) and
+// writes the body to a file in the state directory's staging area, so that no
+// upload is ever held in memory. Move-only; dropping it frees both.
+class PendingUpload {
+ public:
+  PendingUpload(PendingUpload&& other) noexcept;
+  PendingUpload& operator=(PendingUpload&&) = delete;
+  ~PendingUpload();
+
+  // Appends body bytes. Throws JobStoreError when the disk refuses them.
+  void Append(const char* data, size_t size);
+  int64_t size() const { return size_; }
+
+ private:
+  friend class JobIntake;
+  PendingUpload(JobScheduler::Reservation reservation, std::filesystem::path dir);
+
+  JobScheduler::Reservation reservation_;
+  std::filesystem::path dir_;  // staging; removed unless it became a job
+  int fd_ = -1;
+  int64_t size_ = 0;
+};
+
 class JobIntake {
  public:
   // `capture` may be null (then FromCapture throws capture::CaptureUnavailable).
@@ -43,8 +68,16 @@ class JobIntake {
 
   // Throws QueueFull, capture::CaptureUnavailable, JobStoreError.
   Job FromCapture(const JobOptions& options, std::chrono::milliseconds timeout);
-  // options.frames == 0 keeps every frame of the upload. Throws QueueFull,
-  // BadUpload, JobStoreError.
+  // Starts an upload: reserves a place in the queue and a staging file.
+  // Throws QueueFull, JobStoreError.
+  PendingUpload BeginUpload();
+  // Turns a received upload (a tar of a dfsm-burst/1 directory) into a queued
+  // job. The frames' headers are checked against the burst limits here; the
+  // frames are decoded by the job when it runs, so a queued job holds no
+  // pixels in memory. options.frames == 0 keeps every frame of the upload.
+  // Throws BadUpload, JobStoreError.
+  Job FromUpload(PendingUpload upload, const JobOptions& options);
+  // BeginUpload, Append and FromUpload at once.
   Job FromArchive(std::string_view archive, const JobOptions& options);
 
  private:

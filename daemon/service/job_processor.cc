@@ -38,7 +38,16 @@ void JobProcessor::Process(const std::string& id, std::shared_ptr<const Burst> p
     if (!burst) {
       ReadBurstOptions read;
       read.max_frames = job.options.frames;
-      burst = std::make_shared<Burst>(ReadBurst(store_->BurstDir(id), read));
+      try {
+        burst = std::make_shared<Burst>(ReadBurst(store_->BurstDir(id), read));
+      } catch (const BurstError& e) {
+        // Uploads are decoded here, not at intake: a corrupt frame fails its
+        // job, named as the client named it.
+        Finish(&job, false,
+               "the burst cannot be read: " +
+                   WithoutDirectory(e.what(), store_->BurstDir(id), "the burst"));
+        return;
+      }
     }
     const auto on_stage = [&](const std::string& stage) {
       job.stage = stage;

@@ -205,6 +205,16 @@ std::vector<std::string> JobStore::EnforceRetention(const RetentionSection& limi
   return expired;
 }
 
+std::string WithoutDirectory(std::string message, const fs::path& dir, const std::string& name) {
+  const std::string prefix = dir.string() + "/";
+  for (size_t at = message.find(prefix); at != std::string::npos; at = message.find(prefix, at))
+    message.erase(at, prefix.size());
+  const std::string bare = dir.string();
+  for (size_t at = message.find(bare); at != std::string::npos; at = message.find(bare, at))
+    message.replace(at, bare.size(), name);
+  return message;
+}
+
 fs::path JobStore::JobDir(const std::string& id) const { return state_dir_ / "jobs" / id; }
 fs::path JobStore::BurstDir(const std::string& id) const { return JobDir(id) / "burst"; }
 fs::path JobStore::OutputDir(const std::string& id) const { return JobDir(id) / "output"; }

@@ -26,6 +26,12 @@
 
 namespace dfsm::service {
 
+// `message` with every path under `dir` written relative to it, and `dir`
+// itself written `name`: a client named its files relative to its burst, and
+// the daemon's state directory is none of its business.
+std::string WithoutDirectory(std::string message, const std::filesystem::path& dir,
+                             const std::string& name);
+
 class JobStoreError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;

@@ -14,6 +14,11 @@ std::vector<std::string> SelectExpiredJobs(const std::vector<Job>& jobs,
   std::sort(finished.begin(), finished.end(), [](const Job* a, const Job* b) {
     return a->created_ms != b->created_ms ? a->created_ms > b->created_ms : a->id > b->id;
   });
+  // Results first: failed jobs (a bad upload fails cheaply, in its job) are
+  // kept only when every result fits, in the room left, so they never push a
+  // result out.
+  std::stable_partition(finished.begin(), finished.end(),
+                        [](const Job* job) { return job->status == JobStatus::kSucceeded; });
   std::vector<std::string> expired;
   int kept = 0;
   int64_t kept_bytes = 0;
@@ -31,7 +36,8 @@ std::vector<std::string> SelectExpiredJobs(const std::vector<Job>& jobs,
       kept_bytes += job->bytes;
     }
   }
-  std::reverse(expired.begin(), expired.end());
+  // Oldest first.
+  std::sort(expired.begin(), expired.end());
   return expired;
 }
 

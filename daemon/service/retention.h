@@ -13,9 +13,9 @@ namespace dfsm::service {
 
 // Jobs that are queued or processing are never selected, whatever the limits:
 // their burst is the only copy of a capture the user asked for. Of the finished
-// jobs the newest are kept while they fit all three limits (count, bytes, age);
-// the rest (everything older than the first job over a limit) are returned,
-// oldest first.
+// jobs the newest succeeded ones are kept while they fit all three limits
+// (count, bytes, age), then the newest failed ones in the room left; the rest
+// are returned, oldest first (by id, which sorts by creation).
 std::vector<std::string> SelectExpiredJobs(const std::vector<Job>& jobs,
                                            const RetentionSection& limits, int64_t now_ms);
 

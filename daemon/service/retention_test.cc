@@ -47,6 +47,20 @@ TEST(RetentionTest, BytesAndAgeLimitsAndOlderJobsGoToo) {
   EXPECT_EQ(SelectExpiredJobs(jobs, limits, 1000 + 10 * 1000 + 1).size(), 3u);
 }
 
+TEST(RetentionTest, FailedJobsNeverPushResultsOut) {
+  // Three results, then a burst of three cheap failing uploads.
+  std::vector<Job> jobs;
+  for (int i = 0; i < 3; ++i) jobs.push_back(MakeJob(i, JobStatus::kSucceeded, 10, 2000));
+  for (int i = 3; i < 6; ++i) jobs.push_back(MakeJob(i, JobStatus::kFailed, 1, 2000));
+  RetentionSection limits;
+  limits.max_jobs = 4;
+  limits.max_bytes = 0;
+  limits.max_age_s = 0;
+  // The results stay; of the failures only the newest fits.
+  EXPECT_EQ(SelectExpiredJobs(jobs, limits, 2000),
+            (std::vector<std::string>{jobs[3].id, jobs[4].id}));
+}
+
 TEST(RetentionTest, NeverSelectsJobsInFlight) {
   std::vector<Job> jobs = {MakeJob(0, JobStatus::kQueued, 1000, 0),
                            MakeJob(1, JobStatus::kProcessing, 1000, 0),

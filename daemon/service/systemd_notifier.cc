@@ -23,17 +23,24 @@ void SystemdNotifier::Status(const std::string& status) {
 
 void SystemdNotifier::Stopping() { sd_notify(0, "STOPPING=1"); }
 
-void SystemdNotifier::StartWatchdog(std::function<bool()> healthy) {
+void SystemdNotifier::StartWatchdog(std::function<std::string()> problem) {
   if (!watchdog_enabled() || thread_.joinable()) return;
-  thread_ = std::thread([this, healthy = std::move(healthy)] {
+  thread_ = std::thread([this, problem = std::move(problem)] {
     bool was_healthy = true;
     std::unique_lock<std::mutex> lock(mutex_);
     while (!stop_) {
-      const bool ok = healthy();
+      // The check may take a while (an HTTP probe): not under the lock.
+      lock.unlock();
+      const std::string found = problem();
+      lock.lock();
+      const bool ok = found.empty();
       if (ok) sd_notify(0, "WATCHDOG=1");
       if (ok != was_healthy) {
-        std::cerr << (ok ? "dfsmd: healthy again, watchdog pings resume\n"
-                         : "dfsmd: capture is stuck, watchdog pings stop\n");
+        if (ok) {
+          std::cerr << "dfsmd: healthy again, watchdog pings resume\n";
+        } else {
+          std::cerr << "dfsmd: " << found << ", watchdog pings stop\n";
+        }
         was_healthy = ok;
       }
       wake_.wait_for(lock, interval_ / 2, [this] { return stop_; });

@@ -26,9 +26,10 @@ class SystemdNotifier {
   void Status(const std::string& status);
   void Stopping();
 
-  // Pings every half watchdog period while `healthy()` holds. A stuck capture
-  // makes healthy() false, the pings stop, and systemd restarts the daemon.
-  void StartWatchdog(std::function<bool()> healthy);
+  // Pings every half watchdog period while `problem()` finds none (returns
+  // ""). A stuck capture or a starved HTTP server is a problem: the pings
+  // stop, the problem is logged, and systemd restarts the daemon.
+  void StartWatchdog(std::function<std::string()> problem);
   void StopWatchdog();
 
   bool watchdog_enabled() const { return interval_.count() > 0; }

@@ -207,7 +207,8 @@ std::vector<TarEntry> ReadTar(std::string_view archive, const TarLimits& limits)
   return entries;
 }
 
-void ExtractTar(const std::vector<TarEntry>& entries, const std::filesystem::path& dir) {
+void ExtractTar(const std::vector<TarEntry>& entries, const std::filesystem::path& dir,
+                const std::function<void(const char* end)>& consumed) {
   for (const TarEntry& entry : entries) {
     const std::filesystem::path path = dir / entry.path;
     if (!IsLexicallyInside(dir, path)) throw TarError("tar entry '" + entry.path + "' escapes");
@@ -217,7 +218,12 @@ void ExtractTar(const std::vector<TarEntry>& entries, const std::filesystem::pat
     }
     std::filesystem::create_directories(path.parent_path());
     std::ofstream out(path, std::ios::binary | std::ios::trunc);
-    out.write(entry.data.data(), static_cast<std::streamsize>(entry.data.size()));
+    constexpr size_t kPiece = 64 << 10;
+    for (size_t at = 0; at < entry.data.size() && out; at += kPiece) {
+      const size_t piece = std::min(kPiece, entry.data.size() - at);
+      out.write(entry.data.data() + at, static_cast<std::streamsize>(piece));
+      if (consumed && out) consumed(entry.data.data() + at + piece);
+    }
     // A full disk often shows only when the buffer is flushed at close.
     out.close();
     if (!out) throw TarError("cannot write '" + path.string() + "': " + std::strerror(errno));

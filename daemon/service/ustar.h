@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -37,7 +38,11 @@ std::vector<TarEntry> ReadTar(std::string_view archive, const TarLimits& limits 
 
 // Writes the entries' files under `dir` (which must exist and be empty),
 // creating directories as needed. Entries come from ReadTar, so names are safe.
-void ExtractTar(const std::vector<TarEntry>& entries, const std::filesystem::path& dir);
+// Files are written in pieces, in archive order; after each piece
+// `consumed(end)`, when given, learns that the archive's bytes before `end`
+// are no longer needed.
+void ExtractTar(const std::vector<TarEntry>& entries, const std::filesystem::path& dir,
+                const std::function<void(const char* end)>& consumed = nullptr);
 
 struct TarFile {
   std::string path;  // relative, at most 255 characters

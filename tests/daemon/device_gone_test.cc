@@ -58,7 +58,7 @@ TEST(DeviceGone, TriggersAnswer503NamingTheCauseAndReadinessRecovers) {
                                   [](const std::string&, std::shared_ptr<const Burst>) {});
   service::JobIntake intake(&store, &scheduler, &capture, &metrics, {});
   api::HttpServer server(config.server);
-  api::RegisterRoutes({&config, &store, &scheduler, &intake, &capture, &metrics}, server.server());
+  api::RegisterRoutes({&config, &store, &scheduler, &intake, &capture, &metrics}, &server);
   httplib::Client client("127.0.0.1", server.Bind());
   client.set_read_timeout(std::chrono::seconds(30));
   server.Start();

@@ -159,6 +159,62 @@ TEST_F(DfsmdFaultTest, StateDirectoryFullFailsTheJobAndKeepsEarlierResults) {
   EXPECT_EQ(daemon->Stop(SIGTERM), 0) << daemon->Log();
 }
 
+TEST_F(DfsmdFaultTest, AFullStateDirectoryAtStartUpDegradesInsteadOfStoppingTheDaemon) {
+  const fs::path state = dir_ / "state";
+  if (::mount("tmpfs", state.c_str(), "tmpfs", 0, "size=24m") != 0) {
+    GTEST_SKIP() << "cannot mount a 24 MiB tmpfs on " << state << " (" << std::strerror(errno)
+                 << "): the disk-full test needs root or CAP_SYS_ADMIN";
+  }
+  struct Unmount {
+    fs::path dir;
+    ~Unmount() { ::umount2(dir.c_str(), MNT_DETACH); }
+  } unmount{state};
+  std::string finished;
+  {
+    auto daemon = Start();
+    httplib::Client client = daemon->Client();
+    const json job = AwaitFinished(
+        client, AcceptedLocation(client.Post("/api/v1/captures", R"({"frames":10,"when":"next"})",
+                                             "application/json")));
+    ASSERT_EQ(job["status"], "succeeded") << job.dump(2);
+    finished = job["id"];
+    ASSERT_EQ(daemon->Stop(SIGTERM), 0) << daemon->Log();
+  }
+  // A job the daemon was running when it stopped, as a crash leaves it.
+  std::string unfinished = finished;
+  unfinished.back() = unfinished.back() == 'z' ? 'y' : 'z';
+  fs::copy(state / "jobs" / finished, state / "jobs" / unfinished, fs::copy_options::recursive);
+  json record = json::parse(ReadFileToString(state / "jobs" / unfinished / "job.json"));
+  record["id"] = unfinished;
+  record["status"] = "processing";
+  WriteFileAtomically(state / "jobs" / unfinished / "job.json", record.dump(2));
+  const fs::path filler = state / "filler";
+  Fill(filler, 0);
+
+  // Before: "fatal: ... job.json.tmp: No space left on device", exit 1, and
+  // systemd restarting it in a loop with the API that could free space down.
+  auto daemon = Start();
+  httplib::Client client = daemon->Client();
+  ASSERT_EQ(client.Get("/healthz")->status, 200) << daemon->Log();
+  const auto ready = client.Get("/readyz");
+  ASSERT_TRUE(ready);
+  EXPECT_EQ(ready->status, 503);
+  std::cout << "/readyz on a full disk: " << Detail(ready) << "\n";
+  EXPECT_NE(Detail(ready).find("state directory is full"), std::string::npos) << ready->body;
+  // DELETE frees space.
+  const int64_t free_before = FreeBytes(state);
+  EXPECT_EQ(client.Delete(("/api/v1/jobs/" + finished).c_str())->status, 204);
+  EXPECT_GT(FreeBytes(state), free_before + (1 << 20));
+  // With room again, the daemon is ready and works.
+  fs::remove(filler);
+  EXPECT_EQ(client.Get("/readyz")->status, 200) << client.Get("/readyz")->body;
+  const json after = AwaitFinished(
+      client, AcceptedLocation(client.Post("/api/v1/captures", R"({"frames":10,"when":"next"})",
+                                           "application/json")));
+  EXPECT_EQ(after["status"], "succeeded") << after.dump(2);
+  EXPECT_EQ(daemon->Stop(SIGTERM), 0) << daemon->Log();
+}
+
 // Writes a dfsm-burst/1 directory of `frames` and returns it as a tar.
 std::string BurstTar(const fs::path& dir, const std::vector<cv::Mat>& frames) {
   BurstManifest manifest;
@@ -250,16 +306,29 @@ TEST_F(DfsmdFaultTest, CorruptAndTruncatedFramesAreRefusedNamingTheFrame) {
     jpeg.push_back({"manifest.json", ToJson(manifest).dump()});
     all["frames/4.jpg"] = service::WriteTar(jpeg);
   }
+  // Frames are decoded by the job (issue 15: never on the HTTP thread): an
+  // upload whose frame headers read well is accepted and its job fails; one
+  // whose header does not is refused at once (422). Either way the problem
+  // names the frame as the archive did, never the state directory.
+  size_t accepted = 0;
   for (const auto& [frame, tar] : all) {
     auto result = client.Post("/api/v1/jobs", tar, "application/x-tar");
     ASSERT_TRUE(result);
-    std::cout << frame << ": " << result->status << " " << Detail(result) << "\n";
-    EXPECT_EQ(result->status, 422) << result->body;
-    EXPECT_NE(Detail(result).find(frame), std::string::npos) << result->body;
-    // Paths are the archive's, never the daemon's state directory.
-    EXPECT_EQ(Detail(result).find(dir_.string()), std::string::npos) << result->body;
+    std::string error;
+    if (result->status == 202) {
+      ++accepted;
+      const json job = AwaitFinished(client, AcceptedLocation(result));
+      EXPECT_EQ(job["status"], "failed") << job.dump(2);
+      error = job.value("error", "");
+    } else {
+      EXPECT_EQ(result->status, 422) << result->body;
+      error = Detail(result);
+    }
+    std::cout << frame << ": " << result->status << " " << error << "\n";
+    EXPECT_NE(error.find(frame), std::string::npos) << error;
+    EXPECT_EQ(error.find(dir_.string()), std::string::npos) << error;
   }
-  EXPECT_TRUE(json::parse(client.Get("/api/v1/jobs")->body)["jobs"].empty());
+  EXPECT_EQ(json::parse(client.Get("/api/v1/jobs?status=failed")->body)["jobs"].size(), accepted);
   EXPECT_TRUE(fs::is_empty(dir_ / "state" / "tmp"));
   // The daemon still serves and processes.
   const json job = AwaitFinished(
