@@ -219,8 +219,19 @@ void GetJobFile(const ApiContext& context, const httplib::Request& request,
         return SetProblem(response, 410, "burst-deleted", "Burst not kept",
                           "job " + id + " was run with keep_burst false; its burst is deleted");
       }
-      response.set_content(service::WriteTar(service::CollectFiles(context.store->BurstDir(id))),
-                           content_type);
+      // Streamed from the files in pieces (never the whole burst in memory).
+      auto tar = std::make_shared<service::TarStream>(context.store->BurstDir(id));
+      response.set_content_provider(
+          static_cast<size_t>(tar->size()), content_type,
+          [tar](size_t offset, size_t length, httplib::DataSink& sink) {
+            try {
+              const std::string piece =
+                  tar->Read(static_cast<int64_t>(offset), std::min<size_t>(length, 256 << 10));
+              return !piece.empty() && sink.write(piece.data(), piece.size());
+            } catch (const std::exception&) {
+              return false;  // a file vanished mid-download: the connection ends
+            }
+          });
       return;
     }
     if (!IsFinished(job->status)) {

@@ -35,6 +35,8 @@ class FuzzDaemon {
   FuzzDaemon& operator=(const FuzzDaemon&) = delete;
 
   httplib::Server* server() { return http_->server(); }
+  const api::HttpServer& http() const { return *http_; }
+  size_t max_head_bytes() const { return static_cast<size_t>(config_.server.max_head_bytes); }
   const std::string& fixture(int index) const { return fixtures_.at(index); }
 
   // Deletes every job an input made and makes again the fixtures it deleted.

@@ -21,6 +21,7 @@
 #include <string>
 #include <string_view>
 
+#include "api/request_head.h"
 #include "fuzz/fuzz_check.h"
 #include "fuzz/fuzz_daemon.h"
 
@@ -55,6 +56,7 @@ class BufferStream final : public httplib::Stream {
   socket_t socket() const override { return INVALID_SOCKET; }
 
   bool exhausted() const { return position_ >= input_.size(); }
+  std::string_view remaining() const { return input_.substr(position_); }
   std::string TakeOutput() { return std::move(output_); }
 
  private:
@@ -120,8 +122,28 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       Substitute(std::string_view(reinterpret_cast<const char*>(data), size), daemon);
   BufferStream stream(input);
   httplib::Server* server = daemon.server();
-  // Up to 4 requests on one keep-alive connection, as a client may pipeline them.
+  // Up to 4 requests on one keep-alive connection, as a client may pipeline
+  // them; each passes what the connection gate does with a real socket
+  // (api/connection_gate.h) before httplib sees it: the head's end within
+  // server.max_head_bytes, the strict head parser, and the request guard.
   for (int request = 0; request < 4 && !stream.exhausted(); ++request) {
+    const std::string_view rest = stream.remaining();
+    const size_t end = dfsm::api::FindHeadEnd(rest.substr(0, daemon.max_head_bytes() + 1));
+    if (end == std::string_view::npos || end > daemon.max_head_bytes()) break;  // 431 or 408
+    dfsm::api::RequestHead head;
+    try {
+      head = dfsm::api::ParseRequestHead(rest.substr(0, end));
+    } catch (const dfsm::api::HeadError& error) {
+      FUZZ_CHECK(error.status() == 400 || error.status() == 501 || error.status() == 505,
+                 "unexpected head status " + std::to_string(error.status()));
+      FUZZ_CHECK(std::string(error.what()).size() > 0, "a head refusal without a reason");
+      break;
+    }
+    dfsm::api::Lane lane;
+    if (const std::optional<std::string> refusal = daemon.http().Judge(head, &lane)) {
+      CheckResponse(*refusal);
+      break;
+    }
     bool connection_closed = false;
     const bool ok = (server->*ServerAccess::kProcessRequest)(
         stream, /*close_connection=*/false, connection_closed,

@@ -230,41 +230,115 @@ void ExtractTar(const std::vector<TarEntry>& entries, const std::filesystem::pat
   }
 }
 
+namespace {
+
+// The ustar header of a regular file.
+std::string FileHeader(const std::string& path, int64_t size, int64_t mtime) {
+  char header[kBlock] = {};
+  std::string name = path, prefix;
+  if (name.size() > kName.size) {
+    // Split at a '/' so that the prefix fits in 155 and the name in 100.
+    const size_t split = name.rfind('/', kPrefix.size);
+    if (split == std::string::npos || name.size() - split - 1 > kName.size) {
+      throw TarError("file name too long for ustar: '" + path + "'");
+    }
+    prefix = name.substr(0, split);
+    name = name.substr(split + 1);
+  }
+  PutString(header, kName, name);
+  PutString(header, kPrefix, prefix);
+  PutOctal(header, kMode, 0644);
+  PutOctal(header, Field{108, 8}, 0);  // uid
+  PutOctal(header, Field{116, 8}, 0);  // gid
+  PutOctal(header, kSize, size);
+  PutOctal(header, kMtime, mtime);
+  header[kType.offset] = '0';
+  std::memcpy(header + kMagic.offset, "ustar\0", 6);
+  std::memcpy(header + kVersion.offset, "00", 2);
+  std::memset(header + kChecksum.offset, ' ', kChecksum.size);
+  int64_t sum = 0;
+  for (const char c : header) sum += static_cast<unsigned char>(c);
+  PutOctal(header, Field{kChecksum.offset, 7}, sum);  // 6 digits, NUL, then the space
+  header[kChecksum.offset + 6] = '\0';
+  return std::string(header, kBlock);
+}
+
+int64_t Padded(int64_t size) {
+  return (size + static_cast<int64_t>(kBlock) - 1) / static_cast<int64_t>(kBlock) *
+         static_cast<int64_t>(kBlock);
+}
+
+}  // namespace
+
 std::string WriteTar(const std::vector<TarFile>& files, int64_t mtime) {
   std::string archive;
   for (const TarFile& file : files) {
-    char header[kBlock] = {};
-    std::string name = file.path, prefix;
-    if (name.size() > kName.size) {
-      // Split at a '/' so that the prefix fits in 155 and the name in 100.
-      const size_t split = name.rfind('/', kPrefix.size);
-      if (split == std::string::npos || name.size() - split - 1 > kName.size) {
-        throw TarError("file name too long for ustar: '" + file.path + "'");
-      }
-      prefix = name.substr(0, split);
-      name = name.substr(split + 1);
-    }
-    PutString(header, kName, name);
-    PutString(header, kPrefix, prefix);
-    PutOctal(header, kMode, 0644);
-    PutOctal(header, Field{108, 8}, 0);  // uid
-    PutOctal(header, Field{116, 8}, 0);  // gid
-    PutOctal(header, kSize, static_cast<int64_t>(file.data.size()));
-    PutOctal(header, kMtime, mtime);
-    header[kType.offset] = '0';
-    std::memcpy(header + kMagic.offset, "ustar\0", 6);
-    std::memcpy(header + kVersion.offset, "00", 2);
-    std::memset(header + kChecksum.offset, ' ', kChecksum.size);
-    int64_t sum = 0;
-    for (const char c : header) sum += static_cast<unsigned char>(c);
-    PutOctal(header, Field{kChecksum.offset, 7}, sum);  // 6 digits, NUL, then the space
-    header[kChecksum.offset + 6] = '\0';
-    archive.append(header, kBlock);
+    archive += FileHeader(file.path, static_cast<int64_t>(file.data.size()), mtime);
     archive += file.data;
     archive.append((kBlock - file.data.size() % kBlock) % kBlock, '\0');
   }
   archive.append(2 * kBlock, '\0');
   return archive;
+}
+
+TarStream::TarStream(const std::filesystem::path& dir) {
+  for (const auto& entry : std::filesystem::recursive_directory_iterator(dir)) {
+    if (!entry.is_regular_file()) continue;
+    members_.push_back({entry.path().lexically_relative(dir).generic_string(), entry.path(),
+                        static_cast<int64_t>(entry.file_size()), 0});
+  }
+  std::sort(members_.begin(), members_.end(),
+            [](const Member& a, const Member& b) { return a.name < b.name; });
+  for (Member& member : members_) {
+    FileHeader(member.name, member.size, 0);  // refuses a name ustar cannot hold, now
+    member.offset = size_;
+    size_ += static_cast<int64_t>(kBlock) + Padded(member.size);
+  }
+  size_ += 2 * static_cast<int64_t>(kBlock);
+}
+
+std::string TarStream::Read(int64_t offset, size_t length) const {
+  std::string out;
+  if (offset < 0 || offset >= size_) return out;
+  length = static_cast<size_t>(std::min<int64_t>(static_cast<int64_t>(length), size_ - offset));
+  // The member holding `offset`: the last whose start is not after it.
+  auto member = std::upper_bound(members_.begin(), members_.end(), offset,
+                                 [](int64_t at, const Member& m) { return at < m.offset; });
+  while (out.size() < length) {
+    const int64_t at = offset + static_cast<int64_t>(out.size());
+    const size_t want = length - out.size();
+    if (member == members_.begin() || at >= size_ - 2 * static_cast<int64_t>(kBlock)) {
+      out.append(want, '\0');  // the end-of-archive blocks
+      break;
+    }
+    const Member& m = *std::prev(member);
+    const int64_t in = at - m.offset;
+    const int64_t data_end = static_cast<int64_t>(kBlock) + m.size;
+    const int64_t member_end = static_cast<int64_t>(kBlock) + Padded(m.size);
+    if (in >= member_end) {
+      ++member;
+      continue;
+    }
+    size_t n;
+    if (in < static_cast<int64_t>(kBlock)) {
+      const std::string header = FileHeader(m.name, m.size, 0);
+      n = std::min(want, kBlock - static_cast<size_t>(in));
+      out.append(header, static_cast<size_t>(in), n);
+    } else if (in < data_end) {
+      n = static_cast<size_t>(std::min<int64_t>(static_cast<int64_t>(want), data_end - in));
+      std::ifstream file(m.file, std::ios::binary);
+      file.seekg(in - static_cast<int64_t>(kBlock));
+      std::string piece(n, '\0');
+      file.read(piece.data(), static_cast<std::streamsize>(n));
+      if (file.gcount() != static_cast<std::streamsize>(n))
+        throw TarError("'" + m.name + "' changed or vanished while it was being sent");
+      out += piece;
+    } else {
+      n = static_cast<size_t>(std::min<int64_t>(static_cast<int64_t>(want), member_end - in));
+      out.append(n, '\0');
+    }
+  }
+  return out;
 }
 
 std::vector<TarFile> CollectFiles(const std::filesystem::path& dir) {

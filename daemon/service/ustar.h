@@ -52,6 +52,30 @@ struct TarFile {
 // A ustar archive of `files` (regular files, mode 0644, mtime `mtime`).
 std::string WriteTar(const std::vector<TarFile>& files, int64_t mtime = 0);
 
+// The tar WriteTar(CollectFiles(dir)) would make, read piece by piece from
+// the files themselves: a download of a burst takes a buffer, not the burst's
+// size in memory (four concurrent 245 MiB downloads took +2.9 GB).
+class TarStream {
+ public:
+  // Lists the regular files under `dir`. Throws TarError for a name ustar
+  // cannot hold, std::filesystem::filesystem_error when `dir` is unreadable.
+  explicit TarStream(const std::filesystem::path& dir);
+  int64_t size() const { return size_; }
+  // Bytes [offset, offset + length) of the archive (fewer at its end). Throws
+  // TarError when a file shrank since the listing.
+  std::string Read(int64_t offset, size_t length) const;
+
+ private:
+  struct Member {
+    std::string name;
+    std::filesystem::path file;
+    int64_t size;
+    int64_t offset;  // of its header in the archive
+  };
+  std::vector<Member> members_;
+  int64_t size_ = 0;
+};
+
 // Every regular file under `dir`, sorted by path, as TarFiles named relative to it.
 std::vector<TarFile> CollectFiles(const std::filesystem::path& dir);
 

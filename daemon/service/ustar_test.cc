@@ -1,6 +1,7 @@
 #include "daemon/service/ustar.h"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cstdlib>
 #include <cstring>
@@ -145,6 +146,45 @@ TEST(UstarTest, RejectsDamageAndOversize) {
   std::memcpy(huge.data() + 124, "77777777777", 11);  // 8 GiB announced
   FixChecksum(&huge, 0);
   EXPECT_NE(ErrorOf(huge).find("exceeds the limit"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace dfsm::service
+
+namespace dfsm::service {
+namespace {
+
+TEST(TarStreamTest, ReadsTheSameBytesAsWriteTarInAnyPieces) {
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("dfsm-tar-stream-" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir / "frames");
+  std::string big(70000, '\0');
+  for (size_t i = 0; i < big.size(); ++i) big[i] = static_cast<char>(i * 7 + 3);
+  WriteFileAtomically(dir / "manifest.json", "{}");
+  WriteFileAtomically(dir / "frames" / "000000.png", big);
+  WriteFileAtomically(dir / "frames" / "empty.png", "");
+  WriteFileAtomically(dir / "frames" / std::string(95, 'n'), "long name");
+  const std::string whole = WriteTar(CollectFiles(dir));
+  const TarStream stream(dir);
+  ASSERT_EQ(stream.size(), static_cast<int64_t>(whole.size()));
+  for (const size_t piece : {1, 511, 512, 4096, 65536, 1 << 20}) {
+    std::string read;
+    for (int64_t at = 0; at < stream.size();) {
+      const std::string part = stream.Read(at, piece);
+      ASSERT_FALSE(part.empty()) << piece;
+      read += part;
+      at += static_cast<int64_t>(part.size());
+    }
+    EXPECT_EQ(read, whole) << "pieces of " << piece;
+  }
+  // Random access (HTTP ranges): any offset.
+  EXPECT_EQ(stream.Read(1000, 3000), whole.substr(1000, 3000));
+  EXPECT_TRUE(stream.Read(stream.size(), 10).empty());
+  // A file that shrank after the listing is an error, not silent zeros.
+  WriteFileAtomically(dir / "frames" / "000000.png", "short");
+  EXPECT_THROW(stream.Read(0, static_cast<size_t>(stream.size())), TarError);
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace
