@@ -42,6 +42,12 @@ class HttpServer::Listener final : public httplib::Server {
     return process_request(stream, close_connection, connection_closed, nullptr);
   }
 
+  // httplib listens with a backlog of 5: a burst of connections (a page
+  // loading, a client retrying) overflows it and each dropped SYN costs the
+  // client a 1 s retransmission. Listening again on the bound socket only
+  // widens the queue.
+  void WidenBacklog() { ::listen(svr_sock_, SOMAXCONN); }
+
  private:
   bool process_and_close_socket(socket_t socket) override {
     owner_->gate_->Admit(socket);
@@ -148,6 +154,7 @@ int HttpServer::Bind() {
     throw std::runtime_error("cannot listen on " + config_.listen + ":" +
                              std::to_string(config_.port) + ": " + cause);
   }
+  listener_->WidenBacklog();
   bound_ = true;
   port_ = port;
   return port;

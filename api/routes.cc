@@ -102,7 +102,7 @@ void PostCapture(const ApiContext& context, const httplib::Request& request,
     Accepted(response, job);
   } catch (const service::QueueFull& e) {
     QueueFull(context, response, e.what());
-  } catch (const capture::CaptureUnavailable& e) {
+  } catch (const service::CameraUnavailable& e) {
     response.set_header("Retry-After", "1");
     SetProblem(response, 503, "capture-unavailable", "No burst available", e.what());
   } catch (const service::JobStoreError& e) {
@@ -299,33 +299,31 @@ void DeleteCalibration(const ApiContext& context, httplib::Response& response) {
 }
 
 void GetCamera(const ApiContext& context, httplib::Response& response) {
-  if (!context.capture) {
+  if (!context.camera) {
     return SetProblem(response, 404, "no-capture", "No capture source",
                       "this daemon runs without a capture source");
   }
-  SetJson(response, 200, capture::ToJson(context.capture->Status()));
+  SetJson(response, 200, context.camera->Describe());
 }
 
 void GetSnapshot(const ApiContext& context, httplib::Response& response) {
-  std::optional<capture::CapturedFrame> frame;
-  if (context.capture) frame = context.capture->LatestFrame();
-  if (!frame) {
+  const cv::Mat frame = context.camera ? context.camera->NewestFrame() : cv::Mat();
+  if (frame.empty()) {
     response.set_header("Retry-After", "1");
     return SetProblem(response, 503, "no-frame", "No frame yet",
                       "the capture source has not delivered a frame");
   }
   std::vector<unsigned char> jpeg;
-  cv::imencode(".jpg", frame->color.empty() ? frame->gray : frame->color, jpeg,
-               {cv::IMWRITE_JPEG_QUALITY, 90});
+  cv::imencode(".jpg", frame, jpeg, {cv::IMWRITE_JPEG_QUALITY, 90});
   response.set_content(std::string(jpeg.begin(), jpeg.end()), "image/jpeg");
 }
 
 void GetReady(const ApiContext& context, httplib::Response& response) {
   std::vector<std::string> problems;
-  if (!context.capture) {
+  if (!context.camera) {
     problems.push_back("no capture source");
   } else {
-    const capture::CaptureStatus status = context.capture->Status();
+    const service::CameraHealth status = context.camera->Health();
     if (!status.streaming) {
       problems.push_back("capture is not streaming" +
                          (status.last_error.empty() ? "" : " (" + status.last_error + ")"));
@@ -354,8 +352,8 @@ void GetReady(const ApiContext& context, httplib::Response& response) {
 
 void GetMetrics(const ApiContext& context, httplib::Response& response) {
   service::GaugeSnapshot gauges;
-  if (context.capture) {
-    const capture::CaptureStatus status = context.capture->Status();
+  if (context.camera) {
+    const service::CameraHealth status = context.camera->Health();
     gauges.frames_captured = status.frames_captured;
     gauges.frames_dropped = status.frames_dropped;
     gauges.reconnects = status.reconnects;

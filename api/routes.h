@@ -8,8 +8,8 @@
 #include <httplib.h>
 
 #include "api/http_server.h"
-#include "daemon/capture/capture_service.h"
 #include "daemon/service/calibration_keeper.h"
+#include "daemon/service/camera_port.h"
 #include "daemon/service/config.h"
 #include "daemon/service/job_intake.h"
 #include "daemon/service/job_scheduler.h"
@@ -24,7 +24,7 @@ struct ApiContext {
   service::JobStore* store = nullptr;
   service::JobScheduler* scheduler = nullptr;
   service::JobIntake* intake = nullptr;
-  capture::CaptureService* capture = nullptr;  // may be null (no capture source)
+  service::CameraPort* camera = nullptr;  // may be null (no capture source)
   service::Metrics* metrics = nullptr;
   service::CalibrationKeeper* calibration = nullptr;  // may be null (no fusion)
 };

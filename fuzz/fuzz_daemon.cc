@@ -7,7 +7,6 @@
 #include <thread>
 #include <vector>
 
-#include "api/routes.h"
 #include "core/io/burst.h"
 #include "core/io/file_util.h"
 
@@ -37,17 +36,6 @@ service::DaemonConfig FuzzConfig(const fs::path& state_dir) {
   config.limits.max_frame_pixels = 256 * 256;
   config.limits.max_burst_pixels = 1 << 20;
   service::Validate(config);
-  return config;
-}
-
-capture::CaptureConfig ToCaptureConfig(const service::CaptureSection& section) {
-  capture::CaptureConfig config;
-  config.source = section.source;
-  config.fps = section.fps;
-  config.ring_frames = section.ring_frames;
-  config.device_buffers = section.device_buffers;
-  config.frame_timeout = std::chrono::milliseconds(section.frame_timeout_ms);
-  config.reconnect_backoff = std::chrono::milliseconds(section.reconnect_backoff_ms);
   return config;
 }
 
@@ -95,60 +83,33 @@ void WriteSucceededOutput(const fs::path& dir) {
 
 }  // namespace
 
-FuzzDaemon::FuzzDaemon() : config_(FuzzConfig(dir_.path())) {
+FuzzDaemon::FuzzDaemon() {
+  const service::DaemonConfig config = FuzzConfig(dir_.path());
   WriteTinyBurst(dir_.path() / "replay", 8);
-  store_ = std::make_unique<service::JobStore>(config_.jobs.state_dir);
-  calibration_ =
-      std::make_unique<service::CalibrationKeeper>(config_.calibration, config_.jobs.state_dir);
-  scheduler_ = std::make_unique<service::JobScheduler>(
-      config_.jobs.workers, config_.jobs.queue,
-      [](const std::string&, std::shared_ptr<const Burst>) {});  // never started
-  capture_ = capture::CaptureService::Create(ToCaptureConfig(config_.capture));
-  capture_->Start();
-
-  service::TarLimits tar_limits;  // as daemon.cc derives them from the config
-  tar_limits.max_total_bytes = config_.server.max_body_bytes;
-  tar_limits.max_file_bytes =
-      std::min(config_.limits.max_upload_file_bytes, config_.server.max_body_bytes);
-  tar_limits.max_entries = config_.limits.max_upload_entries;
-  service::BurstLimits burst_limits;
-  burst_limits.max_frames = config_.limits.max_burst_frames;
-  burst_limits.max_frame_pixels = config_.limits.max_frame_pixels;
-  burst_limits.max_burst_pixels = config_.limits.max_burst_pixels;
-  intake_ = std::make_unique<service::JobIntake>(store_.get(), scheduler_.get(), capture_.get(),
-                                                 &metrics_, tar_limits, burst_limits);
-
-  http_ = std::make_unique<api::HttpServer>(config_.server);
-  api::ApiContext context;
-  context.config = &config_;
-  context.store = store_.get();
-  context.scheduler = scheduler_.get();
-  context.intake = intake_.get();
-  context.capture = capture_.get();
-  context.metrics = &metrics_;
-  context.calibration = calibration_.get();
-  api::RegisterRoutes(context, http_.get());
+  // dfsmd's own assembly, with the workers never started: queued jobs stay
+  // queued (the fixtures rely on it) and no pipeline runs per input.
+  daemon::AssembleOptions options;
+  options.recover = false;
+  options.start_workers = false;
+  parts_ = daemon::Assemble(config, options);
 
   for (int i = 0; i < kFixtures; ++i) fixtures_[i] = MakeFixture(i);
   // Captures and snapshots need frames in the ring: wait for the replay.
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
-  while (capture_->Status().ring_fill < config_.capture.ring_frames &&
+  while (parts_->capture->Status().ring_fill < config.capture.ring_frames &&
          std::chrono::steady_clock::now() < deadline) {
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
 }
 
-FuzzDaemon::~FuzzDaemon() {
-  capture_->Stop();
-  scheduler_->Shutdown();
-}
+FuzzDaemon::~FuzzDaemon() = default;
 
 std::string FuzzDaemon::MakeFixture(int index) {
-  const fs::path burst = store_->NewStagingDir() / "burst";
+  const fs::path burst = parts_->store->NewStagingDir() / "burst";
   WriteTinyBurst(burst, 3);
   const nlohmann::json input = {
       {"width", 16}, {"height", 12}, {"frames", 3}, {"pixel_format", "bgr8"}};
-  Job job = store_->Create("upload", service::JobOptions{}, burst, input);
+  Job job = parts_->store->Create("upload", service::JobOptions{}, burst, input);
   switch (index) {
     case 0:  // a worker has it (it is not in the queue: DELETE answers 409)
       job.status = JobStatus::kProcessing;
@@ -157,9 +118,9 @@ std::string FuzzDaemon::MakeFixture(int index) {
       job.attempts = 1;
       break;
     case 1: {
-      const fs::path output = store_->NewStagingDir();
+      const fs::path output = parts_->store->NewStagingDir();
       WriteSucceededOutput(output);
-      store_->CommitOutput(job.id, output);
+      parts_->store->CommitOutput(job.id, output);
       job.status = JobStatus::kSucceeded;
       job.started_ms = job.finished_ms = service::NowUnixMs();
       job.attempts = 1;
@@ -167,12 +128,12 @@ std::string FuzzDaemon::MakeFixture(int index) {
       break;
     }
     case 2: {  // failed, run with keep_burst false: no burst.tar
-      const fs::path output = store_->NewStagingDir();
+      const fs::path output = parts_->store->NewStagingDir();
       WriteFileAtomically(
           output / "result.json",
           R"({"format": "dfsm-result/1", "status": "failed", "error": "no parallax"})");
-      store_->CommitOutput(job.id, output);
-      store_->DropBurst(job.id);
+      parts_->store->CommitOutput(job.id, output);
+      parts_->store->DropBurst(job.id);
       job.status = JobStatus::kFailed;
       job.error = "no parallax";
       job.has_burst = false;
@@ -181,23 +142,23 @@ std::string FuzzDaemon::MakeFixture(int index) {
       break;
     }
     default: {  // queued: DELETE takes it out of the queue
-      std::optional<service::JobScheduler::Reservation> place = scheduler_->TryReserve();
-      if (place) scheduler_->Submit(std::move(*place), job.id, nullptr);
+      std::optional<service::JobScheduler::Reservation> place = parts_->scheduler->TryReserve();
+      if (place) parts_->scheduler->Submit(std::move(*place), job.id, nullptr);
       return job.id;
     }
   }
-  store_->Update(job);
+  parts_->store->Update(job);
   return job.id;
 }
 
 void FuzzDaemon::Restore() {
-  for (const Job& job : store_->List()) {
+  for (const Job& job : parts_->store->List()) {
     if (std::find(fixtures_.begin(), fixtures_.end(), job.id) != fixtures_.end()) continue;
-    scheduler_->RemoveQueued(job.id);
-    store_->Remove(job.id);
+    parts_->scheduler->RemoveQueued(job.id);
+    parts_->store->Remove(job.id);
   }
   for (int i = 0; i < kFixtures; ++i) {
-    if (!store_->Get(fixtures_[i])) fixtures_[i] = MakeFixture(i);
+    if (!parts_->store->Get(fixtures_[i])) fixtures_[i] = MakeFixture(i);
   }
 }
 

@@ -13,7 +13,7 @@ root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 export BUILD_DIR="${BUILD_DIR:-$root/build}"
 "$root/scripts/build.sh" -DDFSM_BUILD_TESTS=OFF -DDFSM_BUILD_BENCH=OFF
 dfsm="$BUILD_DIR/tools/dfsm/dfsm"
-dfsmd="$BUILD_DIR/daemon/service/dfsmd"
+dfsmd="$BUILD_DIR/dfsmd/dfsmd"
 demo="${DFSM_DEMO_DIR:-$root/out/demo}"
 port="${DFSMD_PORT:-8080}"
 api="http://127.0.0.1:$port"

@@ -39,6 +39,11 @@ jobs="$(nproc)"
 exclude=()
 [ "${DFSM_TEST_LONG:-0}" = 1 ] || exclude=(-LE long)
 
+# Architecture: api/ and daemon/service/ never include capture, nothing but
+# tests/ depends on tests/, no cycle between folders (seconds).
+"$root/scripts/check-architecture.sh"
+stage_done "architecture"
+
 echo "== release build, -Werror"
 BUILD_DIR="$root/build" "$root/scripts/build.sh" \
   -DDFSM_WERROR=ON -DDFSM_BUILD_TESTS=ON -DDFSM_BUILD_BENCH=ON

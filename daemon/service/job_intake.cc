@@ -87,10 +87,9 @@ JobScheduler::Reservation JobIntake::Reserve() {
 
 Job JobIntake::FromCapture(const JobOptions& options, std::chrono::milliseconds timeout) {
   JobScheduler::Reservation reservation = Reserve();
-  if (!capture_) throw capture::CaptureUnavailable("this daemon has no capture source");
-  const capture::BurstWhen when =
-      options.when == "next" ? capture::BurstWhen::kNext : capture::BurstWhen::kLast;
-  capture::CaptureService::Burst grabbed = capture_->GrabBurst(options.frames, when, timeout);
+  if (!camera_) throw CameraUnavailable("this daemon has no capture source");
+  const BurstWhen when = options.when == "next" ? BurstWhen::kNext : BurstWhen::kLast;
+  CameraBurst grabbed = camera_->GrabBurst(options.frames, when, timeout);
 
   StagingGuard staging{store_->NewStagingDir()};
   const fs::path burst_dir = staging.dir / "burst";

@@ -9,8 +9,8 @@
 #include <string>
 #include <string_view>
 
-#include "daemon/capture/capture_service.h"
 #include "daemon/service/burst_limits.h"
+#include "daemon/service/camera_port.h"
 #include "daemon/service/job_scheduler.h"
 #include "daemon/service/job_store.h"
 #include "daemon/service/metrics.h"
@@ -56,17 +56,17 @@ class PendingUpload {
 
 class JobIntake {
  public:
-  // `capture` may be null (then FromCapture throws capture::CaptureUnavailable).
-  JobIntake(JobStore* store, JobScheduler* scheduler, capture::CaptureService* capture,
-            Metrics* metrics, TarLimits tar_limits, BurstLimits burst_limits = {})
+  // `camera` may be null (then FromCapture throws CameraUnavailable).
+  JobIntake(JobStore* store, JobScheduler* scheduler, CameraPort* camera, Metrics* metrics,
+            TarLimits tar_limits, BurstLimits burst_limits = {})
       : store_(store),
         scheduler_(scheduler),
-        capture_(capture),
+        camera_(camera),
         metrics_(metrics),
         tar_limits_(tar_limits),
         burst_limits_(burst_limits) {}
 
-  // Throws QueueFull, capture::CaptureUnavailable, JobStoreError.
+  // Throws QueueFull, CameraUnavailable, JobStoreError.
   Job FromCapture(const JobOptions& options, std::chrono::milliseconds timeout);
   // Starts an upload: reserves a place in the queue and a staging file.
   // Throws QueueFull, JobStoreError.
@@ -85,7 +85,7 @@ class JobIntake {
 
   JobStore* store_;
   JobScheduler* scheduler_;
-  capture::CaptureService* capture_;
+  CameraPort* camera_;
   Metrics* metrics_;
   const TarLimits tar_limits_;
   const BurstLimits burst_limits_;

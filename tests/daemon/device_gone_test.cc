@@ -8,11 +8,10 @@
 
 #include <iostream>
 
-#include "api/http_server.h"
-#include "api/routes.h"
 #include "daemon/capture/fake_v4l2_device.h"
 #include "daemon/capture/streaming_service.h"
 #include "daemon/capture/v4l2_source.h"
+#include "dfsmd/daemon.h"
 
 namespace dfsm::test {
 namespace {
@@ -44,30 +43,27 @@ TEST(DeviceGone, TriggersAnswer503NamingTheCauseAndReadinessRecovers) {
   capture::V4l2Source::Options source_options;
   source_options.path = "/dev/video-fake";
   source_options.by_id_dir = "/nonexistent";
-  capture::StreamingCaptureService capture(
+  auto capture = std::make_shared<capture::StreamingCaptureService>(
       capture_config,
       std::make_unique<capture::V4l2Source>(source_options, capture::MakeFakeV4l2Device(driver)));
 
   service::DaemonConfig config;
   config.server.port = 0;
   config.jobs.queue = 4;
-  service::Metrics metrics;
-  service::JobStore store(dir);
-  // Never started: accepted jobs stay queued; this test is about intake.
-  service::JobScheduler scheduler(1, config.jobs.queue,
-                                  [](const std::string&, std::shared_ptr<const Burst>) {});
-  service::JobIntake intake(&store, &scheduler, &capture, &metrics, {});
-  api::HttpServer server(config.server);
-  api::RegisterRoutes({&config, &store, &scheduler, &intake, &capture, &metrics}, &server);
-  httplib::Client client("127.0.0.1", server.Bind());
+  config.jobs.state_dir = dir;
+  daemon::AssembleOptions options;
+  options.capture = capture;
+  options.recover = false;
+  options.start_workers = false;  // accepted jobs stay queued; this test is about intake
+  std::unique_ptr<daemon::Parts> parts = daemon::Assemble(config, options);
+  httplib::Client client("127.0.0.1", parts->http->Bind());
   client.set_read_timeout(std::chrono::seconds(30));
-  server.Start();
-  capture.Start();
+  parts->http->Start();
   const auto trigger = [&] {
     return client.Post("/api/v1/captures", R"({"frames":5,"when":"next"})", "application/json");
   };
 
-  ASSERT_TRUE(WaitFor([&] { return capture.Status().streaming; }));
+  ASSERT_TRUE(WaitFor([&] { return capture->Status().streaming; }));
   EXPECT_EQ(client.Get("/readyz")->status, 200);
   EXPECT_EQ(trigger()->status, 202);
 
@@ -77,7 +73,7 @@ TEST(DeviceGone, TriggersAnswer503NamingTheCauseAndReadinessRecovers) {
     driver->unplugged_open_failures = 1 << 30;
     driver->faults = {capture::FakeFault::kUnplug};
   }
-  ASSERT_TRUE(WaitFor([&] { return !capture.Status().streaming; }));
+  ASSERT_TRUE(WaitFor([&] { return !capture->Status().streaming; }));
   const auto refused = trigger();
   ASSERT_TRUE(refused);
   EXPECT_EQ(refused->status, 503) << refused->body;
@@ -102,15 +98,13 @@ TEST(DeviceGone, TriggersAnswer503NamingTheCauseAndReadinessRecovers) {
     std::lock_guard<std::mutex> lock(driver->mutex);
     driver->unplugged_open_failures = 0;
   }
-  ASSERT_TRUE(WaitFor([&] { return capture.Status().streaming; }));
+  ASSERT_TRUE(WaitFor([&] { return capture->Status().streaming; }));
   EXPECT_TRUE(WaitFor([&] { return client.Get("/readyz")->status == 200; }));
   EXPECT_EQ(trigger()->status, 202);
-  EXPECT_GE(capture.Status().reconnects, 1u);
-  std::cout << "recovered after " << capture.Status().reconnects << " reconnect(s)\n";
+  EXPECT_GE(capture->Status().reconnects, 1u);
+  std::cout << "recovered after " << capture->Status().reconnects << " reconnect(s)\n";
 
-  capture.Stop();
-  server.Stop();
-  scheduler.Shutdown();
+  parts.reset();  // stops the server, the capture and the scheduler
   EXPECT_EQ(driver->open_fds, 0);
   fs::remove_all(dir);
 }

@@ -17,7 +17,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/synth/burst_synthesizer.h"
-#include "tests/daemon/dfsmd_process.h"
+#include "dfsmd/dfsmd_process.h"
 
 namespace dfsm::test {
 namespace {

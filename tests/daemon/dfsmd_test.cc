@@ -12,7 +12,7 @@
 #include "core/pipeline/evaluation.h"
 #include "core/synth/burst_synthesizer.h"
 #include "daemon/service/ustar.h"
-#include "tests/daemon/dfsmd_process.h"
+#include "dfsmd/dfsmd_process.h"
 #include "tests/daemon/fault_helpers.h"
 
 namespace dfsm::test {

@@ -11,7 +11,7 @@
 #include <string>
 #include <thread>
 
-#include "tests/daemon/dfsmd_process.h"
+#include "dfsmd/dfsmd_process.h"
 
 namespace dfsm::test {
 

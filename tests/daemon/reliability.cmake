@@ -1,13 +1,12 @@
 # Reliability tests of dfsmd (faults and soak), included from
-# daemon/service/CMakeLists.txt where dfsmd is defined.
+# tests/daemon/CMakeLists.txt.
 #  - dfsmd_fault_test: state directory full (tmpfs; skips without root),
 #    pathological bursts, corrupt and truncated frames (label daemon).
 #  - dfsmd_kill_test: kill -9 at random points, 24 rounds (label daemon).
 #  - device_gone_test: capture device unplugged under the REST API (fake V4L2
 #    driver, in process; label daemon).
 #  - dfsmd_soak_test: 1000 triggers; skips unless DFSM_TEST_SOAK=1 (label soak).
-set(_dfsm_reliability_common ${PROJECT_SOURCE_DIR}/tests/daemon/dfsmd_process.cc
-                             ${PROJECT_SOURCE_DIR}/tests/daemon/fault_helpers.cc)
+set(_dfsm_reliability_common ${PROJECT_SOURCE_DIR}/tests/daemon/fault_helpers.cc)
 foreach(test dfsmd_fault_test dfsmd_kill_test dfsmd_soak_test)
   if(test STREQUAL "dfsmd_soak_test")
     set(_labels soak)
@@ -16,12 +15,12 @@ foreach(test dfsmd_fault_test dfsmd_kill_test dfsmd_soak_test)
   endif()
   dfsm_add_test(${test}
     SOURCES ${PROJECT_SOURCE_DIR}/tests/daemon/${test}.cc ${_dfsm_reliability_common}
-    LIBS dfsm_api dfsm_synth dfsm_pipeline
+    LIBS dfsm_daemon dfsm_synth dfsm_pipeline
     LABELS ${_labels})
   target_compile_definitions(${test} PRIVATE DFSMD_BINARY="$<TARGET_FILE:dfsmd>")
   add_dependencies(${test} dfsmd)
 endforeach()
 if(TARGET dfsm_capture_fake)
   dfsm_add_test(device_gone_test SOURCES ${PROJECT_SOURCE_DIR}/tests/daemon/device_gone_test.cc
-    LIBS dfsm_api dfsm_capture dfsm_capture_fake LABELS daemon)
+    LIBS dfsm_daemon dfsm_capture_fake LABELS daemon)
 endif()

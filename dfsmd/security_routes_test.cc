@@ -12,9 +12,9 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "api/problem.h"
-#include "api/routes_test_harness.h"
 #include "core/io/burst.h"
 #include "core/io/file_util.h"
+#include "dfsmd/routes_test_harness.h"
 
 namespace dfsm::api {
 namespace {
@@ -61,12 +61,9 @@ class SecurityRoutesTest : public ::testing::Test {
     config.server.port = 0;
     config.server.max_body_bytes = 256 * 1024;
     config.server.token = kToken;
-    service::TarLimits tar_limits;
-    tar_limits.max_entries = 8;
-    service::BurstLimits burst_limits;
-    burst_limits.max_frame_pixels = 64 * 64;
-    routes_ = std::make_unique<RoutesTestHarness>("security-routes-test", config, tar_limits,
-                                                  burst_limits);
+    config.limits.max_upload_entries = 8;
+    config.limits.max_frame_pixels = 64 * 64;
+    routes_ = std::make_unique<RoutesTestHarness>("security-routes-test", config);
     anonymous_ = std::make_unique<httplib::Client>("127.0.0.1", routes_->port());
     client_ = std::make_unique<httplib::Client>("127.0.0.1", routes_->port());
     client_->set_bearer_token_auth(kToken);
@@ -241,7 +238,7 @@ TEST_F(SecurityRoutesTest, UploadLimitsAreNamed) {
   const auto upload = [&](const std::string& tar) {
     return client_->Post("/api/v1/jobs", tar, "application/x-tar");
   };
-  // More tar entries than TarLimits.max_entries (8 here).
+  // More tar entries than limits.max_upload_entries (8 here).
   EXPECT_NE(ExpectProblem(upload(BurstTar(9, Png(8, 8), 8, 8)), 422).find("more than 8 entries"),
             std::string::npos);
   // A frame over limits.max_frame_pixels (64x64 here).

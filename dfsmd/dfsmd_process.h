@@ -1,4 +1,4 @@
-// A dfsmd child process for the end-to-end tests: the real binary on a free
+// A dfsmd child process for the end-to-end tests and the benchmark: the real binary on a free
 // loopback port, its stderr in a log file, stopped with a chosen signal.
 #pragma once
 

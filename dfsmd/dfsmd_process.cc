@@ -1,4 +1,4 @@
-#include "tests/daemon/dfsmd_process.h"
+#include "dfsmd/dfsmd_process.h"
 
 #include <fcntl.h>
 #include <netinet/in.h>

@@ -1,10 +1,11 @@
 // dfsmd: the depth-from-small-motion camera daemon. See docs/daemon.md.
 #include <iostream>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "daemon/service/config.h"
-#include "daemon/service/daemon.h"
+#include "dfsmd/daemon.h"
 
 int main(int argc, char** argv) {
   using dfsm::service::ConfigError;
@@ -28,8 +29,10 @@ int main(int argc, char** argv) {
     return 0;
   }
   try {
-    dfsm::service::Daemon daemon(line.config);
-    return daemon.Run();
+    // Before any thread exists: every thread inherits the mask.
+    dfsm::daemon::BlockStopSignals();
+    const std::unique_ptr<dfsm::daemon::Parts> parts = dfsm::daemon::Assemble(line.config);
+    return dfsm::daemon::Serve(*parts);
   } catch (const ConfigError& e) {
     std::cerr << "dfsmd: invalid configuration: " << e.what() << "\n";
     return kExitConfig;

@@ -6,8 +6,8 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
-#include "api/routes_test_harness.h"
 #include "core/io/file_util.h"
+#include "dfsmd/routes_test_harness.h"
 
 namespace dfsm::api {
 namespace {
@@ -141,23 +141,14 @@ TEST(CorsTest, HeadersOnlyWhenConfigured) {
     service::DaemonConfig config;
     config.server.port = 0;
     config.server.cors_origin = origin;
-    const fs::path dir = fs::temp_directory_path() / ("cors-test-" + std::to_string(::getpid()));
-    service::JobStore store(dir);
-    service::JobScheduler scheduler(1, 1, [](const std::string&, std::shared_ptr<const Burst>) {});
-    service::Metrics metrics;
-    service::JobIntake intake(&store, &scheduler, nullptr, &metrics, {});
-    HttpServer server(config.server);
-    RegisterRoutes({&config, &store, &scheduler, &intake, nullptr, &metrics}, &server);
-    httplib::Client client("127.0.0.1", server.Bind());
-    server.Start();
+    RoutesTestHarness routes("cors-test", config);
+    httplib::Client client("127.0.0.1", routes.port());
     const auto result = client.Get("/api/v1/jobs");
     ASSERT_TRUE(result);
     EXPECT_EQ(result->get_header_value("Access-Control-Allow-Origin"), origin);
     const auto preflight = client.Options("/api/v1/captures");
     ASSERT_TRUE(preflight);
     EXPECT_EQ(preflight->status, origin.empty() ? 404 : 204);
-    server.Stop();
-    fs::remove_all(dir);
   }
 }
 

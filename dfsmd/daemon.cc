@@ -1,0 +1,198 @@
+#include "dfsmd/daemon.h"
+
+#include <signal.h>
+
+#include <algorithm>
+#include <iostream>
+#include <thread>
+
+#include "api/routes.h"
+#include "daemon/service/systemd_notifier.h"
+
+namespace dfsm::daemon {
+namespace {
+
+using service::ConfigError;
+using service::Job;
+using service::JobStatus;
+
+// The watchdog's API probe waits this long for /healthz (api/http_server.h).
+constexpr int kApiProbeTimeoutMs = 2000;
+
+capture::CaptureConfig ToCaptureConfig(const service::CaptureSection& section) {
+  capture::CaptureConfig config;
+  config.source = section.source;
+  config.width = section.width;
+  config.height = section.height;
+  config.fps = section.fps;
+  config.pixel_format = section.pixel_format;
+  config.ring_frames = section.ring_frames;
+  config.device_buffers = section.device_buffers;
+  config.frame_timeout = std::chrono::milliseconds(section.frame_timeout_ms);
+  config.reconnect_backoff = std::chrono::milliseconds(section.reconnect_backoff_ms);
+  return config;
+}
+
+sigset_t StopSignals() {
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGTERM);
+  sigaddset(&signals, SIGINT);
+  return signals;
+}
+
+void Recover(Parts& p) {
+  for (const Job& job : p.store->Unfinished()) {
+    std::cerr << "dfsmd: re-queueing job " << job.id << " (was " << JobStatusName(job.status)
+              << " when the daemon stopped)\n";
+    Job queued = job;
+    queued.status = JobStatus::kQueued;
+    queued.stage.clear();
+    try {
+      p.store->Update(queued);
+    } catch (const service::JobStoreError& e) {
+      // A full state directory must not keep dfsmd down (systemd would
+      // restart it in a loop, and the API that can free space with DELETE
+      // would never come up): the job is queued all the same, /readyz
+      // reports the disk, and the job's own writes will say what fails.
+      std::cerr << "dfsmd: cannot record job " << job.id << " as queued: " << e.what()
+                << " (starting anyway; see /readyz)\n";
+    }
+    p.scheduler->SubmitRecovered(job.id);
+  }
+  try {
+    p.store->EnforceRetention(p.config.retention, service::NowUnixMs());
+  } catch (const std::exception& e) {
+    std::cerr << "dfsmd: retention at start-up: " << e.what() << "\n";
+  }
+}
+
+}  // namespace
+
+Parts::~Parts() {
+  if (http) http->Stop();
+  if (capture) capture->Stop();
+  if (scheduler) scheduler->Shutdown();
+}
+
+void BlockStopSignals() {
+  const sigset_t signals = StopSignals();
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+}
+
+std::unique_ptr<Parts> Assemble(const service::DaemonConfig& config,
+                                const AssembleOptions& options) {
+  auto parts = std::make_unique<Parts>(config);
+  Parts& p = *parts;
+  const service::DaemonConfig& c = p.config;
+  try {
+    p.store = std::make_unique<service::JobStore>(c.jobs.state_dir);
+  } catch (const service::JobStoreError& e) {
+    throw ConfigError(std::string("jobs.state_dir: ") + e.what());
+  }
+  p.calibration = std::make_unique<service::CalibrationKeeper>(c.calibration, c.jobs.state_dir);
+  p.processor = std::make_unique<service::JobProcessor>(p.store.get(), &p.metrics, c.retention,
+                                                        p.calibration.get());
+  p.scheduler = std::make_unique<service::JobScheduler>(
+      c.jobs.workers, c.jobs.queue,
+      [processor = p.processor.get()](const std::string& id, std::shared_ptr<const Burst> burst) {
+        processor->Process(id, std::move(burst));
+      });
+  if (options.recover) Recover(p);
+  if (options.start_workers) p.scheduler->Start();
+
+  if (options.camera) {
+    try {
+      p.capture = options.capture ? options.capture
+                                  : capture::CaptureService::Create(ToCaptureConfig(c.capture));
+    } catch (const capture::CaptureConfigError& e) {
+      throw ConfigError(e.what());
+    }
+    p.capture->Start();
+    p.camera = std::make_unique<CaptureCamera>(p.capture.get());
+  }
+
+  service::TarLimits tar_limits;
+  tar_limits.max_total_bytes = c.server.max_body_bytes;
+  tar_limits.max_file_bytes = std::min(c.limits.max_upload_file_bytes, c.server.max_body_bytes);
+  tar_limits.max_entries = c.limits.max_upload_entries;
+  service::BurstLimits burst_limits;
+  burst_limits.max_frames = c.limits.max_burst_frames;
+  burst_limits.max_frame_pixels = c.limits.max_frame_pixels;
+  burst_limits.max_burst_pixels = c.limits.max_burst_pixels;
+  p.intake = std::make_unique<service::JobIntake>(p.store.get(), p.scheduler.get(), p.camera.get(),
+                                                  &p.metrics, tar_limits, burst_limits);
+
+  p.http = std::make_unique<api::HttpServer>(c.server);
+  api::ApiContext context;
+  context.config = &p.config;
+  context.store = p.store.get();
+  context.scheduler = p.scheduler.get();
+  context.intake = p.intake.get();
+  context.camera = p.camera.get();
+  context.metrics = &p.metrics;
+  context.calibration = p.calibration.get();
+  api::RegisterRoutes(context, p.http.get());
+  return parts;
+}
+
+int Serve(Parts& p) {
+  const service::DaemonConfig& c = p.config;
+  int port = 0;
+  try {
+    port = p.http->Bind();
+  } catch (const std::exception& e) {
+    std::cerr << "dfsmd: " << e.what() << "\n";
+    return 1;
+  }
+  p.http->Start();
+
+  // READY=1 once the port is bound and capture delivers frames (or has tried
+  // for a frame timeout: a camera that is unplugged at boot must not keep the
+  // unit "activating" forever; /readyz tells the difference).
+  const auto ready_deadline =
+      std::chrono::steady_clock::now() + std::chrono::milliseconds(c.capture.frame_timeout_ms);
+  while (p.camera && !p.camera->Health().streaming &&
+         std::chrono::steady_clock::now() < ready_deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  const bool streaming = p.camera && p.camera->Health().streaming;
+  std::cerr << "dfsmd: listening on http://" << c.server.listen << ":" << port << " (capture "
+            << c.capture.source << (streaming ? ", streaming" : ", not streaming yet") << "; state "
+            << c.jobs.state_dir.string() << ")" << std::endl;
+  service::SystemdNotifier notifier;
+  notifier.Ready("serving on " + c.server.listen + ":" + std::to_string(port));
+  const int64_t stall_ns = int64_t{c.capture.stall_timeout_ms} * 1000000;
+  notifier.StartWatchdog([&p, stall_ns]() -> std::string {
+    if (stall_ns != 0 && p.camera) {
+      const service::CameraHealth health = p.camera->Health();
+      if (!health.streaming &&
+          (health.last_frame_age_ns < 0 || health.last_frame_age_ns >= stall_ns))
+        return "capture is stuck";
+    }
+    // The API's own health probe through the listening port: a server whose
+    // workers or connections are all taken is restarted too.
+    if (!p.http->Probe(std::chrono::milliseconds(kApiProbeTimeoutMs)))
+      return "the API does not answer GET /healthz within " + std::to_string(kApiProbeTimeoutMs) +
+             " ms";
+    return "";
+  });
+
+  const sigset_t signals = StopSignals();
+  int signal_number = 0;
+  while (sigwait(&signals, &signal_number) != 0) {
+  }
+  std::cerr << "dfsmd: " << (signal_number == SIGINT ? "SIGINT" : "SIGTERM") << ", shutting down"
+            << std::endl;
+  notifier.Stopping();
+  p.http->Stop();
+  if (p.capture) p.capture->Stop();
+  notifier.Status("finishing the running job");
+  p.scheduler->Shutdown();
+  notifier.StopWatchdog();
+  std::cerr << "dfsmd: stopped (" << p.scheduler->Depth() << " queued jobs kept for the next start)"
+            << std::endl;
+  return 0;
+}
+
+}  // namespace dfsm::daemon

@@ -1,0 +1,66 @@
+// dfsmd's composition root: the only place that knows every part. Assemble()
+// builds them from the configuration in dependency order; Serve() binds the
+// API, reports readiness to systemd and serves until SIGTERM or SIGINT, then
+// shuts down in reverse. The route tests and the HTTP fuzz harness assemble
+// the same parts (with options below) instead of wiring their own.
+//
+// Start-up order: store (recovers unfinished jobs) -> scheduler -> capture ->
+// HTTP bind -> serve -> READY=1. Shutdown: STOPPING=1 -> HTTP stop (no new
+// work) -> capture stop -> scheduler shutdown (running jobs finish; queued
+// ones stay on disk for the next start) -> watchdog stop.
+#pragma once
+
+#include <memory>
+
+#include "api/http_server.h"
+#include "daemon/capture/capture_service.h"
+#include "daemon/service/calibration_keeper.h"
+#include "daemon/service/config.h"
+#include "daemon/service/job_intake.h"
+#include "daemon/service/job_processor.h"
+#include "daemon/service/job_scheduler.h"
+#include "daemon/service/job_store.h"
+#include "daemon/service/metrics.h"
+#include "dfsmd/capture_camera.h"
+
+namespace dfsm::daemon {
+
+struct AssembleOptions {
+  bool camera = true;  // open the configured capture source (false: none)
+  // Used instead of opening capture.source when set (tests: a fake device).
+  std::shared_ptr<capture::CaptureService> capture;
+  bool recover = true;        // re-queue the jobs the last run left unfinished
+  bool start_workers = true;  // false: queued jobs stay queued (the route tests)
+};
+
+// Declaration order is construction order; the destructor stops what runs
+// and destruction goes in reverse, so nothing outlives what it points to.
+struct Parts {
+  explicit Parts(service::DaemonConfig c) : config(std::move(c)) {}
+  ~Parts();
+
+  const service::DaemonConfig config;
+  service::Metrics metrics;
+  std::unique_ptr<service::JobStore> store;
+  std::unique_ptr<service::CalibrationKeeper> calibration;
+  std::unique_ptr<service::JobProcessor> processor;
+  std::unique_ptr<service::JobScheduler> scheduler;
+  std::shared_ptr<capture::CaptureService> capture;  // null without a camera
+  std::unique_ptr<CaptureCamera> camera;
+  std::unique_ptr<service::JobIntake> intake;
+  std::unique_ptr<api::HttpServer> http;  // routes registered, not bound
+};
+
+// Builds every part. Throws service::ConfigError for a state directory or a
+// capture source that cannot be used.
+std::unique_ptr<Parts> Assemble(const service::DaemonConfig& config,
+                                const AssembleOptions& options = {});
+
+// Blocks SIGTERM and SIGINT in the calling thread and every thread it starts
+// afterwards; call before Assemble(). Serve() takes them with sigwait.
+void BlockStopSignals();
+
+// Binds, serves until SIGTERM or SIGINT and shuts down. Returns the exit status.
+int Serve(Parts& parts);
+
+}  // namespace dfsm::daemon

@@ -1,0 +1,51 @@
+#!/usr/bin/env bash
+# The architecture rules of the tree, checked from the #include lines:
+#  1. api/ and daemon/service/ never include daemon/capture/ (the service sees
+#     the camera through its port; dfsmd/ plugs capture in behind it);
+#  2. nothing outside tests/ includes tests/;
+#  3. no cycle between folders (core/<area>, daemon/<part>, and the top-level
+#     folders), found by tsort. Tests beside the code (*_test.cc, *_test_*)
+#     are leaves that may use a higher layer (core/dense's accuracy test scores
+#     with core/pipeline's evaluation), so they make no edges.
+# Prints each violation and exits 1 if there is any.
+set -euo pipefail
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+cd "$root"
+
+folder() {  # core/io/burst.h -> core/io; api/routes.h -> api
+  case "$1" in
+    core/* | daemon/*) echo "$1" | cut -d/ -f1-2 ;;
+    *) echo "$1" | cut -d/ -f1 ;;
+  esac
+}
+
+status=0
+edges=$(mktemp)
+trap 'rm -f "$edges"' EXIT
+while IFS= read -r source; do
+  from="$(folder "$source")"
+  while IFS= read -r included; do
+    [ -e "$included" ] || continue  # a system header
+    to="$(folder "$included")"
+    case "$from:$to" in
+      api:daemon/capture | daemon/service:daemon/capture)
+        echo "architecture: $source includes $included (capture is behind the camera port)"
+        status=1 ;;
+    esac
+    if [ "$to" = tests ] && [ "$from" != tests ]; then
+      echo "architecture: $source includes $included (only tests/ may depend on tests/)"
+      status=1
+    fi
+    case "$source" in *_test.cc | *_test_*) continue ;; esac
+    [ "$from" != "$to" ] && echo "$from $to" >>"$edges"
+  done < <(sed -n 's/^#include "\([^"]*\)".*/\1/p' "$source")
+done < <(git ls-files '*.cc' '*.h')
+
+if ! sort -u "$edges" | tsort >/dev/null 2>"$edges.err"; then
+  echo "architecture: the folders depend on each other in a cycle:"
+  sed 's/^/  /' "$edges.err"
+  status=1
+fi
+rm -f "$edges.err"
+[ "$status" = 0 ] && echo "architecture: ok ($(sort -u "$edges" | wc -l) folder dependencies, no cycle)"
+exit "$status"
