@@ -1,13 +1,15 @@
 // Bearer-token authentication of the REST API (RFC 6750). With a token
 // configured (server.token_file or the systemd credential, see
 // daemon/service/access_token.h) every request needs
-// `Authorization: Bearer <token>`, on loopback too, except the probes and the
-// API description: GET /healthz, /readyz, /api/v1/openapi.json, and CORS
-// preflights (browsers send those without credentials). Results are data and
-// the camera is a camera, so reads are protected like writes.
+// `Authorization: Bearer <token>`, on loopback too, except the probes, the
+// API description and the web page's files: GET /healthz, /readyz,
+// /api/v1/openapi.json, / and /ui/..., and CORS preflights (browsers send
+// those without credentials). Results are data and the camera is a camera, so
+// reads are protected like writes.
 //
-// The check runs before httplib reads a request body (pre-routing, and the
-// Expect: 100-continue answer), so an unauthenticated upload costs no memory.
+// The connection gate checks it on the request head (request_guard.h), before
+// any worker or body byte is spent; Install() adds the same check inside
+// httplib for requests that reach it without the gate (the fuzz harness).
 #pragma once
 
 #include <httplib.h>

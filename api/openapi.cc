@@ -81,6 +81,7 @@ json Schemas() {
   job["status"]["enum"] = {"queued", "processing", "succeeded", "failed"};
   job["timings_ms"] = {{"type", "object"}, {"additionalProperties", {{"type", "number"}}}};
   job["input"] = {{"type", "object"}};
+  job["progress"] = {{"type", "number"}, {"minimum", 0}, {"maximum", 1}};
   job["links"] = {{"type", "object"}};
   schemas["Job"] = {{"type", "object"}, {"properties", job}};
   json list = {{"jobs", {{"type", "array"}, {"items", Ref("Job")}}}};
@@ -198,6 +199,16 @@ nlohmann::json OpenApiDocument() {
   paths["/api/v1/snapshot.jpg"]["get"] = {
       {"summary", "The newest captured frame"},
       {"responses", {{"200", Binary("JPEG", "image/jpeg")}, {"503", Problem("No frame yet")}}}};
+  paths["/api/v1/events"]["get"] = {
+      {"summary",
+       "Server-Sent Events: 'event: job' with the job's JSON whenever a job appears or changes "
+       "status, stage or progress ({id, deleted: true} when it goes); the stream ends after "
+       "60 s (EventSource reconnects)"},
+      {"responses",
+       {{"200", {{"description", "text/event-stream"}}},
+        {"503", Problem("Too many event streams: poll /api/v1/jobs")}}}};
+  paths["/"]["get"] = {{"summary", "The web page (its files under /ui/)"},
+                       {"responses", {{"200", {{"description", "text/html"}}}}}};
   paths["/api/v1/openapi.json"]["get"] = {
       {"summary", "This document"}, {"responses", {{"200", {{"description", "OpenAPI 3.0"}}}}}};
   paths["/healthz"]["get"] = {{"summary", "Liveness: the process answers"},
@@ -213,7 +224,7 @@ nlohmann::json OpenApiDocument() {
   // and this document stay public.
   for (auto& [path, operations] : paths.items()) {
     const bool is_public =
-        path == "/healthz" || path == "/readyz" || path == "/api/v1/openapi.json";
+        path == "/healthz" || path == "/readyz" || path == "/api/v1/openapi.json" || path == "/";
     for (auto& [method, operation] : operations.items()) {
       if (method == "parameters") continue;
       if (is_public) {

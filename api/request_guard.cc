@@ -41,7 +41,8 @@ bool IsBulkRead(const std::string& path) {
   // Job files (/api/v1/jobs/<id>/<file>) and snapshots return megabytes.
   static const std::string jobs = "/api/v1/jobs/";
   if (path.rfind(jobs, 0) == 0 && path.find('/', jobs.size()) != std::string::npos) return true;
-  return path == "/api/v1/snapshot.jpg";
+  // An event stream holds its worker for a minute.
+  return path == "/api/v1/snapshot.jpg" || path == "/api/v1/events";
 }
 
 }  // namespace

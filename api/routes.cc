@@ -2,16 +2,21 @@
 
 #include <sys/statvfs.h>
 
+#include <atomic>
 #include <cerrno>
+#include <chrono>
 #include <cstring>
+#include <map>
 #include <opencv2/imgcodecs.hpp>
 #include <regex>
+#include <thread>
 
 #include "api/bearer_auth.h"
 #include "api/job_request.h"
 #include "api/openapi.h"
 #include "api/problem.h"
 #include "api/request_body.h"
+#include "api/www_files.h"
 #include "core/io/file_util.h"
 #include "daemon/service/ustar.h"
 
@@ -41,8 +46,11 @@ void SetJson(httplib::Response& response, int status, const nlohmann::json& body
 
 std::string JobPath(const std::string& id) { return "/api/v1/jobs/" + id; }
 
+}  // namespace
+
 nlohmann::json JobJson(const Job& job) {
   nlohmann::json json = service::ToJson(job);
+  json["progress"] = service::JobProgress(job);
   nlohmann::json links = {{"self", JobPath(job.id)}};
   if (IsFinished(job.status)) {
     nlohmann::json files = nlohmann::json::array();
@@ -60,6 +68,8 @@ nlohmann::json JobJson(const Job& job) {
   json["links"] = links;
   return json;
 }
+
+namespace {
 
 void NoSuchJob(httplib::Response& response, const std::string& id) {
   SetProblem(response, 404, "unknown-job", "Unknown job",
@@ -366,6 +376,101 @@ void GetMetrics(const ApiContext& context, httplib::Response& response) {
   response.set_content(context.metrics->Render(gauges), "text/plain; version=0.0.4");
 }
 
+const char* WwwContentType(const std::string& path) {
+  static const std::pair<const char*, const char*> kTypes[] = {
+      {".html", "text/html; charset=utf-8"},
+      {".js", "text/javascript; charset=utf-8"},
+      {".mjs", "text/javascript; charset=utf-8"},
+      {".css", "text/css; charset=utf-8"},
+      {".svg", "image/svg+xml"},
+      {".png", "image/png"},
+      {".json", "application/json"},
+      {".txt", "text/plain; charset=utf-8"},
+      {".LICENSE", "text/plain; charset=utf-8"}};
+  for (const auto& [extension, type] : kTypes) {
+    const std::string_view e(extension);
+    if (path.size() >= e.size() && path.compare(path.size() - e.size(), e.size(), e) == 0)
+      return type;
+  }
+  return "application/octet-stream";
+}
+
+// The page's files (www/, compiled in). Same-origin only: the page talks to
+// this dfsmd and nothing else, and is never framed.
+void GetWwwFile(const std::string& path, httplib::Response& response) {
+  for (const WwwFile& file : WwwFiles()) {
+    if (file.path != path) continue;
+    response.set_header("Content-Security-Policy",
+                        "default-src 'self'; img-src 'self' blob: data:; style-src 'self' "
+                        "'unsafe-inline'; connect-src 'self'; frame-ancestors 'none'");
+    response.set_header("X-Content-Type-Options", "nosniff");
+    response.set_header("Cache-Control", "no-cache");
+    response.set_content(std::string(file.data), WwwContentType(path));
+    return;
+  }
+  SetProblem(response, 404, "not-found", "No such page file",
+             WwwFiles().empty() ? "this dfsmd was built without its web page (no www/)"
+                                : "'" + path + "' is not a file of the web page");
+}
+
+// Server-Sent Events of job changes (the page's live job list): one
+// "event: job" per job that appears or changes status, stage or progress, and
+// {"id", "deleted": true} for one that goes. A stream holds a bulk worker, so
+// at most kMaxEventClients stream at once and each ends after kEventStreamSeconds
+// (EventSource reconnects by itself).
+constexpr int kMaxEventClients = 4;
+constexpr int kEventStreamSeconds = 60;
+std::atomic<int> event_clients{0};
+
+void StreamJobEvents(const ApiContext& context, httplib::Response& response) {
+  const int limit = std::min(kMaxEventClients, context.config->server.threads / 2);
+  if (event_clients.fetch_add(1) >= limit) {
+    --event_clients;
+    response.set_header("Retry-After", "5");
+    return SetProblem(response, 503, "too-many-event-clients", "Too many event streams",
+                      "at most " + std::to_string(limit) +
+                          " clients follow /api/v1/events at once; poll /api/v1/jobs instead");
+  }
+  struct Seen {
+    std::map<std::string, std::string> jobs;  // id -> status/stage/progress key
+    std::chrono::steady_clock::time_point end;
+    bool first = true;
+  };
+  auto seen = std::make_shared<Seen>();
+  seen->end = std::chrono::steady_clock::now() + std::chrono::seconds(kEventStreamSeconds);
+  response.set_header("Cache-Control", "no-cache");
+  response.set_chunked_content_provider(
+      "text/event-stream",
+      [context, seen](size_t, httplib::DataSink& sink) {
+        if (!seen->first) std::this_thread::sleep_for(std::chrono::milliseconds(500));
+        if (std::chrono::steady_clock::now() >= seen->end || !sink.is_writable()) {
+          sink.done();
+          return true;
+        }
+        std::string events = seen->first ? "retry: 2000\n\n" : "";
+        seen->first = false;
+        std::map<std::string, std::string> now;
+        for (const Job& job : context.store->List()) {
+          const nlohmann::json json = JobJson(job);
+          const std::string key = json["status"].get<std::string>() + "/" +
+                                  json["stage"].get<std::string>() + "/" + json["progress"].dump();
+          now[job.id] = key;
+          const auto before = seen->jobs.find(job.id);
+          if (before == seen->jobs.end() || before->second != key)
+            events += "event: job\ndata: " + json.dump() + "\n\n";
+        }
+        for (const auto& [id, key] : seen->jobs) {
+          if (!now.count(id))
+            events += "event: job\ndata: " + nlohmann::json{{"id", id}, {"deleted", true}}.dump() +
+                      "\n\n";
+        }
+        seen->jobs = std::move(now);
+        if (events.empty()) events = ": keep-alive\n\n";  // also detects a gone client
+        return sink.write(events.data(), events.size());
+      },
+      [](bool) { --event_clients; });
+}
+
 }  // namespace
 
 const char* JobFileContentType(const std::string& file) {
@@ -377,7 +482,9 @@ const char* JobFileContentType(const std::string& file) {
 
 std::string AllowedMethods(const std::string& path) {
   static const std::pair<std::regex, const char*> kResources[] = {
-      {std::regex("/(healthz|readyz|metrics)"), "GET, HEAD"},
+      {std::regex("/(healthz|readyz|metrics)?"), "GET, HEAD"},
+      {std::regex("/ui/.+"), "GET, HEAD"},
+      {std::regex("/api/v1/events"), "GET, HEAD"},
       {std::regex("/api/v1/(openapi\\.json|camera|snapshot\\.jpg)"), "GET, HEAD"},
       {std::regex("/api/v1/calibration"), "GET, HEAD, DELETE"},
       {std::regex("/api/v1/captures"), "POST"},
@@ -411,6 +518,12 @@ void RegisterRoutes(const ApiContext& context, HttpServer* http) {
               [c](const httplib::Request&, httplib::Response& r) { GetCamera(c, r); });
   server->Get("/api/v1/snapshot.jpg",
               [c](const httplib::Request&, httplib::Response& r) { GetSnapshot(c, r); });
+  server->Get("/",
+              [](const httplib::Request&, httplib::Response& r) { GetWwwFile("index.html", r); });
+  server->Get("/ui/(.+)",
+              [](const httplib::Request& q, httplib::Response& r) { GetWwwFile(q.matches[1], r); });
+  server->Get("/api/v1/events",
+              [c](const httplib::Request&, httplib::Response& r) { StreamJobEvents(c, r); });
   server->Get("/api/v1/calibration",
               [c](const httplib::Request&, httplib::Response& r) { GetCalibration(c, r); });
   // Routes that may carry a body read it through BoundedBody (request_body.h).

@@ -38,6 +38,9 @@ void RegisterRoutes(const ApiContext& context, HttpServer* server);
 // Allow header of a 405.
 std::string AllowedMethods(const std::string& path);
 
+// A job as the API shows it: its record, its progress (0..1) and its links.
+nlohmann::json JobJson(const service::Job& job);
+
 // Content type of a job file, or nullptr when `file` is not a job file.
 const char* JobFileContentType(const std::string& file);
 

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include "api/www_files.h"
 #include "core/io/file_util.h"
 #include "dfsmd/routes_test_harness.h"
 
@@ -134,6 +135,51 @@ TEST_F(RoutesTest, OpenApiDocumentsEveryRoute) {
   }
   EXPECT_EQ(JobFileContentType("depth.tiff"), std::string("image/tiff"));
   EXPECT_EQ(JobFileContentType("../job.json"), nullptr);
+}
+
+TEST_F(RoutesTest, JobsCarryTheirProgress) {
+  const std::string queued = routes_->AddJob(service::JobStatus::kQueued);
+  const std::string failed = routes_->AddJob(service::JobStatus::kFailed);
+  const auto job = [&](const std::string& id) {
+    return nlohmann::json::parse(client_->Get(("/api/v1/jobs/" + id).c_str())->body);
+  };
+  EXPECT_EQ(job(queued)["progress"], 0.0);
+  EXPECT_EQ(job(failed)["progress"], 1.0);
+}
+
+TEST_F(RoutesTest, ServesTheWebPageItWasBuiltWith) {
+  const auto index = client_->Get("/");
+  ASSERT_TRUE(index);
+  if (WwwFiles().empty()) {
+    EXPECT_NE(ExpectProblem(index, 404).find("without its web page"), std::string::npos);
+    return;
+  }
+  EXPECT_EQ(index->status, 200);
+  EXPECT_EQ(index->get_header_value("Content-Type"), "text/html; charset=utf-8");
+  EXPECT_NE(index->get_header_value("Content-Security-Policy").find("default-src 'self'"),
+            std::string::npos);
+  for (const WwwFile& file : WwwFiles()) {
+    const auto served = client_->Get(("/ui/" + file.path).c_str());
+    ASSERT_TRUE(served) << file.path;
+    EXPECT_EQ(served->status, 200) << file.path;
+    EXPECT_EQ(served->body, file.data) << file.path;
+  }
+  ExpectProblem(client_->Get("/ui/no-such-file.js"), 404);
+  ExpectProblem(client_->Get("/ui/../job.json"), 404);
+}
+
+TEST_F(RoutesTest, EventsStreamJobChanges) {
+  const std::string id = routes_->AddJob(service::JobStatus::kFailed);
+  httplib::Client events("127.0.0.1", routes_->port());
+  std::string received;
+  const auto result = events.Get("/api/v1/events", [&](const char* data, size_t length) {
+    received.append(data, length);
+    return received.find("\n\n", received.find("event: job")) == std::string::npos;
+  });
+  EXPECT_NE(received.find("retry: "), std::string::npos) << received;
+  EXPECT_NE(received.find("event: job\ndata: {"), std::string::npos) << received;
+  EXPECT_NE(received.find(id), std::string::npos) << received;
+  EXPECT_NE(received.find("\"progress\":1.0"), std::string::npos) << received;
 }
 
 TEST(CorsTest, HeadersOnlyWhenConfigured) {

@@ -56,6 +56,12 @@ struct Job {
 };
 
 nlohmann::json ToJson(const Job& job);
+
+// How far a job has come, 0..1, from its status and stage: 0 queued, then
+// the stages in the order the processor runs them (loading, sparse, dense,
+// writing) at the share of a typical job's time that precedes them, 1
+// finished. A stage the table does not know keeps the last known share.
+double JobProgress(const Job& job);
 // Throws std::invalid_argument / nlohmann::json::exception for a damaged record.
 Job JobFromJson(const nlohmann::json& json);
 
