@@ -14,6 +14,7 @@
 
 #include "api/gate_stream.h"
 #include "api/problem.h"
+#include "daemon/log/log.h"
 
 namespace dfsm::api {
 namespace {
@@ -26,6 +27,20 @@ class InlineQueue final : public httplib::TaskQueue {
   void enqueue(std::function<void()> fn) override { fn(); }
   void shutdown() override {}
 };
+
+std::string PeerAddress(int socket) {
+  sockaddr_storage address{};
+  socklen_t length = sizeof(address);
+  char text[INET6_ADDRSTRLEN] = "?";
+  if (::getpeername(socket, reinterpret_cast<sockaddr*>(&address), &length) == 0) {
+    const void* raw =
+        address.ss_family == AF_INET6
+            ? static_cast<const void*>(&reinterpret_cast<const sockaddr_in6*>(&address)->sin6_addr)
+            : &reinterpret_cast<const sockaddr_in*>(&address)->sin_addr;
+    ::inet_ntop(address.ss_family, raw, text, sizeof(text));
+  }
+  return text;
+}
 
 // Requests served on one connection before it is closed (httplib's default).
 constexpr int kKeepAliveMaxCount = 100;
@@ -90,6 +105,8 @@ HttpServer::HttpServer(const service::ServerConfig& config)
   gate_ = std::make_unique<ConnectionGate>(
       gate, [this](ReadyRequest& request) { return Dispatch(request); },
       [this](int status, const std::string& slug, const std::string& detail) {
+        log::WriteLimited(log::Priority::kNotice, "refused connection",
+                          "refused a connection: " + std::to_string(status) + " " + detail);
         return ProblemResponse(
             status, slug, detail,
             guard_ ? guard_->common_headers() : std::vector<std::pair<std::string, std::string>>{});
@@ -113,6 +130,11 @@ std::optional<std::string> HttpServer::Judge(const RequestHead& head, Lane* lane
 HeadVerdict HttpServer::Dispatch(ReadyRequest& request) {
   Lane lane = Lane::kBulk;
   if (std::optional<std::string> refusal = Judge(request.head, &lane)) {
+    // "HTTP/1.1 421 Misdirected request": the status line names the refusal.
+    const std::string status_line = refusal->substr(9, refusal->find('\r') - 9);
+    log::WriteLimited(log::Priority::kNotice, "refused request",
+                      "refused " + request.head.method + " " + request.head.path.substr(0, 200) +
+                          " from " + PeerAddress(request.socket) + ": " + status_line);
     return {false, std::move(*refusal)};
   }
   httplib::ThreadPool* pool = lane == Lane::kControl ? control_.get() : bulk_.get();

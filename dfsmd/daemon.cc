@@ -7,6 +7,7 @@
 #include <thread>
 
 #include "api/routes.h"
+#include "daemon/log/log.h"
 #include "daemon/service/systemd_notifier.h"
 
 namespace dfsm::daemon {
@@ -43,8 +44,8 @@ sigset_t StopSignals() {
 
 void Recover(Parts& p) {
   for (const Job& job : p.store->Unfinished()) {
-    std::cerr << "dfsmd: re-queueing job " << job.id << " (was " << JobStatusName(job.status)
-              << " when the daemon stopped)\n";
+    log::Notice("re-queueing job " + job.id + " (was " + JobStatusName(job.status) +
+                " when the daemon stopped)");
     Job queued = job;
     queued.status = JobStatus::kQueued;
     queued.stage.clear();
@@ -55,15 +56,15 @@ void Recover(Parts& p) {
       // restart it in a loop, and the API that can free space with DELETE
       // would never come up): the job is queued all the same, /readyz
       // reports the disk, and the job's own writes will say what fails.
-      std::cerr << "dfsmd: cannot record job " << job.id << " as queued: " << e.what()
-                << " (starting anyway; see /readyz)\n";
+      log::Error("cannot record job " + job.id + " as queued: " + e.what() +
+                 " (starting anyway; see /readyz)");
     }
     p.scheduler->SubmitRecovered(job.id);
   }
   try {
     p.store->EnforceRetention(p.config.retention, service::NowUnixMs());
   } catch (const std::exception& e) {
-    std::cerr << "dfsmd: retention at start-up: " << e.what() << "\n";
+    log::Error(std::string("retention at start-up: ") + e.what());
   }
 }
 
@@ -142,7 +143,7 @@ int Serve(Parts& p) {
   try {
     port = p.http->Bind();
   } catch (const std::exception& e) {
-    std::cerr << "dfsmd: " << e.what() << "\n";
+    log::Error(e.what());
     return 1;
   }
   p.http->Start();
@@ -157,9 +158,9 @@ int Serve(Parts& p) {
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
   const bool streaming = p.camera && p.camera->Health().streaming;
-  std::cerr << "dfsmd: listening on http://" << c.server.listen << ":" << port << " (capture "
-            << c.capture.source << (streaming ? ", streaming" : ", not streaming yet") << "; state "
-            << c.jobs.state_dir.string() << ")" << std::endl;
+  log::Notice("listening on http://" + c.server.listen + ":" + std::to_string(port) + " (capture " +
+              c.capture.source + (streaming ? ", streaming" : ", not streaming yet") + "; state " +
+              c.jobs.state_dir.string() + ")");
   service::SystemdNotifier notifier;
   notifier.Ready("serving on " + c.server.listen + ":" + std::to_string(port));
   const int64_t stall_ns = int64_t{c.capture.stall_timeout_ms} * 1000000;
@@ -182,16 +183,15 @@ int Serve(Parts& p) {
   int signal_number = 0;
   while (sigwait(&signals, &signal_number) != 0) {
   }
-  std::cerr << "dfsmd: " << (signal_number == SIGINT ? "SIGINT" : "SIGTERM") << ", shutting down"
-            << std::endl;
+  log::Notice(std::string(signal_number == SIGINT ? "SIGINT" : "SIGTERM") + ", shutting down");
   notifier.Stopping();
   p.http->Stop();
   if (p.capture) p.capture->Stop();
   notifier.Status("finishing the running job");
   p.scheduler->Shutdown();
   notifier.StopWatchdog();
-  std::cerr << "dfsmd: stopped (" << p.scheduler->Depth() << " queued jobs kept for the next start)"
-            << std::endl;
+  log::Notice("stopped (" + std::to_string(p.scheduler->Depth()) +
+              " queued jobs kept for the next start)");
   return 0;
 }
 

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "daemon/log/log.h"
+
 namespace dfsm::capture {
 
 namespace {
@@ -55,6 +57,10 @@ bool StreamingCaptureService::OpenSource() {
     source_->Open();
   } catch (const SourceError& e) {
     std::lock_guard<std::mutex> lock(status_mutex_);
+    // Once per outage, not at every retry of the backoff loop.
+    if (!open_failed_ || status_.last_error != e.what())
+      log::Warning(std::string("capture: cannot open ") + config_.source + ": " + e.what() +
+                   "; retrying every " + std::to_string(config_.reconnect_backoff.count()) + " ms");
     status_.last_error = e.what();
     gone_ = e.kind() == SourceError::Kind::kGone;
     open_failed_ = true;
@@ -71,7 +77,16 @@ bool StreamingCaptureService::OpenSource() {
   status_.width = description.width;
   status_.height = description.height;
   status_.fps = description.fps;
-  if (ever_opened_) ++status_.reconnects;
+  if (ever_opened_) {
+    ++status_.reconnects;
+    log::Notice("capture: reopened " + description.device + " (" + description.format + " " +
+                std::to_string(description.width) + "x" + std::to_string(description.height) +
+                "; reconnect " + std::to_string(status_.reconnects) + ")");
+  } else {
+    log::Info("capture: opened " + description.device + " (" + description.driver + ", " +
+              description.format + " " + std::to_string(description.width) + "x" +
+              std::to_string(description.height) + ")");
+  }
   ever_opened_ = true;
   gone_ = false;
   open_failed_ = false;
@@ -79,6 +94,8 @@ bool StreamingCaptureService::OpenSource() {
 }
 
 void StreamingCaptureService::LoseSource(const std::string& error, bool gone) {
+  log::Write(gone ? log::Priority::kError : log::Priority::kWarning,
+             std::string("capture: ") + (gone ? "device gone: " : "lost the stream: ") + error);
   source_->Close();
   holding_ = false;
   streaming_ = false;

@@ -3,6 +3,7 @@
 #include <iostream>
 
 #include "core/pipeline/pipeline.h"
+#include "daemon/log/log.h"
 
 namespace dfsm::service {
 namespace {
@@ -96,6 +97,11 @@ void JobProcessor::Finish(Job* job, bool ok, const std::string& error) {
     job->bytes = JobStore::DirectoryBytes(store_->BurstDir(job->id)) +
                  JobStore::DirectoryBytes(store_->OutputDir(job->id));
     store_->Update(*job);
+    if (ok) {
+      log::Info("job " + job->id + " succeeded");
+    } else {
+      log::Warning("job " + job->id + " failed: " + error);
+    }
     metrics_->JobFinished(ok);
     for (const auto& [stage, ms] : job->timings_ms) metrics_->StageDuration(stage, ms / 1000.0);
     if (job->started_ms > 0) {
@@ -106,7 +112,7 @@ void JobProcessor::Finish(Job* job, bool ok, const std::string& error) {
   } catch (const std::exception& e) {
     // The record could not be written (disk full?): the job stays as it was on
     // disk and is retried at the next start.
-    std::cerr << "dfsmd: job " << job->id << ": cannot record the outcome: " << e.what() << "\n";
+    log::Error("job " + job->id + ": cannot record the outcome: " + e.what());
   }
 }
 

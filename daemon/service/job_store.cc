@@ -6,6 +6,7 @@
 #include <random>
 
 #include "core/io/file_util.h"
+#include "daemon/log/log.h"
 #include "daemon/service/retention.h"
 
 namespace dfsm::service {
@@ -49,8 +50,8 @@ JobStore::JobStore(fs::path state_dir) : state_dir_(std::move(state_dir)) {
       jobs_.emplace(job.id, job);
     } catch (const std::exception& e) {
       const fs::path aside = state_dir_ / "damaged" / name;
-      std::cerr << "dfsmd: job directory '" << entry.path().string() << "' is damaged (" << e.what()
-                << "); moved to " << aside.string() << "\n";
+      log::Error("job directory '" + entry.path().string() + "' is damaged (" + e.what() +
+                 "); moved to " + aside.string());
       fs::create_directories(aside.parent_path(), error);
       fs::rename(entry.path(), aside, error);
     }

@@ -4,6 +4,8 @@
 
 #include <iostream>
 
+#include "daemon/log/log.h"
+
 namespace dfsm::service {
 
 SystemdNotifier::SystemdNotifier() {
@@ -37,9 +39,9 @@ void SystemdNotifier::StartWatchdog(std::function<std::string()> problem) {
       if (ok) sd_notify(0, "WATCHDOG=1");
       if (ok != was_healthy) {
         if (ok) {
-          std::cerr << "dfsmd: healthy again, watchdog pings resume\n";
+          log::Notice("healthy again, watchdog pings resume");
         } else {
-          std::cerr << "dfsmd: " << found << ", watchdog pings stop\n";
+          log::Error(found + ", watchdog pings stop");
         }
         was_healthy = ok;
       }
