@@ -1,5 +1,9 @@
 #include "api/bearer_auth.h"
 
+#include <openssl/crypto.h>
+#include <openssl/evp.h>
+
+#include <array>
 #include <cctype>
 #include <memory>
 
@@ -22,16 +26,18 @@ bool EqualsIgnoringCase(std::string_view a, std::string_view b) {
 }  // namespace
 
 bool ConstantTimeEquals(std::string_view presented, std::string_view expected) {
-  // Every byte of `presented` is compared (against `expected` repeated), and
-  // the differences are OR-ed together; volatile keeps the compiler from
-  // turning the loop back into an early-exit comparison.
-  volatile unsigned char difference = presented.size() == expected.size() ? 0 : 1;
-  for (size_t i = 0; i < presented.size(); ++i) {
-    const unsigned char other =
-        expected.empty() ? 0 : static_cast<unsigned char>(expected[i % expected.size()]);
-    difference = difference | (static_cast<unsigned char>(presented[i]) ^ other);
-  }
-  return difference == 0;
+  // Both sides hashed to 32 bytes, compared by OpenSSL's constant-time
+  // CRYPTO_memcmp: the time depends on the length of `presented` only (the
+  // hashing), never on where or whether the values differ.
+  const auto digest = [](std::string_view text) {
+    std::array<unsigned char, EVP_MAX_MD_SIZE> out{};
+    unsigned int size = 0;
+    EVP_Digest(text.data(), text.size(), out.data(), &size, EVP_sha256(), nullptr);
+    return out;
+  };
+  const auto a = digest(presented);
+  const auto b = digest(expected);
+  return CRYPTO_memcmp(a.data(), b.data(), 32) == 0;
 }
 
 bool BearerAuth::IsPublic(const std::string& method, const std::string& path) {

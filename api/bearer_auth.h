@@ -21,8 +21,9 @@
 namespace dfsm::api {
 
 // Whether the two strings are equal, in a time that depends on the length of
-// `presented` only: no early exit at the first differing byte, so response
-// times reveal nothing of `expected`.
+// `presented` only (SHA-256 of both, compared with CRYPTO_memcmp): no early
+// exit at the first differing byte, so response times reveal nothing of
+// `expected`.
 bool ConstantTimeEquals(std::string_view presented, std::string_view expected);
 
 class BearerAuth {

@@ -16,11 +16,14 @@ checker="$(realpath "$2")"
 out="$(realpath -m "$3")"
 # The VM mounts a tmpfs of its own over /tmp (the host root it sees is
 # read-only), so a build tree under the host's /tmp is invisible inside it.
-case "$out" in /tmp/*)
-  echo "run_vivid_suite: SKIP: the build tree $out lies under /tmp, which the VM cannot see;" \
-    "build outside /tmp to run the VM tests" >&2
-  exit 77 ;;
-esac
+for path in "$here" "$capture" "$out"; do
+  case "$path" in /tmp/*)
+    echo "run_vivid_suite: SKIP: $path lies under /tmp, which the VM cannot see (it mounts a" \
+      "tmpfs of its own there); put the project and its build tree outside /tmp to run the VM" \
+      "tests" >&2
+    exit 77 ;;
+  esac
+done
 rm -rf "$out"
 mkdir -p "$out"
 # libcamera's scenario needs vimc, built out of tree for the VM's kernel.
