@@ -416,10 +416,9 @@ void GetWwwFile(const std::string& path, httplib::Response& response) {
 // Server-Sent Events of job changes (the page's live job list): one
 // "event: job" per job that appears or changes status, stage or progress, and
 // {"id", "deleted": true} for one that goes. A stream holds a bulk worker, so
-// at most kMaxEventClients stream at once and each ends after kEventStreamSeconds
-// (EventSource reconnects by itself).
+// at most kMaxEventClients stream at once and each ends after
+// server.event_stream_s (EventSource reconnects by itself).
 constexpr int kMaxEventClients = 4;
-constexpr int kEventStreamSeconds = 60;
 std::atomic<int> event_clients{0};
 
 void StreamJobEvents(const ApiContext& context, httplib::Response& response) {
@@ -437,7 +436,8 @@ void StreamJobEvents(const ApiContext& context, httplib::Response& response) {
     bool first = true;
   };
   auto seen = std::make_shared<Seen>();
-  seen->end = std::chrono::steady_clock::now() + std::chrono::seconds(kEventStreamSeconds);
+  seen->end = std::chrono::steady_clock::now() +
+              std::chrono::seconds(context.config->server.event_stream_s);
   response.set_header("Cache-Control", "no-cache");
   response.set_chunked_content_provider(
       "text/event-stream",

@@ -24,6 +24,8 @@ service::DaemonConfig FuzzConfig(const fs::path& state_dir) {
   config.server.max_body_bytes = 256 << 10;
   config.server.cors_origin = "https://viewer.example";  // CORS routes on
   config.server.token = kFuzzToken;                      // bearer auth on
+  config.server.event_stream_s = 1;      // an input that opens the event stream ends in 1 s
+  config.server.head_timeout_ms = 1000;  // a partial head ends in 1 s (the socket harness)
   config.capture.source = "replay:" + (state_dir / "replay").string();
   config.capture.fps = 250;  // a "next" burst of 4 frames arrives in 16 ms
   config.capture.ring_frames = 16;
@@ -103,6 +105,14 @@ FuzzDaemon::FuzzDaemon() {
 }
 
 FuzzDaemon::~FuzzDaemon() = default;
+
+int FuzzDaemon::Listen() {
+  if (port_ == 0) {
+    port_ = parts_->http->Bind();
+    parts_->http->Start();
+  }
+  return port_;
+}
 
 std::string FuzzDaemon::MakeFixture(int index) {
   const fs::path burst = parts_->store->NewStagingDir() / "burst";

@@ -35,6 +35,9 @@ class FuzzDaemon {
   }
   const std::string& fixture(int index) const { return fixtures_.at(index); }
 
+  // Binds the API to a free loopback port and serves (once); returns the port.
+  int Listen();
+
   // Deletes every job an input made and makes again the fixtures it deleted.
   void Restore();
 
@@ -43,6 +46,7 @@ class FuzzDaemon {
 
   StateDir dir_{"http"};
   std::unique_ptr<daemon::Parts> parts_;
+  int port_ = 0;
   std::array<std::string, kFixtures> fixtures_;
 };
 

@@ -24,6 +24,7 @@
 #include "api/request_head.h"
 #include "fuzz/fuzz_check.h"
 #include "fuzz/fuzz_daemon.h"
+#include "fuzz/http_check.h"
 
 namespace {
 
@@ -73,53 +74,13 @@ struct ServerAccess : httplib::Server {
   static constexpr auto kProcessRequest = &ServerAccess::process_request;
 };
 
-// "{J0}".."{J9}" -> fixture job ids.
-std::string Substitute(std::string_view input, const dfsm::fuzz::FuzzDaemon& daemon) {
-  std::string out;
-  out.reserve(input.size() + 64);
-  for (size_t i = 0; i < input.size(); ++i) {
-    if (i + 3 < input.size() && input[i] == '{' && input[i + 1] == 'J' && input[i + 3] == '}' &&
-        input[i + 2] >= '0' && input[i + 2] < '0' + dfsm::fuzz::FuzzDaemon::kFixtures) {
-      out += daemon.fixture(input[i + 2] - '0');
-      i += 3;
-    } else {
-      out += input[i];
-    }
-  }
-  return out;
-}
-
-// Checks one response: its final status line (after any "100 Continue") and,
-// for errors, the problem+json content type.
-void CheckResponse(const std::string& response) {
-  if (response.empty()) return;  // nothing parseable arrived: the connection is just closed
-  size_t start = 0;
-  int status = 0;
-  for (;;) {
-    FUZZ_CHECK(response.compare(start, 9, "HTTP/1.1 ") == 0 && response.size() >= start + 12,
-               "no status line in: " + response.substr(start, 200));
-    status = std::stoi(response.substr(start + 9, 3));
-    if (status != 100) break;
-    const size_t end = response.find("\r\n\r\n", start);
-    FUZZ_CHECK(end != std::string::npos, "unterminated 100 Continue");
-    start = end + 4;
-  }
-  const size_t headers_end = response.find("\r\n\r\n", start);
-  const std::string headers = response.substr(start, headers_end - start);
-  FUZZ_CHECK(status != 500, "an exception escaped a handler:\n" + response.substr(start, 2000));
-  if (status >= 400) {
-    FUZZ_CHECK(headers.find("\r\nContent-Type: application/problem+json") != std::string::npos,
-               "an error without problem+json:\n" + response.substr(start, 2000));
-  }
-}
-
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   static dfsm::fuzz::FuzzDaemon daemon;
   daemon.Restore();
-  const std::string input =
-      Substitute(std::string_view(reinterpret_cast<const char*>(data), size), daemon);
+  const std::string input = dfsm::fuzz::SubstituteFixtures(
+      std::string_view(reinterpret_cast<const char*>(data), size), daemon);
   BufferStream stream(input);
   httplib::Server* server = daemon.server();
   // Up to 4 requests on one keep-alive connection, as a client may pipeline
@@ -141,7 +102,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     }
     dfsm::api::Lane lane;
     if (const std::optional<std::string> refusal = daemon.http().Judge(head, &lane)) {
-      CheckResponse(*refusal);
+      dfsm::fuzz::CheckResponse(*refusal);
       break;
     }
     bool connection_closed = false;
@@ -152,7 +113,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     // DFSM_FUZZ_TRACE=1: the status line of every answer, to see what seeds reach.
     static const bool trace = std::getenv("DFSM_FUZZ_TRACE") != nullptr;
     if (trace) std::fprintf(stderr, "-> %s\n", response.substr(0, response.find('\r')).c_str());
-    CheckResponse(response);
+    dfsm::fuzz::CheckResponse(response);
     if (!ok || connection_closed) break;
   }
   return 0;

@@ -47,6 +47,8 @@ const std::vector<Key>& Keys() {
                "time for a request's line and headers to arrive (else 408)"),
       DFSM_KEY("server.max_head_bytes", KeyType::kInt, server.max_head_bytes,
                "largest request line and headers, bytes (else 431)"),
+      DFSM_KEY("server.event_stream_s", KeyType::kInt, server.event_stream_s,
+               "seconds a GET /api/v1/events stream lasts before the client reconnects"),
       DFSM_KEY("server.allowed_hosts", KeyType::kString, server.allowed_hosts,
                "Host names accepted, comma-separated (empty: localhost, host name, listen; "
                "IP addresses always; *: any)"),
@@ -246,6 +248,7 @@ void Validate(const DaemonConfig& c) {
   RequireRange("server.max_body_bytes", c.server.max_body_bytes, 1024, 16LL << 30);
   RequireRange("server.max_connections", c.server.max_connections, 8, 65536);
   RequireRange("server.head_timeout_ms", c.server.head_timeout_ms, 100, 600000);
+  RequireRange("server.event_stream_s", c.server.event_stream_s, 1, 3600);
   RequireRange("server.max_head_bytes", c.server.max_head_bytes, 1024, 1 << 20);
   if (c.server.allowed_hosts.find_first_of("\r\n") != std::string::npos) {
     throw KeyError("server.allowed_hosts", "must not contain line breaks");

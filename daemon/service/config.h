@@ -40,6 +40,9 @@ struct ServerConfig {
   // this machine's name and the listen address. IP addresses are always
   // accepted; "*" accepts any name (api/request_guard.h, DNS rebinding).
   std::string allowed_hosts;
+  // A GET /api/v1/events stream ends after this long (the client reconnects):
+  // each stream holds a worker.
+  int event_stream_s = 60;
   std::string cors_origin;  // empty: no CORS headers at all
   // Bearer token (access_token.h): read from this file, else from the systemd
   // credential of this name; required unless `listen` is a loopback address.

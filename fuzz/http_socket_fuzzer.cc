@@ -1,0 +1,88 @@
+// Fuzzes dfsmd's whole request path through a real socket: raw bytes, framing
+// included, go to the listening port of the daemon's real parts (fuzz_daemon.h)
+// and pass everything a client meets: httplib's accept, the connection gate
+// (head limits, the strict head parser, the request guard), the worker lanes,
+// httplib's request processing and the routes. "{J0}".."{J3}" stand for the
+// fixture jobs' ids, as in http_fuzzer.cc (which runs the same path in process,
+// much faster, without the socket and the gate's threads).
+//
+// What must hold: no crash; the connection ends within a few seconds of the
+// client's half-close (nothing hangs); every answer is a well-formed status
+// line, no 500, errors as problem+json; /healthz still answers afterwards.
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <string>
+
+#include "fuzz/fuzz_check.h"
+#include "fuzz/fuzz_daemon.h"
+#include "fuzz/http_check.h"
+
+namespace {
+
+int Connect(int port) {
+  const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_port = htons(static_cast<uint16_t>(port));
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  FUZZ_CHECK(::connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof(address)) == 0,
+             "dfsmd does not accept connections");
+  return fd;
+}
+
+// Sends `bytes`, half-closes, and reads until the server closes. Returns
+// false when it is still open after `limit` (a hung connection).
+bool Exchange(int port, const std::string& bytes, std::string* answer,
+              std::chrono::milliseconds limit) {
+  const int fd = Connect(port);
+  for (size_t sent = 0; sent < bytes.size();) {
+    const ssize_t n = ::send(fd, bytes.data() + sent, bytes.size() - sent, MSG_NOSIGNAL);
+    if (n <= 0) break;  // the server refused early and closed: fine
+    sent += static_cast<size_t>(n);
+  }
+  ::shutdown(fd, SHUT_WR);
+  const auto end = std::chrono::steady_clock::now() + limit;
+  bool closed = false;
+  char buffer[16384];
+  while (std::chrono::steady_clock::now() < end) {
+    pollfd p{fd, POLLIN, 0};
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
+        end - std::chrono::steady_clock::now());
+    if (::poll(&p, 1, static_cast<int>(std::max<int64_t>(1, left.count()))) <= 0) continue;
+    const ssize_t n = ::recv(fd, buffer, sizeof(buffer), 0);
+    if (n <= 0) {
+      closed = true;
+      break;
+    }
+    if (answer->size() < (1 << 20)) answer->append(buffer, static_cast<size_t>(n));
+  }
+  ::close(fd);
+  return closed;
+}
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  static dfsm::fuzz::FuzzDaemon daemon;
+  static const int port = daemon.Listen();
+  daemon.Restore();
+  const std::string input = dfsm::fuzz::SubstituteFixtures(
+      std::string_view(reinterpret_cast<const char*>(data), size), daemon);
+  std::string answer;
+  // The head timeout of the fuzz configuration bounds a partial head; the
+  // event stream lasts 1 s there: a connection must end well within 5 s.
+  FUZZ_CHECK(Exchange(port, input, &answer, std::chrono::seconds(5)),
+             "the connection did not end within 5 s of the client's half-close");
+  dfsm::fuzz::CheckResponses(answer);
+  std::string health;
+  FUZZ_CHECK(Exchange(port, "GET /healthz HTTP/1.1\r\nHost: localhost\r\nConnection: close\r\n\r\n",
+                      &health, std::chrono::seconds(5)) &&
+                 health.rfind("HTTP/1.1 200", 0) == 0,
+             "/healthz does not answer after the input: " + health.substr(0, 200));
+  return 0;
+}
