@@ -29,6 +29,7 @@ using service::JobStatus;
 constexpr const char* kJobFiles[][2] = {
     {"result.json", "application/json"},
     {"depth.tiff", "image/tiff"},
+    {"depth_filled.tiff", "image/tiff"},
     {"depth.png", "image/png"},
     {"preview.png", "image/png"},
     {"confidence.png", "image/png"},
@@ -216,10 +217,12 @@ void GetJobFile(const ApiContext& context, const httplib::Request& request,
   const std::string file = request.matches[2];
   const char* content_type = JobFileContentType(file);
   if (!content_type) {
-    return SetProblem(response, 404, "unknown-file", "No such job file",
-                      "'" + file + "' is not a job file (result.json, depth.tiff, depth.png, " +
-                          "preview.png, confidence.png, points.ply, sparse_points.ply, " +
-                          "calibration.json, calibration.yaml, burst.tar)");
+    return SetProblem(
+        response, 404, "unknown-file", "No such job file",
+        "'" + file +
+            "' is not a job file (result.json, depth.tiff, depth_filled.tiff, depth.png, " +
+            "preview.png, confidence.png, points.ply, sparse_points.ply, " +
+            "calibration.json, calibration.yaml, burst.tar)");
   }
   const std::optional<Job> job = context.store->Get(id);
   if (!job) return NoSuchJob(response, id);

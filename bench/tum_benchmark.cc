@@ -103,7 +103,7 @@ int main(int argc, char** argv) {
   struct Row {
     int first;
     std::string mode;
-    DepthEvaluation score, constant;
+    DepthEvaluation score, constant, filled;
     double f = 0.0;
     std::string quality;
     double disagreement = 0.0;  // the depth check's median, without ground truth
@@ -124,10 +124,12 @@ int main(int argc, char** argv) {
         options.sparse.known = fixed;
       }
       const PipelineOutput output = RunPipeline(burst, options);
-      Row row{first, mode, {}, EvaluateDepth(constant, truth, cv::Mat()), 0.0, ""};
+      Row row{first, mode, {}, EvaluateDepth(constant, truth, cv::Mat()), {}, 0.0, ""};
       nlohmann::json line = {{"first", first}, {"frames", frames}, {"mode", mode}};
       if (output.result.ok && output.dense) {
         row.score = EvaluateDepth(output.dense->depth, truth, cv::Mat());
+        if (!output.dense->depth_filled.empty())
+          row.filled = EvaluateDepth(output.dense->depth_filled, truth, cv::Mat());
         row.f = output.result.calibration.f;
         row.quality = output.result.calibration_detail.value("quality", "");
         const nlohmann::json check = output.result.extra.value("depth_check", nlohmann::json());
@@ -138,7 +140,8 @@ int main(int argc, char** argv) {
         line.update({{"depth", ToJson(row.score)},
                      {"f", row.f},
                      {"quality", row.quality},
-                     {"constant", ToJson(row.constant)}});
+                     {"constant", ToJson(row.constant)},
+                     {"filled", ToJson(row.filled)}});
       } else {
         line["error"] = output.result.error;
       }
@@ -149,23 +152,29 @@ int main(int argc, char** argv) {
   }
   std::printf(
       "\n| window | mode | f (px) | verdict | AbsRel | within 5 %% | within 25 %% | coverage | "
-      "constant AbsRel | depth check |\n|---|---|---|---|---|---|---|---|---|---|\n");
+      "filled: AbsRel | filled: coverage | constant AbsRel | depth check |\n"
+      "|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const Row& r : rows)
     std::printf(
-        "| %d-%d | %s | %.0f | %s | %.1f %% | %.1f %% | %.1f %% | %.1f %% | %.1f %% | %s (%.1f %%) "
-        "|\n",
+        "| %d-%d | %s | %.0f | %s | %.1f %% | %.1f %% | %.1f %% | %.1f %% | %.1f %% | %.1f %% | "
+        "%.1f %% | %s (%.1f %%) |\n",
         r.first, r.first + frames - 1, r.mode.c_str(), r.f, r.quality.c_str(),
         100.0 * r.score.abs_rel, 100.0 * r.score.within_5_percent,
-        100.0 * r.score.within_25_percent, 100.0 * r.score.coverage, 100.0 * r.constant.abs_rel,
-        r.confirmed ? "confirmed" : "warned", 100.0 * r.disagreement);
+        100.0 * r.score.within_25_percent, 100.0 * r.score.coverage, 100.0 * r.filled.abs_rel,
+        100.0 * r.filled.coverage, 100.0 * r.constant.abs_rel, r.confirmed ? "confirmed" : "warned",
+        100.0 * r.disagreement);
   for (const std::string mode : {"known", "self"}) {
-    std::vector<double> abs_rel;
+    std::vector<double> abs_rel, filled;
     for (const Row& r : rows)
-      if (r.mode == mode) abs_rel.push_back(r.score.abs_rel);
+      if (r.mode == mode) {
+        abs_rel.push_back(r.score.abs_rel);
+        filled.push_back(r.filled.abs_rel);
+      }
     std::sort(abs_rel.begin(), abs_rel.end());
+    std::sort(filled.begin(), filled.end());
     if (!abs_rel.empty())
-      std::printf("median AbsRel, %s: %.1f %%\n", mode.c_str(),
-                  100.0 * abs_rel[abs_rel.size() / 2]);
+      std::printf("median AbsRel, %s: %.1f %% (filled: %.1f %%)\n", mode.c_str(),
+                  100.0 * abs_rel[abs_rel.size() / 2], 100.0 * filled[filled.size() / 2]);
   }
   return 0;
 }

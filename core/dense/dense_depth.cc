@@ -305,6 +305,31 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
   });
   result.valid_fraction = static_cast<double>(cv::countNonZero(result.depth)) / plane.total();
   timer.Lap("refine");
+
+  if (options.fill_holes && result.valid_fraction < 1.0) {
+    cv::Mat guide;
+    burst.gray[burst.reference()].convertTo(guide, CV_32F, 1.0 / 255.0);
+    // Measured pixels are those with a depth (the discontinuity bands too are holes).
+    cv::Mat measured = weight.clone();
+    measured.setTo(0.0f, result.depth <= 0.0f);
+    const cv::Mat filled = CompleteByPushPull(plane, measured, guide, options.completion);
+    if (!filled.empty()) {
+      result.depth_filled = result.depth.clone();
+      const float last = static_cast<float>(lattice.planes - 1);
+      ParallelRows(filled.rows, [&](int y) {
+        const float* p = filled.ptr<float>(y);
+        float* d = result.depth_filled.ptr<float>(y);
+        for (int x = 0; x < filled.cols; ++x) {
+          if (d[x] > 0.0f) continue;
+          const double w = lattice.At(std::clamp(p[x], 0.0f, last));
+          if (w > 0.0) d[x] = static_cast<float>(1.0 / w);
+        }
+      });
+    }
+    timer.Lap("fill");
+  } else if (options.fill_holes) {
+    result.depth_filled = result.depth;
+  }
   return result;
 }
 

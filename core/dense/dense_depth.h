@@ -8,6 +8,7 @@
 
 #include "core/camera/camera_model.h"
 #include "core/camera/pose.h"
+#include "core/dense/depth_completion.h"
 #include "core/io/burst.h"
 
 namespace dfsm {
@@ -81,11 +82,18 @@ struct DenseOptions {
   double discontinuity_parallax = 0.6;
   // ... and more than this fraction of the larger inverse depth.
   double discontinuity_relative = 0.2;
+  // DenseDepth::depth_filled: every pixel, the holes filled from their
+  // measured surroundings (depth_completion.h). false: not computed.
+  bool fill_holes = true;
+  DepthCompletionOptions completion;
 };
 
 struct DenseDepth {
   cv::Mat depth;       // CV_32FC1 on the reference frame's captured (distorted) grid; 0 = none
   cv::Mat confidence;  // CV_32FC1 in [0, 1] on the same grid
+  // `depth` with every hole filled (fill_holes); empty when off or when there
+  // was no measurement to fill from. Where depth > 0 the two are equal.
+  cv::Mat depth_filled;
   double min_inverse_depth = 0.0;  // the swept range
   double max_inverse_depth = 0.0;
   int planes = 0;

@@ -6,6 +6,7 @@
 #include "core/export/calibration_export.h"
 #include "core/export/depth_export.h"
 #include "core/export/ply.h"
+#include "core/io/depth_tiff.h"
 #include "core/io/exif_focal.h"
 #include "core/pipeline/depth_check.h"
 
@@ -164,6 +165,17 @@ void WritePipelineOutputs(const std::filesystem::path& out_dir, const Burst& bur
       const DenseDepth& dense = *output->dense;
       output->result.extra["depth_outputs"] = WriteDepthOutputs(
           out_dir, dense.depth, dense.confidence, burst.reference_color, sparse.state.camera);
+      if (!dense.depth_filled.empty()) {
+        // Every pixel: the holes of depth.tiff filled from their measured
+        // surroundings (core/dense/depth_completion.h); confidence.png tells
+        // measured from filled.
+        WriteDepthTiff(out_dir / "depth_filled.tiff", dense.depth_filled);
+        output->result.extra["depth_filled"] = {
+            {"file", "depth_filled.tiff"},
+            {"measured_fraction", dense.valid_fraction},
+            {"valid_fraction", static_cast<double>(cv::countNonZero(dense.depth_filled > 0.0f)) /
+                                   static_cast<double>(dense.depth_filled.total())}};
+      }
     }
     output->result.extra["write_ms"] = MillisecondsSince(start);
   }

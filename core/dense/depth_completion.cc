@@ -1,0 +1,77 @@
+#include "core/dense/depth_completion.h"
+
+#include <opencv2/imgproc.hpp>
+#include <stdexcept>
+#include <vector>
+
+#include "core/dense/guided_filter.h"
+
+namespace dfsm {
+namespace {
+
+// The 2x2 sums of a level (odd sizes: the last row/column sums what exists).
+cv::Mat SumDown(const cv::Mat& level) {
+  cv::Mat padded;
+  cv::copyMakeBorder(level, padded, 0, level.rows % 2, 0, level.cols % 2, cv::BORDER_CONSTANT, 0);
+  cv::Mat sum;
+  cv::resize(padded, sum, cv::Size(padded.cols / 2, padded.rows / 2), 0, 0, cv::INTER_AREA);
+  return sum * 4.0f;  // INTER_AREA averages: the pyramid carries sums
+}
+
+}  // namespace
+
+void DepthCompletionOptions::Check() const {
+  if (guided_radius < 0) throw std::invalid_argument("guided_radius must be >= 0");
+  if (!(guided_eps > 0.0f)) throw std::invalid_argument("guided_eps must be > 0");
+  if (!(filled_weight > 0.0f && filled_weight <= 1.0f))
+    throw std::invalid_argument("filled_weight must be in (0, 1]");
+}
+
+cv::Mat CompleteByPushPull(const cv::Mat& values, const cv::Mat& weight, const cv::Mat& guide,
+                           const DepthCompletionOptions& options) {
+  options.Check();
+  CV_Assert(values.type() == CV_32FC1 && weight.type() == CV_32FC1 && guide.type() == CV_32FC1);
+  CV_Assert(values.size() == weight.size() && values.size() == guide.size());
+  cv::Mat w0;
+  cv::max(weight, 0.0f, w0);
+  if (cv::countNonZero(w0) == 0) return {};
+
+  // Push: levels of (sum of value x weight, sum of weight) until no hole.
+  std::vector<cv::Mat> value_weight{values.mul(w0)}, weights{w0};
+  while (weights.back().rows > 1 || weights.back().cols > 1) {
+    if (cv::countNonZero(weights.back()) == static_cast<int>(weights.back().total())) break;
+    value_weight.push_back(SumDown(value_weight.back()));
+    weights.push_back(SumDown(weights.back()));
+  }
+  // Pull: from the coarsest level down, own mean where the weight is whole,
+  // blended with the coarser level where it is partial or zero.
+  cv::Mat filled;
+  for (int level = static_cast<int>(weights.size()) - 1; level >= 0; --level) {
+    const cv::Mat& w = weights[level];
+    cv::Mat mean;
+    cv::divide(value_weight[level], cv::max(w, 1e-12f), mean);
+    if (filled.empty()) {
+      filled = mean;
+      continue;
+    }
+    cv::Mat up;
+    cv::resize(filled, up, w.size(), 0, 0, cv::INTER_LINEAR);
+    cv::Mat alpha;
+    cv::min(w, 1.0f, alpha);
+    filled = alpha.mul(mean) + (1.0f - alpha).mul(up);
+  }
+
+  // The guided pass: measurements steer, the fill follows the image's edges.
+  if (options.guided_radius > 0) {
+    cv::Mat pass_weight = w0.clone();
+    pass_weight.setTo(options.filled_weight, w0 <= 0.0f);
+    const cv::Mat smoothed =
+        WeightedGuidedFilter(guide, filled, pass_weight, options.guided_radius, options.guided_eps,
+                             nullptr, guide.cols > 1000 ? 2 : 1);
+    smoothed.copyTo(filled, w0 <= 0.0f);
+  }
+  values.copyTo(filled, w0 > 0.0f);  // measured pixels exactly as they were
+  return filled;
+}
+
+}  // namespace dfsm
