@@ -5,10 +5,12 @@
 //   dfsm-capture --source v4l2:/dev/video0 --fps 30 --duration 5 --burst 10 --out /tmp/b
 #include <sys/resource.h>
 
+#include <CLI/CLI.hpp>
 #include <chrono>
 #include <cstdlib>
 #include <fstream>
 #include <iostream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
@@ -24,16 +26,6 @@ using dfsm::capture::CaptureConfig;
 using dfsm::capture::CaptureService;
 using dfsm::capture::CaptureStatus;
 using Clock = std::chrono::steady_clock;
-
-constexpr const char* kUsage =
-    "usage: dfsm-capture --source URI [--width W --height H] [--fps F] [--format FOURCC]\n"
-    "                    [--ring N] [--buffers N] [--frame-timeout-ms T] [--backoff-ms T]\n"
-    "                    [--duration S] [--until-reconnected S]\n"
-    "                    [--burst N [--when last|next] [--timeout-ms T] [--out DIR]]\n"
-    "                    [--report FILE] [--ready-file FILE]\n"
-    "Streams for --duration seconds (and, with --until-reconnected, until the source\n"
-    "has been lost and found again), then optionally grabs a burst and writes it as\n"
-    "dfsm-burst/1, and prints (or writes) a JSON report.\n";
 
 double CpuSeconds() {
   rusage usage{};
@@ -53,70 +45,71 @@ struct Arguments {
   std::string ready_file;  // created once the first frame has arrived
 };
 
-Arguments Parse(int argc, char** argv) {
-  Arguments a;
-  for (int i = 1; i < argc; ++i) {
-    const std::string flag = argv[i];
-    if (flag == "--gray") {
-      a.config.keep_color = false;
-      continue;
-    }
-    if (flag == "--help" || flag == "-h") {
-      std::cout << kUsage;
-      std::exit(0);
-    }
-    if (i + 1 >= argc) throw std::invalid_argument(flag + " needs a value");
-    const std::string value = argv[++i];
-    if (flag == "--source")
-      a.config.source = value;
-    else if (flag == "--width")
-      a.config.width = std::stoi(value);
-    else if (flag == "--height")
-      a.config.height = std::stoi(value);
-    else if (flag == "--fps")
-      a.config.fps = std::stod(value);
-    else if (flag == "--format")
-      a.config.pixel_format = value;
-    else if (flag == "--ring")
-      a.config.ring_frames = std::stoi(value);
-    else if (flag == "--buffers")
-      a.config.device_buffers = std::stoi(value);
-    else if (flag == "--frame-timeout-ms")
-      a.config.frame_timeout = std::chrono::milliseconds(std::stoi(value));
-    else if (flag == "--backoff-ms")
-      a.config.reconnect_backoff = std::chrono::milliseconds(std::stoi(value));
-    else if (flag == "--duration")
-      a.duration_s = std::stod(value);
-    else if (flag == "--until-reconnected")
-      a.until_reconnected_s = std::stod(value);
-    else if (flag == "--burst")
-      a.burst = std::stoi(value);
-    else if (flag == "--when") {
-      if (value != "last" && value != "next") throw std::invalid_argument("--when is last or next");
-      a.when = value == "last" ? BurstWhen::kLast : BurstWhen::kNext;
-    } else if (flag == "--timeout-ms")
-      a.timeout_ms = std::stoi(value);
-    else if (flag == "--out")
-      a.out = value;
-    else if (flag == "--ready-file")
-      a.ready_file = value;
-    else if (flag == "--report")
-      a.report = value;
-    else
-      throw std::invalid_argument("unknown option " + flag);
-  }
-  return a;
+// The command line through CLI11: numbers are checked whole ("12abc" is an
+// error, not 12), every option has its help, and --help prints them.
+void AddOptions(CLI::App& app, Arguments& a) {
+  app.description(
+      "Streams for --duration seconds (and, with --until-reconnected, until the source has "
+      "been lost and found again), then optionally grabs a burst and writes it as "
+      "dfsm-burst/1, and prints (or writes) a JSON report.");
+  app.add_option("--source", a.config.source,
+                 "v4l2:/dev/videoN | libcamera:<id> | replay:<burst dir> | synthetic:")
+      ->required();
+  app.add_option("--width", a.config.width, "requested width (0: the driver's)")
+      ->check(CLI::Range(0, 16384));
+  app.add_option("--height", a.config.height, "requested height (0: the driver's)")
+      ->check(CLI::Range(0, 16384));
+  app.add_option("--fps", a.config.fps,
+                 "requested frame rate (0: the default; a replay at -1: as fast as read)")
+      ->check(CLI::Range(-1.0, 1000.0));
+  app.add_option("--format", a.config.pixel_format, "V4L2 fourcc preference, e.g. YUYV");
+  app.add_option("--ring", a.config.ring_frames, "ring buffer, frames");
+  app.add_option("--buffers", a.config.device_buffers, "driver buffers / requests in flight");
+  app.add_flag_callback(
+      "--gray", [&a] { a.config.keep_color = false; }, "keep gray frames only");
+  app.add_option_function<int>(
+         "--frame-timeout-ms",
+         [&a](int ms) { a.config.frame_timeout = std::chrono::milliseconds(ms); },
+         "no frame for this long: reopen")
+      ->check(CLI::Range(1, 3600000));
+  app.add_option_function<int>(
+         "--backoff-ms",
+         [&a](int ms) { a.config.reconnect_backoff = std::chrono::milliseconds(ms); },
+         "wait between reopen attempts")
+      ->check(CLI::Range(0, 3600000));
+  app.add_option("--duration", a.duration_s, "seconds to stream, from the first frame")
+      ->check(CLI::Range(0.0, 86400.0));
+  app.add_option("--until-reconnected", a.until_reconnected_s,
+                 "also wait this long for the source to be lost and found again")
+      ->check(CLI::Range(0.0, 86400.0));
+  app.add_option("--burst", a.burst, "frames of a burst to grab at the end (0: none)")
+      ->check(CLI::Range(0, 3600000));
+  app.add_option_function<std::string>(
+         "--when",
+         [&a](const std::string& when) {
+           a.when = when == "last" ? BurstWhen::kLast : BurstWhen::kNext;
+         },
+         "last: frames already in the ring | next: frames to come (default)")
+      ->check(CLI::IsMember({"last", "next"}));
+  app.add_option("--timeout-ms", a.timeout_ms, "longest wait for a 'next' burst")
+      ->check(CLI::Range(1, 3600000));
+  app.add_option("--out", a.out, "write the burst here (dfsm-burst/1)");
+  app.add_option("--report", a.report, "write the JSON report here (default: stdout)");
+  app.add_option("--ready-file", a.ready_file, "created once the first frame has arrived");
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
   Arguments args;
+  CLI::App app("dfsm-capture: one capture service from the command line", "dfsm-capture");
+  AddOptions(app, args);
   try {
-    args = Parse(argc, argv);
-  } catch (const std::exception& e) {
-    std::cerr << "dfsm-capture: " << e.what() << "\n" << kUsage;
-    return 2;
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    // --help exits 0 with the options; a bad command line exits 2 naming it.
+    const int status = app.exit(e);
+    return status == 0 ? 0 : 2;
   }
   nlohmann::json report = {{"ok", false}};
   int exit_code = 1;
