@@ -85,6 +85,28 @@ void Fill(const fs::path& file, int64_t leave) {
   ::close(fd);
 }
 
+// A 24 MiB tmpfs on `dir` for as long as this lives: a state directory that
+// fills up quickly. Mounting needs root or CAP_SYS_ADMIN; why() says so.
+class SmallStateDirectory {
+ public:
+  explicit SmallStateDirectory(const fs::path& dir) : dir_(dir) {
+    mounted_ = ::mount("tmpfs", dir.c_str(), "tmpfs", 0, "size=24m") == 0;
+    if (!mounted_)
+      why_ = "cannot mount a 24 MiB tmpfs on " + dir.string() + " (" + std::strerror(errno) +
+             "): the disk-full tests need root or CAP_SYS_ADMIN";
+  }
+  ~SmallStateDirectory() {
+    if (mounted_) ::umount2(dir_.c_str(), MNT_DETACH);
+  }
+  bool mounted() const { return mounted_; }
+  const std::string& why() const { return why_; }
+
+ private:
+  fs::path dir_;
+  bool mounted_ = false;
+  std::string why_;
+};
+
 int64_t FreeBytes(const fs::path& dir) {
   struct statvfs vfs {};
   ::statvfs(dir.c_str(), &vfs);
@@ -93,14 +115,8 @@ int64_t FreeBytes(const fs::path& dir) {
 
 TEST_F(DfsmdFaultTest, StateDirectoryFullFailsTheJobAndKeepsEarlierResults) {
   const fs::path state = dir_ / "state";
-  if (::mount("tmpfs", state.c_str(), "tmpfs", 0, "size=24m") != 0) {
-    GTEST_SKIP() << "cannot mount a 24 MiB tmpfs on " << state << " (" << std::strerror(errno)
-                 << "): the disk-full test needs root or CAP_SYS_ADMIN";
-  }
-  struct Unmount {
-    fs::path dir;
-    ~Unmount() { ::umount2(dir.c_str(), MNT_DETACH); }
-  } unmount{state};
+  SmallStateDirectory small(state);
+  if (!small.mounted()) GTEST_SKIP() << small.why();
   const fs::path filler = state / "filler";  // beside jobs/ and tmp/: the daemon ignores it
   auto daemon = Start();
   httplib::Client client = daemon->Client();
@@ -161,14 +177,8 @@ TEST_F(DfsmdFaultTest, StateDirectoryFullFailsTheJobAndKeepsEarlierResults) {
 
 TEST_F(DfsmdFaultTest, AFullStateDirectoryAtStartUpDegradesInsteadOfStoppingTheDaemon) {
   const fs::path state = dir_ / "state";
-  if (::mount("tmpfs", state.c_str(), "tmpfs", 0, "size=24m") != 0) {
-    GTEST_SKIP() << "cannot mount a 24 MiB tmpfs on " << state << " (" << std::strerror(errno)
-                 << "): the disk-full test needs root or CAP_SYS_ADMIN";
-  }
-  struct Unmount {
-    fs::path dir;
-    ~Unmount() { ::umount2(dir.c_str(), MNT_DETACH); }
-  } unmount{state};
+  SmallStateDirectory small(state);
+  if (!small.mounted()) GTEST_SKIP() << small.why();
   std::string finished;
   {
     auto daemon = Start();
