@@ -404,8 +404,8 @@ void GetWwwFile(const std::string& path, httplib::Response& response) {
   for (const WwwFile& file : WwwFiles()) {
     if (file.path != path) continue;
     response.set_header("Content-Security-Policy",
-                        "default-src 'self'; img-src 'self' blob: data:; style-src 'self' "
-                        "'unsafe-inline'; connect-src 'self'; frame-ancestors 'none'");
+                        "default-src 'self'; img-src 'self' blob: data:; style-src 'self'; "
+                        "connect-src 'self'; frame-ancestors 'none'");
     response.set_header("X-Content-Type-Options", "nosniff");
     response.set_header("Cache-Control", "no-cache");
     response.set_content(std::string(file.data), WwwContentType(path));
