@@ -9,6 +9,7 @@ packages=(
   libopencv-dev libeigen3-dev libceres-dev libopengv-dev
   nlohmann-json3-dev libcpp-httplib-dev libsystemd-dev
   libexif-dev   # EXIF focal length of uploaded JPEG bursts (core/io/exif_focal)
+  libturbojpeg0-dev   # JPEG frames decoded with their scans bounded (core/io/image_decode)
   libgtest-dev libgmock-dev libbenchmark-dev
   opencv-doc   # real photographs used as textures of the synthetic bursts
 )

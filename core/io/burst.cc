@@ -9,25 +9,29 @@
 #include "core/io/bounded_json.h"
 #include "core/io/exif_focal.h"
 #include "core/io/file_util.h"
+#include "core/io/image_decode.h"
 
 namespace dfsm {
 namespace fs = std::filesystem;
 
 namespace {
 
-// libjpeg decodes a JPEG cut short with only a warning, filling the rest with
-// grey, and OpenCV returns that image: a truncated frame would be processed as
-// if it were whole. A complete JPEG has its end-of-image marker (FF D9) after
-// the last start-of-scan (FF DA); neither pair can occur inside entropy-coded
-// data (an FF there is followed by 00 or a restart marker), and an EXIF
-// thumbnail's FF D9 comes before the image's first scan.
-bool IsTruncatedJpeg(const std::string& bytes) {
-  if (bytes.size() < 4 || static_cast<unsigned char>(bytes[0]) != 0xFF ||
-      static_cast<unsigned char>(bytes[1]) != 0xD8)
-    return false;  // not a JPEG
-  const size_t scan = bytes.rfind("\xFF\xDA");
-  if (scan == std::string::npos) return true;
-  return bytes.find("\xFF\xD9", scan + 2) == std::string::npos;
+// Every frame is decoded within these limits (image_decode.h): its size is
+// checked against the manifest's from the header before, so max_pixels only
+// matters for a manifest beyond it (the daemon's [limits] refuse those when the
+// burst is uploaded).
+const ImageDecodeLimits kFrameLimits;
+
+// The decoder's reason, with "unreadable or not an image" kept for the frames
+// that are no image or a damaged one, as before image_decode existed.
+std::string DescribeDecodeError(const ImageDecodeError& e) {
+  switch (e.reason()) {
+    case ImageDecodeError::Reason::kNotAnImage:
+    case ImageDecodeError::Reason::kCorrupt:
+      return std::string("unreadable or not an image (") + e.what() + ")";
+    default:
+      return e.what();
+  }
 }
 
 int RequirePositiveInt(const nlohmann::json& j, const char* key, const std::string& origin) {
@@ -208,16 +212,19 @@ Burst ReadBurst(const fs::path& burst_dir, const ReadBurstOptions& options) {
       throw BurstError(where + ": " + e.what());
     }
     if (bytes.empty()) throw BurstError(where + ": empty file");
-    if (IsTruncatedJpeg(bytes))
-      throw BurstError(where + ": truncated JPEG (" + std::to_string(bytes.size()) +
-                       " bytes, no end-of-image marker after the last scan)");
-    const cv::Mat frame = cv::imdecode(
-        cv::Mat(1, static_cast<int>(bytes.size()), CV_8UC1, bytes.data()), cv::IMREAD_UNCHANGED);
-    if (frame.empty()) throw BurstError(where + ": unreadable or not an image");
-    if (frame.cols != manifest.width || frame.rows != manifest.height)
-      throw BurstError(where + ": frame is " + std::to_string(frame.cols) + "x" +
-                       std::to_string(frame.rows) + ", the manifest says " +
-                       std::to_string(manifest.width) + "x" + std::to_string(manifest.height));
+    // The size comes from the header first: a frame that does not match the
+    // manifest is refused before any pixel of it is decoded.
+    cv::Mat frame;
+    try {
+      const ImageHeader header = ReadImageHeader(bytes);
+      if (header.width != manifest.width || header.height != manifest.height)
+        throw BurstError(where + ": frame is " + std::to_string(header.width) + "x" +
+                         std::to_string(header.height) + ", the manifest says " +
+                         std::to_string(manifest.width) + "x" + std::to_string(manifest.height));
+      frame = DecodeImage(bytes, kFrameLimits);
+    } catch (const ImageDecodeError& e) {
+      throw BurstError(where + ": " + DescribeDecodeError(e));
+    }
     if (frame.channels() != 1 && frame.channels() != 3 && frame.channels() != 4)
       throw BurstError(where + ": " + std::to_string(frame.channels()) +
                        " channels; expected gray or BGR");

@@ -11,13 +11,15 @@ namespace dfsm::service {
 namespace fs = std::filesystem;
 namespace {
 
-// Enough for a PNG's IHDR and for a JPEG's SOF behind its APPn segments
-// (EXIF with a thumbnail stays below 64 KiB per segment).
-constexpr size_t kHeaderBytes = 256 * 1024;
+// Enough for a PNG's IHDR and for a JPEG's header. TurboJPEG reads a JPEG's size only once the data
+// reaches the first scan, and phone JPEGs carry up to a few MiB of EXIF and maker notes before it.
+constexpr size_t kHeaderBytes = 8 * 1024 * 1024;
 
 std::string ReadPrefix(const fs::path& path) {
   std::ifstream in(path, std::ios::binary);
-  std::string bytes(kHeaderBytes, '\0');
+  std::error_code error;
+  const uintmax_t size = fs::file_size(path, error);
+  std::string bytes(error ? kHeaderBytes : std::min<uintmax_t>(size, kHeaderBytes), '\0');
   in.read(bytes.data(), static_cast<std::streamsize>(bytes.size()));
   bytes.resize(static_cast<size_t>(std::max<std::streamsize>(in.gcount(), 0)));
   return bytes;

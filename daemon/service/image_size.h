@@ -15,8 +15,9 @@ struct ImageSize {
   int64_t height = 0;
 };
 
-// nullopt when `bytes` is neither a PNG (IHDR) nor a JPEG with a frame header
-// (SOFn) inside the data given.
+// nullopt when `bytes` is neither a PNG (IHDR) nor a JPEG whose segments up to
+// its first start-of-scan lie inside the data given (a prefix of the file will
+// do; see ReadImageHeader in core/io/image_decode.h).
 std::optional<ImageSize> ReadImageSize(std::string_view bytes);
 
 }  // namespace dfsm::service
