@@ -44,13 +44,19 @@ void ConnectionGate::Start() {
   event.data.fd = wake_;
   if (::epoll_ctl(epoll_, EPOLL_CTL_ADD, wake_, &event) != 0)
     throw std::runtime_error(std::string("connection gate: epoll_ctl: ") + std::strerror(errno));
-  stopping_ = false;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stopping_ = false;
+  }
   thread_ = std::thread([this] { Run(); });
 }
 
 void ConnectionGate::Stop() {
   if (!thread_.joinable()) return;
-  stopping_ = true;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stopping_ = true;
+  }
   const uint64_t one = 1;
   [[maybe_unused]] const ssize_t ignored = ::write(wake_, &one, sizeof(one));
   thread_.join();
@@ -69,34 +75,22 @@ void ConnectionGate::Stop() {
 
 void ConnectionGate::Admit(int socket) {
   ++open_;
-  std::lock_guard<std::mutex> lock(mutex_);
-  if (stopping_ || !thread_.joinable()) {
-    Close(socket);
-    return;
-  }
-  arrivals_.push_back({socket, {}, 0, true});
-  const uint64_t one = 1;
-  [[maybe_unused]] const ssize_t ignored = ::write(wake_, &one, sizeof(one));
+  Enqueue({socket, {}, 0, true});
 }
 
 void ConnectionGate::Readmit(int socket, std::string bytes, int served) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  if (stopping_) {
-    Close(socket);
-    return;
-  }
-  arrivals_.push_back({socket, std::move(bytes), served, false});
-  const uint64_t one = 1;
-  [[maybe_unused]] const ssize_t ignored = ::write(wake_, &one, sizeof(one));
+  Enqueue({socket, std::move(bytes), served, false});
 }
 
-void ConnectionGate::Linger(int socket) {
+void ConnectionGate::Linger(int socket) { Enqueue({socket, {}, 0, false, true}); }
+
+void ConnectionGate::Enqueue(Arrival arrival) {
   std::lock_guard<std::mutex> lock(mutex_);
   if (stopping_) {
-    Close(socket);
+    Close(arrival.socket);
     return;
   }
-  arrivals_.push_back({socket, {}, 0, false, true});
+  arrivals_.push_back(std::move(arrival));
   const uint64_t one = 1;
   [[maybe_unused]] const ssize_t ignored = ::write(wake_, &one, sizeof(one));
 }

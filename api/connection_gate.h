@@ -108,6 +108,16 @@ class ConnectionGate {
     Clock::time_point deadline;
   };
 
+  struct Arrival {
+    int socket;
+    std::string bytes;
+    int served;
+    bool fresh;
+    bool linger = false;
+  };
+
+  // Hands `arrival` to the gate thread, or closes its socket once stopping.
+  void Enqueue(Arrival arrival);
   void Run();
   void TakeArrivals();
   void Hold(int socket, std::string bytes, int served, bool fresh);
@@ -125,17 +135,10 @@ class ConnectionGate {
   int epoll_ = -1;
   int wake_ = -1;  // eventfd: arrivals or stop
   std::thread thread_;
-  std::atomic<bool> stopping_{false};
+  std::atomic<bool> stopping_{true};  // until Start(); set under mutex_
   std::atomic<int> open_{0};
 
   std::mutex mutex_;  // guards arrivals_
-  struct Arrival {
-    int socket;
-    std::string bytes;
-    int served;
-    bool fresh;
-    bool linger = false;
-  };
   std::vector<Arrival> arrivals_;
 
   std::map<int, Connection> held_;  // gate thread only

@@ -20,21 +20,26 @@ bool WaitFor(int socket, short events, std::chrono::milliseconds timeout) {
   }
 }
 
-void Address(const sockaddr_storage& address, std::string& ip, int& port) {
-  char text[INET6_ADDRSTRLEN] = {};
-  if (address.ss_family == AF_INET) {
+}  // namespace
+
+void SocketAddress(int socket, bool peer, std::string& ip, int& port) {
+  sockaddr_storage address{};
+  socklen_t length = sizeof(address);
+  char text[INET6_ADDRSTRLEN] = "";
+  port = 0;
+  const int status = peer ? ::getpeername(socket, reinterpret_cast<sockaddr*>(&address), &length)
+                          : ::getsockname(socket, reinterpret_cast<sockaddr*>(&address), &length);
+  if (status == 0 && address.ss_family == AF_INET) {
     const auto* v4 = reinterpret_cast<const sockaddr_in*>(&address);
     ::inet_ntop(AF_INET, &v4->sin_addr, text, sizeof(text));
     port = ntohs(v4->sin_port);
-  } else if (address.ss_family == AF_INET6) {
+  } else if (status == 0 && address.ss_family == AF_INET6) {
     const auto* v6 = reinterpret_cast<const sockaddr_in6*>(&address);
     ::inet_ntop(AF_INET6, &v6->sin6_addr, text, sizeof(text));
     port = ntohs(v6->sin6_port);
   }
   ip = text;
 }
-
-}  // namespace
 
 GateStream::GateStream(int socket, std::string replay, size_t replay_from,
                        std::chrono::milliseconds read_timeout,
@@ -86,17 +91,11 @@ ssize_t GateStream::write(const char* ptr, size_t size) {
 }
 
 void GateStream::get_remote_ip_and_port(std::string& ip, int& port) const {
-  sockaddr_storage address{};
-  socklen_t length = sizeof(address);
-  if (::getpeername(socket_, reinterpret_cast<sockaddr*>(&address), &length) == 0)
-    Address(address, ip, port);
+  SocketAddress(socket_, true, ip, port);
 }
 
 void GateStream::get_local_ip_and_port(std::string& ip, int& port) const {
-  sockaddr_storage address{};
-  socklen_t length = sizeof(address);
-  if (::getsockname(socket_, reinterpret_cast<sockaddr*>(&address), &length) == 0)
-    Address(address, ip, port);
+  SocketAddress(socket_, false, ip, port);
 }
 
 std::string GateStream::TakeUnread() {

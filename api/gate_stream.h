@@ -15,6 +15,10 @@
 
 namespace dfsm::api {
 
+// The address and port of a connected socket's peer (`peer`) or of its own
+// end; "" and 0 when the socket has none.
+void SocketAddress(int socket, bool peer, std::string& ip, int& port);
+
 class GateStream final : public httplib::Stream {
  public:
   GateStream(int socket, std::string replay, size_t replay_from,

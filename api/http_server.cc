@@ -29,17 +29,10 @@ class InlineQueue final : public httplib::TaskQueue {
 };
 
 std::string PeerAddress(int socket) {
-  sockaddr_storage address{};
-  socklen_t length = sizeof(address);
-  char text[INET6_ADDRSTRLEN] = "?";
-  if (::getpeername(socket, reinterpret_cast<sockaddr*>(&address), &length) == 0) {
-    const void* raw =
-        address.ss_family == AF_INET6
-            ? static_cast<const void*>(&reinterpret_cast<const sockaddr_in6*>(&address)->sin6_addr)
-            : &reinterpret_cast<const sockaddr_in*>(&address)->sin_addr;
-    ::inet_ntop(address.ss_family, raw, text, sizeof(text));
-  }
-  return text;
+  std::string ip;
+  int port = 0;
+  SocketAddress(socket, true, ip, port);
+  return ip.empty() ? "?" : ip;
 }
 
 // Requests served on one connection before it is closed (httplib's default).

@@ -454,13 +454,13 @@ void StreamJobEvents(const ApiContext& context, httplib::Response& response) {
         seen->first = false;
         std::map<std::string, std::string> now;
         for (const Job& job : context.store->List()) {
-          const nlohmann::json json = JobJson(job);
-          const std::string key = json["status"].get<std::string>() + "/" +
-                                  json["stage"].get<std::string>() + "/" + json["progress"].dump();
-          now[job.id] = key;
+          // What the page shows changing; the job's JSON only when it did.
+          const std::string key = std::string(JobStatusName(job.status)) + "/" + job.stage + "/" +
+                                  std::to_string(service::JobProgress(job));
           const auto before = seen->jobs.find(job.id);
           if (before == seen->jobs.end() || before->second != key)
-            events += "event: job\ndata: " + json.dump() + "\n\n";
+            events += "event: job\ndata: " + JobJson(job).dump() + "\n\n";
+          now[job.id] = key;
         }
         for (const auto& [id, key] : seen->jobs) {
           if (!now.count(id))
