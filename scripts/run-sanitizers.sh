@@ -7,14 +7,18 @@
 #
 # in build-asan and build-tsan (DFSM_ASAN_BUILD_DIR, DFSM_TSAN_BUILD_DIR move them).
 #
-#   asan  build-asan: RelWithDebInfo, -fsanitize=address,undefined (errors are
+#   asan  build-asan: -O1 -g1, -fsanitize=address,undefined (errors are
 #         fatal: -fno-sanitize-recover=all), every target but the benchmarks;
-#         runs the default run but the labels long, vm, soak and e2e, i.e.
-#         unit, daemon, and the fuzz corpus replays. Leak checking on. The e2e
-#         suites (VGA, 1080p and flower accuracy, 3-5 min each under ASan) run
-#         the same code as the unit and daemon tests, only on larger images:
-#         they measure accuracy, which the release stage already asserts.
-#   tsan  build-tsan: RelWithDebInfo, -fsanitize=thread, only the target
+#         runs the default run but the labels long, vm, soak, e2e, daemon and
+#         browser, i.e. unit (the API, the daemon's service and dfsmd's routes
+#         in process, the hostile clients, the fuzz corpus replays). Leak
+#         checking on. Left out, each run once elsewhere: the e2e accuracy
+#         suites (3-5 min each under ASan, the same code as the unit tests on
+#         larger images; the release stage asserts their accuracy), and the
+#         dfsmd process tests (daemon, browser: the same routes and jobs the
+#         in-process tests drive, here through a child process; they run in
+#         the release stage and under TSan, where their threads matter).
+#   tsan  build-tsan: -O2 -g1, -fsanitize=thread, only the target
 #         tsan_tests (the test binaries labelled daemon or tsan, and dfsmd);
 #         runs ctest -L '^(daemon|tsan)$': every dfsmd end-to-end test and the
 #         unit tests of daemon/capture, daemon/service and api. OpenCV runs
@@ -51,13 +55,16 @@ check_reports() {
   return 1
 }
 
-# run_stage NAME BUILD_DIR CMAKE_SANITIZE BUILD_TARGET CTEST_ARGS...: configure,
-# build, run, check the reports; prints the duration of the build and the tests.
+# run_stage NAME BUILD_DIR CMAKE_SANITIZE OPTIMIZATION BUILD_TARGET CTEST_ARGS...:
+# configure, build, run, check the reports; prints the duration of the build and
+# the tests. -g1 (line tables) is what a sanitizer report needs: full -g made
+# the Eigen/Ceres-heavy objects several times larger and their links slow.
 run_stage() {
-  local name="$1" build="$2" sanitize="$3" target="$4"
-  shift 4
+  local name="$1" build="$2" sanitize="$3" opt="$4" target="$5"
+  shift 5
   local start="$SECONDS"
   cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+    -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="$opt -DNDEBUG" -DCMAKE_C_FLAGS_RELWITHDEBINFO="$opt -DNDEBUG" \
     -DDFSM_SANITIZE="$sanitize" -DDFSM_WERROR=ON -DDFSM_BUILD_TESTS=ON -DDFSM_BUILD_BENCH=OFF
   cmake --build "$build" --parallel "$jobs" --target "$target"
   local built="$SECONDS"
@@ -80,15 +87,15 @@ export DFSM_KILL_ROUNDS="${DFSM_KILL_ROUNDS:-8}"
 for stage in "${stages[@]}"; do
   case "$stage" in
     asan)
-      echo "== address + undefined-behaviour sanitizers: the default run but the e2e accuracy suites"
+      echo "== address + undefined-behaviour sanitizers: the unit tests (every label but long, vm, soak, e2e, daemon, browser)"
       ASAN_OPTIONS="detect_leaks=1:abort_on_error=1:log_path=$asan_build/sanitizer-reports/asan" \
         UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1:log_path=$asan_build/sanitizer-reports/ubsan" \
-        run_stage asan "$asan_build" address,undefined all -LE '^(long|vm|soak|e2e)$' || status=1
+        run_stage asan "$asan_build" address,undefined "-O1 -g1" all -LE '^(long|vm|soak|e2e|daemon|browser)$' || status=1
       ;;
     tsan)
       echo "== thread sanitizer: capture, service and API unit tests, dfsmd end to end"
       TSAN_OPTIONS="suppressions=$root/scripts/tsan.supp:second_deadlock_stack=1:log_path=$tsan_build/sanitizer-reports/tsan" \
-        run_stage tsan "$tsan_build" thread tsan_tests -L '^(daemon|tsan)$' || status=1
+        run_stage tsan "$tsan_build" thread "-O2 -g1" tsan_tests -L '^(daemon|tsan)$' || status=1
       ;;
     *)
       echo "unknown sanitizer stage '$stage' (asan or tsan)" >&2

@@ -11,7 +11,7 @@
 #
 #   DFSM_TEST_LONG=1   also run the suites labelled "long"
 #   DFSM_SANITIZE=0    skip both sanitizer stages (=asan or =tsan: only that one)
-#   DFSM_FUZZ=0        skip the fuzz stage (clang + libFuzzer, build-fuzz)
+#   DFSM_FUZZ=1        also run the fuzz stage (clang + libFuzzer, build-fuzz)
 #   DFSM_FUZZ_SECONDS  seconds each fuzz harness runs in it (default 20)
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -68,8 +68,12 @@ stage_done "sanitizers (${DFSM_SANITIZE:-asan tsan})"
 # The libFuzzer harnesses of fuzz/ (manifest, config, tar upload, frame
 # conversion, every HTTP route), built with clang + ASan + UBSan into
 # build-fuzz, each fuzzing its seed corpus for DFSM_FUZZ_SECONDS (default 20)
-# (ctest label fuzz). Long campaigns: scripts/run-fuzz.sh. DFSM_FUZZ=0 skips it.
-if [ "${DFSM_FUZZ:-1}" != 0 ]; then
+# (ctest label fuzz). Long campaigns: scripts/run-fuzz.sh. Off by default: a
+# third sanitized build of the tree (clang) for 20 s of fuzzing per harness did
+# not fit CI's 45 minutes, and the corpus and every past crash already replay
+# under ASan+UBSan in the sanitizer stage (the *_replay tests, label unit).
+# DFSM_FUZZ=1 runs it.
+if [ "${DFSM_FUZZ:-0}" = 1 ]; then
   echo "== fuzz (libFuzzer, ${DFSM_FUZZ_SECONDS:-20} s per harness)"
   CC=clang CXX=clang++ cmake -S "$root" -B "$root/build-fuzz" -G Ninja \
     -DCMAKE_BUILD_TYPE=RelWithDebInfo -DDFSM_FUZZ=ON -DDFSM_FUZZ_SECONDS="${DFSM_FUZZ_SECONDS:-20}" \

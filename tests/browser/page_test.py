@@ -485,7 +485,9 @@ def prefix_tests(driver, dfsmd):
         frames = find('#trigger-frames')
         frames.clear()
         frames.send_keys('10')
-        before = set(js("return [...document.querySelectorAll('#job-list li.job')].map(l => l.dataset.jobId)"))
+        # The jobs that exist come from dfsmd, not from the page's list: the list may
+        # still be filling in, and an older job appearing late is not the new one.
+        before = {j['id'] for j in dfsmd.get_json('/api/v1/jobs?limit=1000')['jobs']}
         find('#trigger-button').click()
         job_id = wait('the new job under the prefix', lambda: next(iter(set(js(
             "return [...document.querySelectorAll('#job-list li.job')].map(l => l.dataset.jobId)")) - before), None), 10)
