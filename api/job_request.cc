@@ -3,6 +3,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 
+#include "core/camera/rolling_shutter_options.h"
 #include "core/io/bounded_json.h"
 #include "daemon/service/number_text.h"
 
@@ -75,6 +76,13 @@ void ApplyField(const std::string& field, const nlohmann::json& value, bool uplo
   } else if (field == "init") {
     options->init = text();
     CheckChoice(field, options->init, "rank1", "naive");
+  } else if (field == "rolling_shutter") {
+    options->rolling_shutter = text();
+    try {
+      ParseRollingShutter(options->rolling_shutter);
+    } catch (const std::invalid_argument& e) {
+      throw RequestError("'rolling_shutter': " + std::string(e.what()));
+    }
   } else if (field == "dense") {
     options->dense = boolean();
   } else if (field == "keep_burst") {
@@ -84,7 +92,7 @@ void ApplyField(const std::string& field, const nlohmann::json& value, bool uplo
     CheckChoice(field, options->calibration, "auto", "self");
   } else {
     throw RequestError("unknown field '" + field + "' (known: frames, " + (upload ? "" : "when, ") +
-                       "planes, grid, init, dense, keep_burst, calibration)");
+                       "planes, grid, init, rolling_shutter, dense, keep_burst, calibration)");
   }
 }
 
@@ -97,6 +105,7 @@ JobOptions DefaultJobOptions(const service::DaemonConfig& config) {
   options.planes = config.pipeline.planes;
   options.grid = config.pipeline.grid;
   options.init = config.pipeline.init;
+  options.rolling_shutter = config.pipeline.rolling_shutter;
   options.dense = config.pipeline.dense;
   options.keep_burst = config.jobs.keep_burst;
   return options;

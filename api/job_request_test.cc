@@ -27,13 +27,14 @@ TEST(JobRequestTest, EmptyBodyGivesTheConfiguredDefaults) {
 
 TEST(JobRequestTest, BodyOverridesEachField) {
   const service::JobOptions options = ParseCaptureRequest(
-      R"({"frames":12,"when":"next","planes":64,"grid":40,"init":"naive","dense":false,"keep_burst":false})",
+      R"({"frames":12,"when":"next","planes":64,"grid":40,"init":"naive","rolling_shutter":"0.6","dense":false,"keep_burst":false})",
       service::DaemonConfig());
   EXPECT_EQ(options.frames, 12);
   EXPECT_EQ(options.when, "next");
   EXPECT_EQ(options.planes, 64);
   EXPECT_EQ(options.grid, 40);
   EXPECT_EQ(options.init, "naive");
+  EXPECT_EQ(options.rolling_shutter, "0.6");
   EXPECT_FALSE(options.dense);
   EXPECT_FALSE(options.keep_burst);
 }
@@ -51,6 +52,11 @@ TEST(JobRequestTest, BadBodiesNameTheProblem) {
   EXPECT_EQ(error(R"({"when":"soon"})"), "'when' must be \"last\" or \"next\", got \"soon\"");
   EXPECT_EQ(error(R"({"init":"rank2"})"), "'init' must be \"rank1\" or \"naive\", got \"rank2\"");
   EXPECT_EQ(error(R"({"planes":1})"), "'planes' must be in [2, 1024], got 1");
+  EXPECT_NE(error(R"({"rolling_shutter":"1.5"})")
+                .find("'rolling_shutter': the rolling shutter readout must be in [0, 1]"),
+            std::string::npos);
+  EXPECT_NE(error(R"({"rolling_shutter":"rolling"})").find("\"global\", \"estimate\" or a readout"),
+            std::string::npos);
   EXPECT_EQ(error(R"({"dense":"yes"})"), "'dense' must be true or false");
   EXPECT_NE(error(R"({"frame":10})").find("unknown field 'frame'"), std::string::npos);
 }

@@ -5,6 +5,9 @@
 namespace dfsm::api {
 namespace {
 
+// ParseRollingShutter's forms (core/camera/rolling_shutter.h), as a pattern.
+constexpr const char* kRollingShutterPattern = "^(global|estimate|0(\\.[0-9]+)?|1(\\.0+)?)$";
+
 using nlohmann::json;
 
 json Ref(const std::string& name) { return {{"$ref", "#/components/schemas/" + name}}; }
@@ -55,17 +58,22 @@ json Schemas() {
   const json integer = {{"type", "integer"}};
   const json string = {{"type", "string"}};
   const json boolean = {{"type", "boolean"}};
-  json options = {{"type", "object"},
-                  {"additionalProperties", false},
-                  {"properties",
-                   {{"frames", {{"type", "integer"}, {"minimum", 3}}},
-                    {"when", {{"type", "string"}, {"enum", {"last", "next"}}}},
-                    {"planes", {{"type", "integer"}, {"minimum", 2}, {"maximum", 1024}}},
-                    {"grid", {{"type", "integer"}, {"minimum", 0}}},
-                    {"init", {{"type", "string"}, {"enum", {"rank1", "naive"}}}},
-                    {"dense", boolean},
-                    {"keep_burst", boolean},
-                    {"calibration", {{"type", "string"}, {"enum", {"auto", "self"}}}}}}};
+  json options = {
+      {"type", "object"},
+      {"additionalProperties", false},
+      {"properties",
+       {{"frames", {{"type", "integer"}, {"minimum", 3}}},
+        {"when", {{"type", "string"}, {"enum", {"last", "next"}}}},
+        {"planes", {{"type", "integer"}, {"minimum", 2}, {"maximum", 1024}}},
+        {"grid", {{"type", "integer"}, {"minimum", 0}}},
+        {"init", {{"type", "string"}, {"enum", {"rank1", "naive"}}}},
+        {"rolling_shutter",
+         {{"type", "string"},
+          {"pattern", kRollingShutterPattern},
+          {"description", "global | estimate | readout in [0, 1] of the frame interval"}}},
+        {"dense", boolean},
+        {"keep_burst", boolean},
+        {"calibration", {{"type", "string"}, {"enum", {"auto", "self"}}}}}}};
   json schemas;
   schemas["Problem"] = {
       {"type", "object"},
@@ -127,6 +135,8 @@ nlohmann::json OpenApiDocument() {
         QueryParameter("planes", {{"type", "integer"}}, "plane-sweep planes"),
         QueryParameter("grid", {{"type", "integer"}}, "feature grid cell, pixels"),
         QueryParameter("init", {{"type", "string"}, {"enum", {"rank1", "naive"}}}, ""),
+        QueryParameter("rolling_shutter", {{"type", "string"}, {"pattern", kRollingShutterPattern}},
+                       "global | estimate | readout in [0, 1] of the frame interval"),
         QueryParameter("dense", {{"type", "boolean"}}, ""),
         QueryParameter("keep_burst", {{"type", "boolean"}}, ""),
         QueryParameter("calibration", {{"type", "string"}, {"enum", {"auto", "self"}}},

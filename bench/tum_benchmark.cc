@@ -5,6 +5,7 @@
 // scale, beside a constant-depth guess. One JSON line per window and mode,
 // then a Markdown table.
 //   tum_benchmark [--dataset DIR] [--frames N] [--step S] [--calibration FILE]
+//                 [--rolling-shutter global|estimate|R]
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -79,6 +80,7 @@ int main(int argc, char** argv) {
   std::string dataset = "../shared/data/tum_fr1_xyz";
   std::string calibration_file = std::string(DFSM_SOURCE_DIR) + "/bench/data/tum_freiburg1.yaml";
   int frames = 10, step = 3;
+  RollingShutterOptions rolling_shutter;
   for (int i = 1; i + 1 < argc; i += 2) {
     if (!std::strcmp(argv[i], "--dataset"))
       dataset = argv[i + 1];
@@ -88,6 +90,8 @@ int main(int argc, char** argv) {
       step = std::atoi(argv[i + 1]);
     else if (!std::strcmp(argv[i], "--calibration"))
       calibration_file = argv[i + 1];
+    else if (!std::strcmp(argv[i], "--rolling-shutter"))
+      rolling_shutter = ParseRollingShutter(argv[i + 1]);
   }
   const std::vector<Stamped> rgb = ReadList(dataset + "/rgb.txt");
   const std::vector<Stamped> depths = ReadList(dataset + "/depth.txt");
@@ -116,6 +120,7 @@ int main(int argc, char** argv) {
     const cv::Mat constant(truth.size(), CV_32FC1, cv::Scalar(1.0f));
     for (const std::string mode : {"known", "self"}) {
       PipelineOptions options;
+      options.sparse.rolling_shutter = rolling_shutter;
       if (mode == "known") {
         KnownCalibration fixed;
         fixed.camera = known.camera;
@@ -139,6 +144,8 @@ int main(int argc, char** argv) {
         line["warnings"] = output.result.warnings;
         line.update({{"depth", ToJson(row.score)},
                      {"f", row.f},
+                     {"rolling_shutter",
+                      output.result.calibration_detail.value("rolling_shutter", nlohmann::json())},
                      {"quality", row.quality},
                      {"constant", ToJson(row.constant)},
                      {"filled", ToJson(row.filled)}});

@@ -129,13 +129,11 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
 
   const RadialInverse radial(camera);
   const cv::Mat reference = Prefiltered(burst.gray[burst.reference()], options.prefilter_sigma);
-  std::vector<int> others;
+  const SweepPoses sweep_poses =
+      SweepPoses::Make(poses, burst.reference(), options.readout, burst.height());
+  const std::vector<int>& others = sweep_poses.frames;
   std::vector<Pose> other_poses;
-  for (int i = 0; i < burst.size(); ++i) {
-    if (i == burst.reference()) continue;
-    others.push_back(i);
-    other_poses.push_back(poses[i]);
-  }
+  for (int i : others) other_poses.push_back(poses[i]);
   std::vector<cv::Mat> frames(others.size());
   cv::parallel_for_(cv::Range(0, static_cast<int>(others.size())), [&](const cv::Range& range) {
     for (int n = range.start; n < range.end; ++n)
@@ -154,7 +152,7 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
     return pixels <= options.oversample_max_pixels ? 2 : 1;
   };
   const SweepLevel coarse =
-      MakeSweepLevel(reference, frames, other_poses, camera, radial, scale, oversample(scale));
+      MakeSweepLevel(reference, frames, sweep_poses, camera, radial, scale, oversample(scale));
   cost.window_radius = options.coarse_window_radius;
   cost.shiftable_radius = options.coarse_shiftable_radius;
   // Parallax (full-resolution pixels) between neighbouring lattice planes in
@@ -230,7 +228,7 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
       }
     });
     const SweepLevel fine =
-        MakeSweepLevel(reference, frames, other_poses, camera, radial, 1, oversample(1));
+        MakeSweepLevel(reference, frames, sweep_poses, camera, radial, 1, oversample(1));
     timer.Lap("upsample");
     cost.window_radius = options.fine_window_radius;
     cost.shiftable_radius = options.fine_shiftable_radius;

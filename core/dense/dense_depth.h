@@ -15,6 +15,10 @@ namespace dfsm {
 
 struct DenseOptions {
   int planes = 128;
+  // The rolling shutter's readout the poses are for (core/camera/rolling_shutter.h;
+  // the sparse stage's SparseState::readout), 0 a global shutter: each
+  // reference row is swept with the poses of its own row.
+  double readout = 0.0;
   // Fraction of the sparse inverse-depth range added on both sides of the sweep.
   double inverse_depth_margin = 0.2;
 

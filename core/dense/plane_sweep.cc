@@ -27,7 +27,7 @@ struct GatherScratch {
 // -fno-trapping-math, set for this file); positions stay finite where the
 // sample is not usable.
 inline void ProjectRow(const SweepLevel& level, int frame, int y, const float* w, RowSamples* out) {
-  const PlaneHomography& h = level.warps[frame];
+  const PlaneHomography& h = level.Warp(frame, y);
   const int cols = level.reference.cols;
   const float* rx = level.ray_x.ptr<float>(y);
   const float* ry = level.ray_y.ptr<float>(y);

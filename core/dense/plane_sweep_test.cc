@@ -46,7 +46,12 @@ struct SweepFixture {
 TEST(SweepPlaneWindow, WideWindowUnderAFullMaskEqualsThatWindowEverywhere) {
   const SweepFixture f;
   const RadialInverse radial(f.camera);
-  const SweepLevel level = MakeSweepLevel(f.reference, f.frames, f.poses, f.camera, radial, 1);
+  // Burst order: the reference first, then the three frames.
+  std::vector<Pose> burst_poses = {Pose{}};
+  burst_poses.insert(burst_poses.end(), f.poses.begin(), f.poses.end());
+  const SweepLevel level =
+      MakeSweepLevel(f.reference, f.frames, SweepPoses::Make(burst_poses, 0, 0.0, f.camera.height),
+                     f.camera, radial, 1);
   InverseDepthLattice lattice;
   lattice.min_inverse_depth = 0.2;
   lattice.max_inverse_depth = 2.0;

@@ -1,7 +1,9 @@
 #include "core/dense/sweep_level.h"
 
+#include <algorithm>
 #include <opencv2/imgproc.hpp>
 
+#include "core/camera/rolling_shutter.h"
 #include "core/dense/frame_oversampling.h"
 #include "core/dense/parallel_rows.h"
 
@@ -17,12 +19,42 @@ cv::Mat Downsample(const cv::Mat& image, int scale) {
   return small;
 }
 
+PlaneHomography ToHomography(const Pose& pose) {
+  PlaneHomography warp;
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) warp.r[3 * r + c] = static_cast<float>(pose.R(r, c));
+    warp.t[r] = static_cast<float>(pose.T(r));
+  }
+  return warp;
+}
+
 }  // namespace
 
+SweepPoses SweepPoses::Make(const std::vector<Pose>& poses, int reference, double readout,
+                            int height) {
+  SweepPoses sweep;
+  const RowPoses rows(poses, readout, height);
+  for (int i = 0; i < static_cast<int>(poses.size()); ++i) {
+    if (i == reference) continue;
+    sweep.frames.push_back(i);
+    std::vector<Pose> relative;
+    if (readout == 0.0) {
+      relative.push_back(poses[i]);
+    } else {
+      // The sample of reference row y lands within a few pixels of row y in
+      // frame i (small motion), so the frame's row time is the reference row's.
+      for (int y = 0; y < height; ++y) relative.push_back(rows.Relative(i, y, reference, y));
+    }
+    sweep.relative.push_back(std::move(relative));
+  }
+  return sweep;
+}
+
 SweepLevel MakeSweepLevel(const cv::Mat& reference, const std::vector<cv::Mat>& frames,
-                          const std::vector<Pose>& poses, const CameraModel& camera,
+                          const SweepPoses& poses, const CameraModel& camera,
                           const RadialInverse& radial, int scale, int oversample) {
-  CV_Assert(scale >= 1 && (oversample == 1 || oversample == 2) && frames.size() == poses.size());
+  CV_Assert(scale >= 1 && (oversample == 1 || oversample == 2) &&
+            frames.size() == poses.relative.size());
   SweepLevel level;
   level.scale = scale;
   level.reference = Downsample(reference, scale);
@@ -52,13 +84,17 @@ SweepLevel MakeSweepLevel(const cv::Mat& reference, const std::vector<cv::Mat>& 
       level.frames[i] = oversample == 2 ? OversampleTwice(frame) : frame;
     }
   });
-  for (size_t i = 0; i < frames.size(); ++i) {
-    PlaneHomography warp;
-    for (int r = 0; r < 3; ++r) {
-      for (int c = 0; c < 3; ++c) warp.r[3 * r + c] = static_cast<float>(poses[i].R(r, c));
-      warp.t[r] = static_cast<float>(poses[i].T(r));
+  for (const std::vector<Pose>& rows : poses.relative) {
+    std::vector<PlaneHomography> warps;
+    if (rows.size() == 1) {
+      warps.push_back(ToHomography(rows[0]));
+    } else {
+      // Level row y is centred on captured row scale * y + (scale - 1) / 2.
+      for (int y = 0; y < level.reference.rows; ++y)
+        warps.push_back(ToHomography(
+            rows[std::min<int>(static_cast<int>(rows.size()) - 1, scale * y + (scale - 1) / 2)]));
     }
-    level.warps.push_back(warp);
+    level.warps.push_back(std::move(warps));
   }
   return level;
 }

@@ -31,20 +31,38 @@ struct SweepLevel {
   // frame grid position oversample * p.
   std::vector<cv::Mat> frames;
   int oversample = 1;
-  std::vector<PlaneHomography> warps;  // one per entry of `frames`
+  // Per entry of `frames`: one homography (a global shutter), or one per row
+  // of the level (a rolling shutter: each reference row seen from its own
+  // row's pose, the frame's sample taken at the same row's time).
+  std::vector<std::vector<PlaneHomography>> warps;
+  const PlaneHomography& Warp(int frame, int y) const {
+    const std::vector<PlaneHomography>& rows = warps[frame];
+    return rows.size() == 1 ? rows[0] : rows[y];
+  }
   const RadialInverse* radial = nullptr;
   // Captured pixel p = c + f * ratio * x_u is level pixel (p - (scale - 1) / 2) / scale
   // = centre + focal * ratio * x_u.
   float focal = 0.0f, centre_x = 0.0f, centre_y = 0.0f;
 };
 
+// The frames' poses relative to the reference, each frame's at every captured
+// row (a rolling shutter) or one pose per frame (a global shutter).
+struct SweepPoses {
+  std::vector<int> frames;  // burst index of each swept frame (the reference excluded)
+  // Global shutter: one pose per frame; rolling: `rows` of them, the pose of
+  // captured row y of the frame relative to captured row y of the reference.
+  std::vector<std::vector<Pose>> relative;
+
+  static SweepPoses Make(const std::vector<Pose>& poses, int reference, double readout, int height);
+};
+
 // Builds the level `scale` (1: full resolution; > 1: area-downsampled by that
 // factor, pixel centres at scale * x + (scale - 1) / 2 of the captured grid)
 // from full-resolution float images, its frames oversampled by `oversample`
-// (1 or 2). `frames[i]` and `poses[i]` belong together; the reference itself
-// is not among them. `radial` must outlive the level.
+// (1 or 2). `frames[n]` and `poses.relative[n]` belong together; the reference
+// itself is not among them. `radial` must outlive the level.
 SweepLevel MakeSweepLevel(const cv::Mat& reference, const std::vector<cv::Mat>& frames,
-                          const std::vector<Pose>& poses, const CameraModel& camera,
+                          const SweepPoses& poses, const CameraModel& camera,
                           const RadialInverse& radial, int scale, int oversample = 1);
 
 }  // namespace dfsm

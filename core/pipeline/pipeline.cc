@@ -93,6 +93,9 @@ PipelineOutput RunPipeline(const Burst& burst, const PipelineOptions& options,
     if (sparse.rejected_camera)
       result.calibration_detail["rejected"] = ToJson(*sparse.rejected_camera);
     if (sparse_options.known) result.calibration_detail["known"] = sparse_options.known->source;
+    result.calibration_detail["rolling_shutter"] = {
+        {"mode", RollingShutterName(sparse_options.rolling_shutter)},
+        {"readout", sparse.state.readout}};
     result.warnings = sparse.warnings;
     const int requested_cell = sparse_options.features.cell_px;
     const int least_cell = MinGridCellSize(burst.width(), burst.height());
@@ -120,8 +123,10 @@ PipelineOutput RunPipeline(const Burst& burst, const PipelineOptions& options,
     if (options.run_dense) {
       if (on_stage) on_stage("dense");
       const auto dense_start = std::chrono::steady_clock::now();
+      DenseOptions dense_options = options.dense;
+      dense_options.readout = sparse.state.readout;
       output.dense = ComputeDenseDepth(compensated, sparse.state.camera, sparse.state.poses,
-                                       sparse.InlierInverseDepths(), options.dense);
+                                       sparse.InlierInverseDepths(), dense_options);
       result.timings_ms.emplace_back("dense", MillisecondsSince(dense_start));
       DepthSummary depth;
       depth.valid_fraction = output.dense->valid_fraction;

@@ -7,11 +7,88 @@
 #include <array>
 #include <cmath>
 
+#include "core/camera/rolling_shutter.h"
 #include "core/sparse/intrinsics_prior.h"
+#include "core/sparse/rolling_shutter_reprojection_error.h"
 #include "core/sparse/undistorted_reprojection_error.h"
 
 namespace dfsm {
 namespace {
+
+// The reprojection residual of one observation (track j in frame i) under the
+// state's shutter: UndistortedReprojectionError for a global shutter,
+// RollingShutterReprojectionError, with the poses of frame i's and the
+// reference's neighbours, otherwise.
+class Reprojection {
+ public:
+  Reprojection(const FeatureTracks& tracks, const CameraModel& camera, bool rolling)
+      : tracks_(tracks), camera_(camera), rolling_(rolling) {}
+
+  bool rolling() const { return rolling_; }
+
+  // Adds the residual of track j in frame i over `poses` (angle-axis, T per
+  // frame; the reference's block, when a neighbour, must be held constant).
+  ceres::ResidualBlockId Add(ceres::Problem* problem, ceres::LossFunction* loss, int j, int i,
+                             double* intrinsics, std::vector<std::array<double, 6>>* poses,
+                             double* inverse_depth, double* readout) const {
+    const Eigen::Vector2d reference = tracks_.pixels[tracks_.reference].col(j);
+    const Eigen::Vector2d observed = tracks_.pixels[i].col(j);
+    if (!rolling_)
+      return problem->AddResidualBlock(
+          UndistortedReprojectionError::Create(reference, observed, camera_.cx, camera_.cy), loss,
+          intrinsics, (*poses)[i].data(), inverse_depth);
+    const Sides sides = SidesOf(j, i, reference);
+    using Shared = RollingShutterReprojectionError::ReferenceNeighbour;
+    const Shared shared = sides.m.frame == i               ? Shared::kFrame
+                          : sides.m.frame == sides.n.frame ? Shared::kFrameNeighbour
+                                                           : Shared::kOwnBlock;
+    std::vector<double*> blocks = {intrinsics, (*poses)[i].data(), (*poses)[sides.n.frame].data()};
+    if (shared == Shared::kOwnBlock) blocks.push_back((*poses)[sides.m.frame].data());
+    blocks.push_back(inverse_depth);
+    blocks.push_back(readout);
+    return problem->AddResidualBlock(
+        RollingShutterReprojectionError::Create(Error(sides, reference, observed), shared), loss,
+        blocks);
+  }
+
+  // The residual at the given parameters, with the reference pixel of track j
+  // replaced by `reference` (for d residual / d reference pixel).
+  void Evaluate(int j, int i, const Eigen::Vector2d& reference, const double* intrinsics,
+                const std::vector<std::array<double, 6>>& poses, const double* inverse_depth,
+                const double* readout, double* residual) const {
+    const Eigen::Vector2d observed = tracks_.pixels[i].col(j);
+    if (!rolling_) {
+      UndistortedReprojectionError(reference, observed, camera_.cx, camera_.cy)(
+          intrinsics, poses[i].data(), inverse_depth, residual);
+      return;
+    }
+    const Sides sides = SidesOf(j, i, reference);
+    Error(sides, reference, observed)
+        .Evaluate(intrinsics, poses[i].data(), poses[sides.n.frame].data(),
+                  poses[sides.m.frame].data(), inverse_depth, readout, residual);
+  }
+
+ private:
+  // n: frame i's neighbour on the side of its observed row; m: the reference's.
+  struct Sides {
+    Neighbour n, m;
+  };
+  Sides SidesOf(int j, int i, const Eigen::Vector2d& reference) const {
+    const int frames = tracks_.num_frames();
+    const double dt_i = RowTime(1.0, tracks_.pixels[i](1, j), camera_.height);
+    const double dt_r = RowTime(1.0, reference.y(), camera_.height);
+    return {NeighbourOnSide(i, dt_i, frames), NeighbourOnSide(tracks_.reference, dt_r, frames)};
+  }
+  RollingShutterReprojectionError Error(const Sides& sides, const Eigen::Vector2d& reference,
+                                        const Eigen::Vector2d& observed) const {
+    return RollingShutterReprojectionError(reference, observed, camera_.cx, camera_.cy,
+                                           camera_.height, sides.m.sign, sides.n.sign);
+  }
+
+  const FeatureTracks& tracks_;
+  const CameraModel& camera_;
+  bool rolling_;
+};
 
 std::array<double, 6> ToParameters(const Pose& pose) {
   std::array<double, 6> parameters;
@@ -101,16 +178,15 @@ BundleAdjustmentSummary RunBundleAdjustment(const FeatureTracks& tracks,
   auto* ordering = new ceres::ParameterBlockOrdering;
   std::vector<ceres::ResidualBlockId> reprojection_blocks, prior_blocks;
   std::vector<std::pair<int, int>> block_track_frame;  // (track, frame) of each block
+  double readout = state->readout;
+  const Reprojection reprojection(tracks, state->camera, readout > 0.0 || options.estimate_readout);
   for (int j = 0; j < m; ++j) {
     if (!use[j]) continue;
     for (int i = 0; i < n; ++i) {
       if (i == tracks.reference) continue;
       block_track_frame.emplace_back(j, i);
-      reprojection_blocks.push_back(problem.AddResidualBlock(
-          UndistortedReprojectionError::Create(tracks.pixels[tracks.reference].col(j),
-                                               tracks.pixels[i].col(j), state->camera.cx,
-                                               state->camera.cy),
-          &huber, intrinsics, poses[i].data(), &inverse_depths[j]));
+      reprojection_blocks.push_back(reprojection.Add(&problem, &huber, j, i, intrinsics, &poses,
+                                                     &inverse_depths[j], &readout));
     }
     // Inverse depths first: Schur eliminates them, leaving a small dense
     // system over the poses and intrinsics.
@@ -132,6 +208,20 @@ BundleAdjustmentSummary RunBundleAdjustment(const FeatureTracks& tracks,
   for (int i = 0; i < n; ++i)
     if (i != tracks.reference) ordering->AddElementToGroup(poses[i].data(), 1);
   ordering->AddElementToGroup(intrinsics, 1);
+  if (reprojection.rolling()) {
+    // The reference's pose is a neighbour's: held at R = I, T = 0.
+    if (problem.HasParameterBlock(poses[tracks.reference].data())) {
+      problem.SetParameterBlockConstant(poses[tracks.reference].data());
+      ordering->AddElementToGroup(poses[tracks.reference].data(), 1);
+    }
+    ordering->AddElementToGroup(&readout, 1);
+    if (options.estimate_readout) {
+      problem.SetParameterLowerBound(&readout, 0, -kMaxReadout);
+      problem.SetParameterUpperBound(&readout, 0, kMaxReadout);
+    } else {
+      problem.SetParameterBlockConstant(&readout);
+    }
+  }
   const int anchor = ScaleAnchor(inverse_depths, use);
   problem.SetParameterBlockConstant(&inverse_depths[anchor]);
   if (options.fix_intrinsics)
@@ -152,6 +242,7 @@ BundleAdjustmentSummary RunBundleAdjustment(const FeatureTracks& tracks,
   state->camera.f = intrinsics[0];
   state->camera.k1 = intrinsics[1];
   state->camera.k2 = intrinsics[2];
+  state->readout = readout;
   if (uncertainty) {
     AdjustmentJacobians jacobians =
         EvaluateJacobians(&problem, intrinsics, &poses, tracks.reference, &inverse_depths, use,
@@ -167,12 +258,9 @@ BundleAdjustmentSummary RunBundleAdjustment(const FeatureTracks& tracks,
         plus[axis] += kStep;
         minus[axis] -= kStep;
         double r_plus[2], r_minus[2];
-        UndistortedReprojectionError(plus, tracks.pixels[i].col(j), state->camera.cx,
-                                     state->camera.cy)(intrinsics, poses[i].data(),
-                                                       &inverse_depths[j], r_plus);
-        UndistortedReprojectionError(minus, tracks.pixels[i].col(j), state->camera.cx,
-                                     state->camera.cy)(intrinsics, poses[i].data(),
-                                                       &inverse_depths[j], r_minus);
+        reprojection.Evaluate(j, i, plus, intrinsics, poses, &inverse_depths[j], &readout, r_plus);
+        reprojection.Evaluate(j, i, minus, intrinsics, poses, &inverse_depths[j], &readout,
+                              r_minus);
         for (int k = 0; k < 2; ++k) B(k, axis) = (r_plus[k] - r_minus[k]) / (2.0 * kStep);
       }
       jacobians.block_track.push_back(j);
@@ -207,15 +295,14 @@ std::vector<double> TrackReprojectionErrors(const FeatureTracks& tracks, const S
   const double intrinsics[3] = {state.camera.f, state.camera.k1, state.camera.k2};
   std::vector<std::array<double, 6>> poses(n);
   for (int i = 0; i < n; ++i) poses[i] = ToParameters(state.poses[i]);
+  const Reprojection reprojection(tracks, state.camera, state.readout > 0.0);
   for (int j = 0; j < tracks.num_tracks(); ++j) {
     double sum = 0.0;
     for (int i = 0; i < n; ++i) {
       if (i == tracks.reference) continue;
-      const UndistortedReprojectionError error(tracks.pixels[tracks.reference].col(j),
-                                               tracks.pixels[i].col(j), state.camera.cx,
-                                               state.camera.cy);
       double residual[2];
-      error(intrinsics, poses[i].data(), &state.inverse_depths[j], residual);
+      reprojection.Evaluate(j, i, tracks.pixels[tracks.reference].col(j), intrinsics, poses,
+                            &state.inverse_depths[j], &state.readout, residual);
       sum += residual[0] * residual[0] + residual[1] * residual[1];
     }
     errors[j] = n > 1 ? std::sqrt(sum / (n - 1)) : 0.0;

@@ -129,8 +129,14 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
     sparse.calibration_used =
         options.known->mode == KnownCalibrationMode::kFixed ? "known-fixed" : "known-prior";
   }
+  options.rolling_shutter.Check();
+  if (options.rolling_shutter.mode == RollingShutterOptions::Mode::kEstimate)
+    ba_options.estimate_readout = true;
   SparseState& state = sparse.state;
   state.camera = initial;
+  state.readout = options.rolling_shutter.mode == RollingShutterOptions::Mode::kKnown
+                      ? options.rolling_shutter.readout
+                      : 0.0;
   std::vector<bool> use(tracked, true);
   if (options.init == InitMode::kRankOne) {
     const std::vector<Eigen::Matrix3d> rotations = EstimateRotations(sparse.tracks, initial);
@@ -192,8 +198,10 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
       options.known->also_self_calibrate) {
     SparseState self = state;
     SparseReconstruction::SelfEstimate estimate;
-    const BundleAdjustmentSummary summary = RunBundleAdjustment(
-        sparse.tracks, use, &self, options.bundle_adjustment, &estimate.uncertainty);
+    BundleAdjustmentOptions self_options = options.bundle_adjustment;
+    self_options.estimate_readout = ba_options.estimate_readout;
+    const BundleAdjustmentSummary summary =
+        RunBundleAdjustment(sparse.tracks, use, &self, self_options, &estimate.uncertainty);
     CalibrationEvidence self_evidence;
     self_evidence.tracks = static_cast<int>(std::count(use.begin(), use.end(), true));
     self_evidence.rms_reprojection_px = summary.rms_reprojection_px;

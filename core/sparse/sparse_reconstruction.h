@@ -10,6 +10,7 @@
 #include <utility>
 #include <vector>
 
+#include "core/camera/rolling_shutter.h"
 #include "core/io/burst.h"
 #include "core/io/result.h"
 #include "core/sparse/bundle_adjustment.h"
@@ -44,7 +45,7 @@ struct KnownCalibration {
   // of image points within this many pixels.
   double f_sigma_percent = 1.0;
   double distortion_sigma_px = 0.5;  // 0: only f is known
-  std::string source;  // where it came from, for result.json ("file:...", "fused")
+  std::string source;                // where it came from, for result.json ("file:...", "fused")
   // Also estimate the camera from this burst alone (one more adjustment run
   // on the final tracks, without this prior): what a fusion of bursts may add
   // without counting the prior twice (SparseReconstruction::self_estimate).
@@ -68,6 +69,8 @@ struct SparseOptions {
   int outlier_rounds = 3;
   // A known calibration; without one the burst calibrates the camera alone.
   std::optional<KnownCalibration> known;
+  // The sensor's readout: global, known or estimated (rolling_shutter.h).
+  RollingShutterOptions rolling_shutter;
   CalibrationQualityOptions quality;
   // Whether a later stage can use a camera (the dense stage inverts the radial
   // model); a camera it refuses is replaced as a folding one is. Null: only

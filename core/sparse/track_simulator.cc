@@ -6,6 +6,8 @@
 #include <random>
 #include <stdexcept>
 
+#include "core/camera/rolling_shutter.h"
+
 namespace dfsm {
 
 TrackSimulation SimulateTracks(const TrackSimulatorOptions& options) {
@@ -51,6 +53,7 @@ TrackSimulation SimulateTracks(const TrackSimulatorOptions& options) {
   const int rows = (options.tracks + columns - 1) / columns;
   std::uniform_real_distribution<double> inverse(1.0 / options.max_depth, 1.0 / options.min_depth);
   std::vector<Eigen::Matrix2Xd> pixels(n, Eigen::Matrix2Xd(2, options.tracks));
+  const RowPoses row_poses(sim.poses, options.readout, options.height);
   int count = 0;
   for (int r = 0; r < rows && count < options.tracks; ++r) {
     for (int c = 0; c < columns && count < options.tracks; ++c) {
@@ -59,9 +62,18 @@ TrackSimulation SimulateTracks(const TrackSimulatorOptions& options) {
       const double w = inverse(random);
       const Eigen::Vector2d x = sim.camera.PixelToUndistorted(pixel);
       bool visible = true;
+      // The point in the reference frame (its middle row's camera).
+      const Pose reference_row = row_poses.At(0, pixel.y());
+      const Eigen::Vector3d X_ref =
+          reference_row.R.transpose() * (Eigen::Vector3d(x.x(), x.y(), 1.0) / w - reference_row.T);
       for (int i = 0; i < n && visible; ++i) {
-        const Eigen::Vector3d X = sim.poses[i].Transform(Eigen::Vector3d(x.x(), x.y(), 1.0) / w);
-        const auto projected = sim.camera.UndistortedToPixel(X.head<2>() / X.z());
+        // The row a point lands on sets the pose it is seen from: a few
+        // fixed-point steps settle it (the pose changes little per row).
+        std::optional<Eigen::Vector2d> projected = pixel;
+        for (int step = 0; step < (options.readout > 0.0 ? 6 : 1) && projected; ++step) {
+          const Eigen::Vector3d X = row_poses.At(i, projected->y()).Transform(X_ref);
+          projected = sim.camera.UndistortedToPixel(X.head<2>() / X.z());
+        }
         if (!projected) {
           visible = false;
           break;

@@ -32,6 +32,10 @@ struct TrackSimulatorOptions {
   // 0: the noise comes from the scene's random stream (seed); otherwise from a
   // stream of its own, so that one scene can be observed with many noise draws.
   uint64_t noise_seed = 0;
+  // A rolling shutter's readout (core/camera/rolling_shutter.h): each
+  // observation is taken at the pose of the row it lands on, and the inverse
+  // depths are those of the reference row's camera. 0: a global shutter.
+  double readout = 0.0;
 };
 
 // Tracks sit on a grid over the reference image (as grided features do).

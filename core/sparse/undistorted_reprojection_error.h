@@ -20,6 +20,19 @@
 
 namespace dfsm {
 
+// The residual of a point X (camera coordinates, any scale) against the
+// observed pixel, both in the undistorted domain, in pixels of f.
+template <typename T>
+void UndistortedResidual(const T* intrinsics, double cx, double cy, const Eigen::Vector2d& observed,
+                         const T* X, T* residuals) {
+  const T& f = intrinsics[0];
+  T observed_x, observed_y;
+  PixelToUndistorted(f, intrinsics[1], intrinsics[2], cx, cy, observed.x(), observed.y(),
+                     &observed_x, &observed_y);
+  residuals[0] = f * (X[0] / X[2] - observed_x);
+  residuals[1] = f * (X[1] / X[2] - observed_y);
+}
+
 class UndistortedReprojectionError {
  public:
   UndistortedReprojectionError(const Eigen::Vector2d& reference_pixel,
@@ -37,12 +50,7 @@ class UndistortedReprojectionError {
     T X[3];
     ceres::AngleAxisRotatePoint(pose, p, X);
     for (int k = 0; k < 3; ++k) X[k] += inverse_depth[0] * pose[3 + k];
-
-    T observed_x, observed_y;
-    PixelToUndistorted(f, intrinsics[1], intrinsics[2], cx_, cy_, observed_.x(), observed_.y(),
-                       &observed_x, &observed_y);
-    residuals[0] = f * (X[0] / X[2] - observed_x);
-    residuals[1] = f * (X[1] / X[2] - observed_y);
+    UndistortedResidual(intrinsics, cx_, cy_, observed_, X, residuals);
     return true;
   }
 

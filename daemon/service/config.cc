@@ -9,6 +9,7 @@
 #include <optional>
 #include <sstream>
 
+#include "core/camera/rolling_shutter_options.h"
 #include "daemon/service/access_token.h"
 #include "daemon/service/number_text.h"
 
@@ -81,6 +82,8 @@ const std::vector<Key>& Keys() {
       DFSM_KEY("pipeline.grid", KeyType::kInt, pipeline.grid,
                "feature grid cell, pixels (0: scaled with the image)"),
       DFSM_KEY("pipeline.init", KeyType::kString, pipeline.init, "rank1 | naive"),
+      DFSM_KEY("pipeline.rolling_shutter", KeyType::kString, pipeline.rolling_shutter,
+               "global | estimate | readout in [0, 1] of the frame interval"),
       DFSM_KEY("pipeline.dense", KeyType::kBool, pipeline.dense, "compute the dense depth map"),
       DFSM_KEY("pipeline.burst_timeout_ms", KeyType::kInt, pipeline.burst_timeout_ms,
                "longest wait for a 'next' burst"),
@@ -288,6 +291,11 @@ void Validate(const DaemonConfig& c) {
   if (c.pipeline.init != "rank1" && c.pipeline.init != "naive") {
     throw KeyError("pipeline.init",
                    "must be \"rank1\" or \"naive\", got \"" + c.pipeline.init + "\"");
+  }
+  try {
+    ParseRollingShutter(c.pipeline.rolling_shutter);
+  } catch (const std::invalid_argument& e) {
+    throw KeyError("pipeline.rolling_shutter", e.what());
   }
   RequireRange("pipeline.burst_timeout_ms", c.pipeline.burst_timeout_ms, 1, 600000);
   if (c.calibration.mode != "prior" && c.calibration.mode != "fixed") {

@@ -12,6 +12,8 @@
 #include <string>
 #include <vector>
 
+#include "core/camera/rolling_shutter_options.h"
+
 namespace dfsm::service {
 
 // A configuration that cannot be used. The message names the key (as written
@@ -71,6 +73,9 @@ struct PipelineSection {
   int planes = 128;
   int grid = 0;  // feature grid cell in pixels; 0: scaled with the image
   std::string init = "rank1";
+  // The camera's readout (core/camera/rolling_shutter.h): "global" |
+  // "estimate" | a readout in [0, 1] of the frame interval.
+  std::string rolling_shutter = kDefaultRollingShutter;
   bool dense = true;
   int burst_timeout_ms = 5000;  // "next" bursts wait at most this long
 };

@@ -76,6 +76,11 @@ TEST(ConfigTest, ErrorsNameTheKeyAndTheProblem) {
   config = DaemonConfig();
   config.pipeline.when = "now";
   EXPECT_NE(ErrorOf([&] { Validate(config); }).find("pipeline.when"), std::string::npos);
+  config = DaemonConfig();
+  config.pipeline.rolling_shutter = "fast";
+  EXPECT_NE(
+      ErrorOf([&] { Validate(config); }).find("pipeline.rolling_shutter: rolling shutter must be"),
+      std::string::npos);
 }
 
 TEST(ConfigTest, FlagsWinOverTheFileWhereverTheyStand) {

@@ -54,6 +54,7 @@ nlohmann::json ToJson(const Job& job) {
         {"planes", job.options.planes},
         {"grid", job.options.grid},
         {"init", job.options.init},
+        {"rolling_shutter", job.options.rolling_shutter},
         {"dense", job.options.dense},
         {"keep_burst", job.options.keep_burst},
         {"calibration", job.options.calibration}}},
@@ -86,6 +87,8 @@ Job JobFromJson(const nlohmann::json& json) {
   job.options.planes = options.at("planes").get<int>();
   job.options.grid = options.value("grid", 0);
   job.options.init = options.at("init").get<std::string>();
+  // Jobs stored before the option existed ran with a global shutter.
+  job.options.rolling_shutter = options.value("rolling_shutter", "global");
   job.options.dense = options.value("dense", true);
   job.options.keep_burst = options.value("keep_burst", true);
   job.options.calibration = options.value("calibration", "auto");

@@ -8,6 +8,8 @@
 #include <utility>
 #include <vector>
 
+#include "core/camera/rolling_shutter_options.h"
+
 namespace dfsm::service {
 
 enum class JobStatus { kQueued, kProcessing, kSucceeded, kFailed };
@@ -27,6 +29,7 @@ struct JobOptions {
   int planes = 128;
   int grid = 0;
   std::string init = "rank1";
+  std::string rolling_shutter = kDefaultRollingShutter;  // ParseRollingShutter's forms
   bool dense = true;
   bool keep_burst = true;
   // "auto": the configured or the fused calibration where there is one

@@ -11,6 +11,7 @@ namespace {
 PipelineOptions ToPipelineOptions(const JobOptions& options) {
   PipelineOptions pipeline;
   pipeline.sparse.init = ParseInitMode(options.init);
+  pipeline.sparse.rolling_shutter = ParseRollingShutter(options.rolling_shutter);
   pipeline.sparse.features.cell_px = options.grid;
   pipeline.dense.planes = options.planes;
   pipeline.run_dense = options.dense;

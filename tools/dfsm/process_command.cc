@@ -27,6 +27,10 @@ constexpr const char* kHelp =
     "  --calibration-mode fixed|prior\n"
     "                       hold it fixed, or use it as a prior (f 1 %, distortion 0.5 px;\n"
     "                       default prior)\n"
+    "  --rolling-shutter global|estimate|R\n"
+    "                       the sensor's readout: none, estimated by the adjustment, or\n"
+    "                       R of the frame interval (default estimate: phones and most\n"
+    "                       webcams read out row by row; needs frames in capture order)\n"
 
     "\n"
     "Exit status: 0 ok, 1 the burst could not be processed (result.json says why), 2 usage.\n";
@@ -35,7 +39,7 @@ constexpr const char* kHelp =
 
 int RunProcessCommand(const Args& args) {
   ArgParser parser({"out", "init", "frames", "grid", "planes", "threads", "max-iterations",
-                    "calibration", "calibration-mode"},
+                    "calibration", "calibration-mode", "rolling-shutter"},
                    {"no-dense", "help"});
   parser.Parse(args);
   if (parser.Has("help")) {
@@ -50,6 +54,12 @@ int RunProcessCommand(const Args& args) {
     options.sparse.init = ParseInitMode(parser.String("init", "rank1"));
   } catch (const std::invalid_argument& e) {
     throw UsageError(std::string("--init: ") + e.what());
+  }
+  try {
+    options.sparse.rolling_shutter =
+        ParseRollingShutter(parser.String("rolling-shutter", kDefaultRollingShutter));
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(std::string("--rolling-shutter: ") + e.what());
   }
   options.sparse.features.cell_px = parser.Int("grid", 0);
   if (options.sparse.features.cell_px < 0 || options.sparse.features.cell_px > 4096)
@@ -130,6 +140,10 @@ int RunProcessCommand(const Args& args) {
                 uncertainty.value("distortion_sigma_px", 0.0));
   std::printf("            %s (calibration: %s)\n", detail.value("quality", "").c_str(),
               detail.value("source", "").c_str());
+  const nlohmann::json& shutter = detail.value("rolling_shutter", nlohmann::json::object());
+  if (shutter.value("mode", "global") != "global")
+    std::printf("shutter     rolling, readout %.3f of the frame interval (%s)\n",
+                shutter.value("readout", 0.0), shutter.value("mode", "").c_str());
   std::printf("bundle adj. init %s, %zu runs, iterations", ba.init.c_str(), ba.runs.size());
   for (const BundleAdjustmentRun& run : ba.runs) std::printf(" %d", run.iterations);
   std::printf(", %s, cost %.4g -> %.4g, rms %.3f px\n",

@@ -1,0 +1,76 @@
+// Rolling shutter in small motion (Im et al., ICCV 2015). A sensor read out
+// row by row exposes row v of a frame of height h at
+//
+//     t(v) = t_frame + readout * ((v + 0.5) / h - 0.5)      (frame intervals),
+//
+// so a frame's pose (CONTRACT.md: that of its middle row) is not the pose of its
+// other rows. Between frames the camera is taken to move along the linear
+// interpolation of the burst's own frame poses, in angle-axis and T (exact to
+// first order in small motion): a row below the middle moves toward the next
+// frame's pose, a row above it toward the previous frame's. The first and last
+// frames extrapolate their one neighbour. `readout` 0 is a global shutter; 1
+// is a sensor that reads out for the whole frame interval.
+#pragma once
+
+#include <Eigen/Core>
+#include <vector>
+
+#include "core/camera/pose.h"
+#include "core/camera/rolling_shutter_options.h"
+
+namespace dfsm {
+
+// The 6 parameters of a pose as the adjustment holds them: angle-axis of R, then T.
+using PoseParameters = Eigen::Matrix<double, 6, 1>;
+PoseParameters ToPoseParameters(const Pose& pose);
+Pose FromPoseParameters(const PoseParameters& parameters);
+
+// Row v's time offset from its frame's, in frame intervals.
+inline double RowTime(double readout, double v, int height) {
+  return readout * ((v + 0.5) / height - 0.5);
+}
+
+// The frame whose pose, with frame i's, sets the path of frame i's rows on
+// the side of time offset `dt` (>= 0: the next frame; the first and last
+// frames use their one neighbour on both sides). The step per frame interval
+// is sign * (P_neighbour - P_i): +1 for a later neighbour, -1 for an earlier.
+struct Neighbour {
+  int frame;
+  double sign;
+};
+Neighbour NeighbourOnSide(int frame, double dt, int frames);
+
+// The step of frame i's pose parameters per frame interval on the side of time
+// offset `dt` (>= 0: toward the next frame), from the burst's frame poses.
+class PoseSteps {
+ public:
+  explicit PoseSteps(const std::vector<Pose>& poses);
+  const PoseParameters& Step(int frame, double dt) const {
+    return dt >= 0.0 ? after_[frame] : before_[frame];
+  }
+
+ private:
+  std::vector<PoseParameters> before_, after_;
+};
+
+// The pose of every row of a burst's frames.
+class RowPoses {
+ public:
+  RowPoses(const std::vector<Pose>& poses, double readout, int height);
+
+  double readout() const { return readout_; }
+  // The pose of row v of frame i.
+  Pose At(int frame, double v) const;
+  // The pose that maps the camera of row v_ref of frame `reference` to the
+  // camera of row v of frame i: X_i = R X_ref + T. With a global shutter,
+  // the frame's own pose (the reference's is the identity).
+  Pose Relative(int frame, double v, int reference, double v_ref) const;
+
+ private:
+  std::vector<PoseParameters> poses_;
+  PoseSteps steps_;
+  double readout_;
+  int height_;
+};
+
+}  // namespace dfsm
