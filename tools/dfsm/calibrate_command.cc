@@ -17,12 +17,14 @@ namespace dfsm::tools {
 namespace {
 
 constexpr const char* kHelp =
-    "usage: dfsm calibrate BURST... --out DIR [--frames N]\n"
+    "usage: dfsm calibrate BURST... --out DIR [--frames N] [--rolling-shutter global|estimate|R]\n"
     "\n"
     "  --out DIR     written: calibration.json and calibration.yaml of the fused camera\n"
     "                (as 'dfsm process' writes them) and fusion.json (the fusion's state,\n"
     "                sigma, and each burst's estimate and outcome)\n"
     "  --frames N    use N frames of each burst, centred on its reference (default: all)\n"
+    "  --rolling-shutter global|estimate|R\n"
+    "                the sensor's readout, as for 'dfsm process' (default estimate)\n"
     "\n"
     "Bursts must share one image size. Exit status: 0 a fused calibration was written,\n"
     "1 no burst could be fused, 2 usage.\n";
@@ -30,7 +32,7 @@ constexpr const char* kHelp =
 }  // namespace
 
 int RunCalibrateCommand(const Args& args) {
-  ArgParser parser({"out", "frames"}, {"help"});
+  ArgParser parser({"out", "frames", "rolling-shutter"}, {"help"});
   parser.Parse(args);
   if (parser.Has("help")) {
     std::fputs(kHelp, stdout);
@@ -42,13 +44,21 @@ int RunCalibrateCommand(const Args& args) {
   read_options.max_frames = parser.Int("frames", 0);
   if (read_options.max_frames < 0 || read_options.max_frames == 1 || read_options.max_frames == 2)
     throw UsageError("--frames must be at least 3");
+  SparseOptions sparse_options;
+  try {
+    sparse_options.rolling_shutter =
+        ParseRollingShutter(parser.String("rolling-shutter", kDefaultRollingShutter));
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(std::string("--rolling-shutter: ") + e.what());
+  }
 
   CalibrationFusion fusion;
   for (const std::string& burst_dir : parser.positionals()) {
     std::string outcome;
     try {
       const Burst burst = ReadBurst(burst_dir, read_options);
-      const SparseReconstruction sparse = ReconstructSparse(burst.gray, burst.reference());
+      const SparseReconstruction sparse =
+          ReconstructSparse(burst.gray, burst.reference(), sparse_options);
       const CameraModel& camera = sparse.state.camera;
       std::printf("%s: f %.2f px (sigma %.2f %%), k1 %.5f, k2 %.5f, %s", burst_dir.c_str(),
                   camera.f,
