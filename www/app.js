@@ -554,6 +554,10 @@ function calibrationTable(cal, extra = {}) {
   if (cal.width) rows.push(['image', `${cal.width}x${cal.height}${cal.distortion_model ? `, ${cal.distortion_model}` : ''}`]);
   if (cal.quality) rows.push(['quality', cal.quality]);
   if (cal.source) rows.push(['source', cal.source + (cal.known ? ` (known: ${cal.known})` : '')]);
+  // The readout of a rolling shutter, in frame intervals (0: a global shutter).
+  const shutter = cal.rolling_shutter;
+  if (shutter) rows.push(['rolling shutter', shutter.mode === 'global' ? 'global (not modelled)'
+    : `readout ${num(shutter.readout, 3)} of the frame interval (${shutter.mode === 'estimate' ? 'estimated' : 'known'})`]);
   for (const [k, v] of Object.entries(extra.rows || {})) rows.push([k, v]);
   const dl = el('dl', {class: 'kv'});
   for (const [k, v] of rows) dl.append(el('dt', {}, k), el('dd', {class: k === 'quality' ? `quality-${v}` : ''}, v));

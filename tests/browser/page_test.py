@@ -326,6 +326,8 @@ def page_tests(driver, dfsmd, out, burst, work):
     cal_text = find('#result-calibration').text
     if 'focal length' not in cal_text or '±' not in cal_text:
         raise Failure(f'the result\'s calibration lacks focal length ± sigma: {cal_text!r}')
+    if not re.search(r'rolling shutter\s*readout -?[0-9.]+ of the frame interval \(estimated\)', cal_text):
+        raise Failure(f'the result\'s calibration does not show the estimated readout: {cal_text!r}')
 
     # 5. Calibration panel.
     wait('the calibration panel', lambda: 'fused' in find('#calibration-body').text.lower()
