@@ -179,7 +179,8 @@ BundleAdjustmentSummary RunBundleAdjustment(const FeatureTracks& tracks,
   std::vector<ceres::ResidualBlockId> reprojection_blocks, prior_blocks;
   std::vector<std::pair<int, int>> block_track_frame;  // (track, frame) of each block
   double readout = state->readout;
-  const Reprojection reprojection(tracks, state->camera, readout > 0.0 || options.estimate_readout);
+  const Reprojection reprojection(tracks, state->camera,
+                                  readout != 0.0 || options.estimate_readout);
   for (int j = 0; j < m; ++j) {
     if (!use[j]) continue;
     for (int i = 0; i < n; ++i) {
@@ -295,7 +296,7 @@ std::vector<double> TrackReprojectionErrors(const FeatureTracks& tracks, const S
   const double intrinsics[3] = {state.camera.f, state.camera.k1, state.camera.k2};
   std::vector<std::array<double, 6>> poses(n);
   for (int i = 0; i < n; ++i) poses[i] = ToParameters(state.poses[i]);
-  const Reprojection reprojection(tracks, state.camera, state.readout > 0.0);
+  const Reprojection reprojection(tracks, state.camera, state.readout != 0.0);
   for (int j = 0; j < tracks.num_tracks(); ++j) {
     double sum = 0.0;
     for (int i = 0; i < n; ++i) {

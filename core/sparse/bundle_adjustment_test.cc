@@ -137,6 +137,23 @@ TEST(BundleAdjustment, RollingShutterIsModelledKnownOrEstimated) {
   EXPECT_LT(Compare(state, sim).focal_percent, 1.0) << "f " << state.camera.f;
 }
 
+// A negative readout (a sensor read bottom-up) is a rolling shutter too: the
+// per-track errors that judge outliers must not fall back to a global one.
+TEST(BundleAdjustment, ANegativeReadoutIsARollingShutter) {
+  TrackSimulatorOptions options;
+  options.rotation_deg = 1.0;
+  const TrackSimulation sim = SimulateTracks(options);
+  SparseState truth;
+  truth.camera = sim.camera;
+  truth.poses = sim.poses;
+  truth.inverse_depths = sim.inverse_depths;
+  truth.readout = -0.6;
+  double largest = 0.0;
+  for (const double error : TrackReprojectionErrors(sim.tracks, truth))
+    largest = std::max(largest, error);
+  EXPECT_GT(largest, 0.1);  // the global-shutter tracks no longer fit
+}
+
 TEST(BundleAdjustment, NaiveStartNeedsFarMoreIterations) {
   TrackSimulatorOptions options;
   options.noise_px = 0.1;
