@@ -137,6 +137,21 @@ std::unique_ptr<Parts> Assemble(const service::DaemonConfig& config,
   return parts;
 }
 
+std::string WatchdogVerdict(const Parts& p) {
+  const int64_t stall_ns = int64_t{p.config.capture.stall_timeout_ms} * 1000000;
+  if (stall_ns != 0 && p.camera) {
+    const service::CameraHealth health = p.camera->Health();
+    if (!health.streaming && (health.last_frame_age_ns < 0 || health.last_frame_age_ns >= stall_ns))
+      return "capture is stuck";
+  }
+  // The API's own health probe through the listening port: a server whose
+  // workers or connections are all taken is restarted too.
+  if (!p.http->Probe(std::chrono::milliseconds(kApiProbeTimeoutMs)))
+    return "the API does not answer GET /healthz within " + std::to_string(kApiProbeTimeoutMs) +
+           " ms";
+  return "";
+}
+
 int Serve(Parts& p) {
   const service::DaemonConfig& c = p.config;
   int port = 0;
@@ -163,21 +178,7 @@ int Serve(Parts& p) {
               c.jobs.state_dir.string() + ")");
   service::SystemdNotifier notifier;
   notifier.Ready("serving on " + c.server.listen + ":" + std::to_string(port));
-  const int64_t stall_ns = int64_t{c.capture.stall_timeout_ms} * 1000000;
-  notifier.StartWatchdog([&p, stall_ns]() -> std::string {
-    if (stall_ns != 0 && p.camera) {
-      const service::CameraHealth health = p.camera->Health();
-      if (!health.streaming &&
-          (health.last_frame_age_ns < 0 || health.last_frame_age_ns >= stall_ns))
-        return "capture is stuck";
-    }
-    // The API's own health probe through the listening port: a server whose
-    // workers or connections are all taken is restarted too.
-    if (!p.http->Probe(std::chrono::milliseconds(kApiProbeTimeoutMs)))
-      return "the API does not answer GET /healthz within " + std::to_string(kApiProbeTimeoutMs) +
-             " ms";
-    return "";
-  });
+  notifier.StartWatchdog([&p] { return WatchdogVerdict(p); });
 
   const sigset_t signals = StopSignals();
   int signal_number = 0;

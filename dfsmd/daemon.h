@@ -11,6 +11,7 @@
 #pragma once
 
 #include <memory>
+#include <string>
 
 #include "api/http_server.h"
 #include "daemon/capture/capture_service.h"
@@ -59,6 +60,12 @@ std::unique_ptr<Parts> Assemble(const service::DaemonConfig& config,
 // Blocks SIGTERM and SIGINT in the calling thread and every thread it starts
 // afterwards; call before Assemble(). Serve() takes them with sigwait.
 void BlockStopSignals();
+
+// Why the systemd watchdog must not be pinged now ("" when all is well):
+// capture delivered no frame for capture.stall_timeout_ms, or the API does
+// not answer its own GET /healthz through the listening port (a starved or
+// deadlocked server is restarted like a stuck camera).
+std::string WatchdogVerdict(const Parts& parts);
 
 // Binds, serves until SIGTERM or SIGINT and shuts down. Returns the exit status.
 int Serve(Parts& parts);

@@ -182,6 +182,16 @@ TEST_F(RoutesTest, EventsStreamJobChanges) {
   EXPECT_NE(received.find("\"progress\":1.0"), std::string::npos) << received;
 }
 
+// The watchdog is pinged only while the API answers its own /healthz through
+// the listening port: a server that stopped answering (starved, deadlocked,
+// or, here, stopped) gets restarted by systemd like a stuck camera.
+TEST_F(RoutesTest, TheWatchdogVerdictNamesAnApiThatDoesNotAnswer) {
+  EXPECT_EQ(daemon::WatchdogVerdict(routes_->parts()), "");
+  routes_->parts().http->Stop();
+  const std::string verdict = daemon::WatchdogVerdict(routes_->parts());
+  EXPECT_NE(verdict.find("the API does not answer GET /healthz"), std::string::npos) << verdict;
+}
+
 TEST(CorsTest, HeadersOnlyWhenConfigured) {
   for (const std::string origin : {"", "https://viewer.example"}) {
     service::DaemonConfig config;

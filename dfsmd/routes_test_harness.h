@@ -28,6 +28,7 @@ class RoutesTestHarness {
   const std::filesystem::path& dir() const { return dir_; }
   service::JobStore& store() { return *parts_->store; }
   service::JobScheduler& scheduler() { return *parts_->scheduler; }
+  daemon::Parts& parts() { return *parts_; }
 
   // Stores a job with `status` whose burst directory holds only a manifest.
   std::string AddJob(service::JobStatus status);
