@@ -7,13 +7,15 @@
 #include <filesystem>
 
 #include "core/io/burst.h"
+#include "daemon/service/config.h"
 
 namespace dfsm::service {
 
+// The [limits] keys that bound a burst, with their defaults.
 struct BurstLimits {
-  int max_frames = 1000;                   // limits.max_burst_frames
-  int64_t max_frame_pixels = 64LL << 20;   // limits.max_frame_pixels
-  int64_t max_burst_pixels = 256LL << 20;  // limits.max_burst_pixels
+  int max_frames = LimitsSection{}.max_burst_frames;
+  int64_t max_frame_pixels = LimitsSection{}.max_frame_pixels;
+  int64_t max_burst_pixels = LimitsSection{}.max_burst_pixels;
 };
 
 // Checks the manifest's frame count and frame size, the pixels of the frames

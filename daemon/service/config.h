@@ -112,9 +112,14 @@ struct LimitsSection {
   int max_upload_entries = 4096;
   int64_t max_upload_file_bytes = 256LL << 20;
   int max_burst_frames = 1000;
-  int64_t max_frame_pixels = 64LL << 20;
+  // A job's peak memory grows with the size of one frame (the reference's
+  // per-pixel images: about 100 bytes a pixel) and with the pixels of the
+  // burst (about 6 bytes a pixel). The defaults keep the worst upload they
+  // admit, 4K UHD frames or 64 Mi pixels in all (1.2 GB measured), within the
+  // unit's MemoryMax=2G beside a 64-frame 1080p ring (docs/memory.md).
+  int64_t max_frame_pixels = 8LL << 20;
   // Decoded pixels over all frames kept for the job (a gray8 copy each).
-  int64_t max_burst_pixels = 256LL << 20;
+  int64_t max_burst_pixels = 64LL << 20;
 };
 
 struct DaemonConfig {

@@ -3,13 +3,15 @@
 #  - dfsmd_fault_test: state directory full (tmpfs; skips without root),
 #    pathological bursts, corrupt and truncated frames (label daemon).
 #  - dfsmd_kill_test: kill -9 at random points, 24 rounds (label daemon).
+#  - dfsmd_amplification_test: peak RSS under the memory-amplification
+#    attacks at the default configuration (label daemon).
 #  - dfsmd_memory_budget_test: the 1 GB profile runs 1080p jobs in a memory
 #    cgroup with its drop-in's MemoryMax (label daemon; skips without root).
 #  - device_gone_test: capture device unplugged under the REST API (fake V4L2
 #    driver, in process; label daemon).
 #  - dfsmd_soak_test: 1000 triggers; skips unless DFSM_TEST_SOAK=1 (label soak).
 set(_dfsm_reliability_common ${PROJECT_SOURCE_DIR}/tests/daemon/fault_helpers.cc)
-foreach(test dfsmd_fault_test dfsmd_kill_test dfsmd_memory_budget_test
+foreach(test dfsmd_fault_test dfsmd_kill_test dfsmd_amplification_test dfsmd_memory_budget_test
     dfsmd_soak_test)
   if(test STREQUAL "dfsmd_soak_test")
     set(_labels soak)
