@@ -18,7 +18,7 @@
 #include "api/request_body.h"
 #include "api/www_files.h"
 #include "core/io/file_util.h"
-#include "daemon/service/ustar.h"
+#include "daemon/service/tar_writer.h"
 
 namespace dfsm::api {
 namespace {
@@ -232,19 +232,18 @@ void GetJobFile(const ApiContext& context, const httplib::Request& request,
         return SetProblem(response, 410, "burst-deleted", "Burst not kept",
                           "job " + id + " was run with keep_burst false; its burst is deleted");
       }
-      // Streamed from the files in pieces (never the whole burst in memory).
-      auto tar = std::make_shared<service::TarStream>(context.store->BurstDir(id));
-      response.set_content_provider(
-          static_cast<size_t>(tar->size()), content_type,
-          [tar](size_t offset, size_t length, httplib::DataSink& sink) {
-            try {
-              const std::string piece =
-                  tar->Read(static_cast<int64_t>(offset), std::min<size_t>(length, 256 << 10));
-              return !piece.empty() && sink.write(piece.data(), piece.size());
-            } catch (const std::exception&) {
-              return false;  // a file vanished mid-download: the connection ends
-            }
-          });
+      // Chunked, written by libarchive as it goes: never the whole burst in memory.
+      response.status = 200;  // a Range gets all of it, not a 206 without Content-Range
+      auto tar = std::make_shared<service::DirectoryTar>(context.store->BurstDir(id));
+      response.set_chunked_content_provider(content_type, [tar](size_t, httplib::DataSink& sink) {
+        try {
+          const std::string piece = tar->Next();
+          if (piece.empty()) sink.done();
+          return piece.empty() || sink.write(piece.data(), piece.size());
+        } catch (const std::exception&) {
+          return false;  // a file vanished mid-download: the connection ends
+        }
+      });
       return;
     }
     if (!IsFinished(job->status)) {

@@ -78,9 +78,8 @@ TEST_F(RoutesTest, BadUploadsAreNamed) {
   auto tar = [&](const std::string& body, const std::string& query = "") {
     return client_->Post(("/api/v1/jobs" + query).c_str(), body, "application/x-tar");
   };
-  EXPECT_NE(
-      ExpectProblem(tar("not a tar" + std::string(600, ' ')), 422).find("tar header at byte 0"),
-      std::string::npos);
+  EXPECT_NE(ExpectProblem(tar("not a tar" + std::string(600, ' ')), 422).find("not a tar archive"),
+            std::string::npos);
   EXPECT_NE(ExpectProblem(tar(""), 400).find("must be a tar"), std::string::npos);
   ExpectProblem(client_->Post("/api/v1/jobs", "{}", "application/json"), 415);
   EXPECT_NE(ExpectProblem(tar("x", "?planes=0"), 400).find("'planes'"), std::string::npos);

@@ -15,6 +15,7 @@
 #include "core/io/burst.h"
 #include "core/io/file_util.h"
 #include "dfsmd/routes_test_harness.h"
+#include "tests/support/tar_files.h"
 
 namespace dfsm::api {
 namespace {

@@ -1,5 +1,6 @@
-// Fuzzes the burst upload of POST /api/v1/jobs below HTTP: the ustar reader
-// (daemon/service/ustar.h) on its own, then JobIntake::FromArchive on a real
+// Fuzzes the burst upload of POST /api/v1/jobs below HTTP: the tar reader
+// (daemon/service/tar_extract.h: libarchive under dfsm's policy) on its own,
+// then JobIntake::FromArchive (the same reader, fed through a pipe) on a real
 // job store, which extracts the archive to disk, reads the burst (manifest and
 // PNG frames) and stores a queued job. The scheduler is never started, so no
 // pipeline runs; every accepted job is deleted again so the store stays small.
@@ -11,7 +12,10 @@
 #include <map>
 #include <memory>
 
+#include "core/io/file_util.h"
 #include "daemon/service/job_intake.h"
+#include "daemon/service/tar_extract.h"
+#include "daemon/service/tar_writer.h"
 #include "fuzz/fuzz_check.h"
 #include "fuzz/state_dir.h"
 
@@ -46,30 +50,22 @@ struct Intake {
   JobIntake intake{&store, &scheduler, nullptr, &metrics, FuzzLimits(), FuzzBurstLimits()};
 };
 
-// What ReadTar promises of the names it returns: relative, normalized, unique.
-void CheckEntries(const std::vector<TarEntry>& entries, const TarLimits& limits) {
-  FUZZ_CHECK(!entries.empty(), "an empty archive was accepted");
-  FUZZ_CHECK(static_cast<int>(entries.size()) <= limits.max_entries, "too many entries");
-  std::map<std::string, std::string_view> files;
-  for (const TarEntry& entry : entries) {
-    const std::string& path = entry.path;
-    FUZZ_CHECK(!path.empty() && path.front() != '/' && path.back() != '/', "bad name " + path);
-    FUZZ_CHECK(("/" + path + "/").find("/../") == std::string::npos, "'..' in " + path);
-    FUZZ_CHECK(("/" + path + "/").find("/./") == std::string::npos, "'.' in " + path);
-    FUZZ_CHECK(path.find("//") == std::string::npos, "empty component in " + path);
-    FUZZ_CHECK(static_cast<int64_t>(entry.data.size()) <= limits.max_file_bytes, "file too big");
-    if (!entry.is_directory) files.emplace(path, entry.data);
-  }
-  // Regular files survive a write/read round trip (GET .../burst.tar writes them).
-  std::vector<TarFile> written;
-  for (const auto& [path, data] : files) written.push_back({path, std::string(data)});
-  const std::string archive = WriteTar(written);
-  const std::vector<TarEntry> again = ReadTar(archive, limits);
-  FUZZ_CHECK(again.size() == written.size(), "round trip changed the number of files");
-  for (const TarEntry& entry : again) {
-    const auto found = files.find(entry.path);
-    FUZZ_CHECK(found != files.end() && found->second == entry.data,
-               "round trip changed " + entry.path);
+// What ExtractTar wrote: plain files and directories within the limits, which
+// GET .../burst.tar (DirectoryTar) sends so that they extract the same again.
+void CheckExtracted(const fs::path& dir, const fs::path& again, const TarLimits& limits) {
+  std::string archive;
+  DirectoryTar tar(dir);
+  for (std::string piece = tar.Next(); !piece.empty(); piece = tar.Next()) archive += piece;
+  fs::create_directories(again);
+  ExtractTar(archive, again, limits);
+  for (const auto& entry : fs::recursive_directory_iterator(dir)) {
+    const fs::path copy = again / entry.path().lexically_relative(dir);
+    FUZZ_CHECK(!entry.is_symlink() && (entry.is_regular_file() || entry.is_directory()),
+               "not a plain file or directory: " + copy.string());
+    FUZZ_CHECK(!entry.is_regular_file() ||
+                   (static_cast<int64_t>(entry.file_size()) <= limits.max_file_bytes &&
+                    dfsm::ReadFileToString(copy) == dfsm::ReadFileToString(entry.path())),
+               "too big, or changed by the round trip: " + copy.string());
   }
 }
 
@@ -80,11 +76,16 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   Intake* const state = &intake;
   const std::string_view archive(reinterpret_cast<const char*>(data), size);
 
+  const fs::path out = state->dir.path() / "extract", again = state->dir.path() / "again";
+  fs::create_directories(out);
   try {
-    CheckEntries(ReadTar(archive, FuzzLimits()), FuzzLimits());
+    ExtractTar(archive, out, FuzzLimits());
+    CheckExtracted(out, again, FuzzLimits());
   } catch (const TarError& error) {
     dfsm::fuzz::CheckNamedError(error);
   }
+  fs::remove_all(out);
+  fs::remove_all(again);
 
   JobOptions options;
   options.frames = 0;  // every frame of the upload, as POST /api/v1/jobs without ?frames

@@ -106,7 +106,7 @@ struct RetentionSection {
   int64_t max_age_s = 7 * 24 * 3600;  // 0: no limit
 };
 
-// What one upload may hold (ustar.h TarLimits, job_intake.h): refused with a
+// What one upload may hold (tar_policy.h TarLimits, job_intake.h): refused with a
 // 413 or 422 naming the limit before anything is decoded or stored.
 struct LimitsSection {
   int max_upload_entries = 4096;

@@ -5,6 +5,7 @@
 
 #include <chrono>
 #include <filesystem>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -14,7 +15,7 @@
 #include "daemon/service/job_scheduler.h"
 #include "daemon/service/job_store.h"
 #include "daemon/service/metrics.h"
-#include "daemon/service/ustar.h"
+#include "daemon/service/streaming_extraction.h"  // and TarLimits
 
 namespace dfsm::service {
 
@@ -32,25 +33,26 @@ class BadUpload : public std::invalid_argument {
 
 // An upload being received: it holds its place in the queue (taken before the
 // first body byte is read, so a full queue costs the client nothing) and
-// writes the body to a file in the state directory's staging area, so that no
-// upload is ever held in memory. Move-only; dropping it frees both.
+// extracts the tar into the state directory's staging area as it arrives: no
+// upload is ever held whole. Move-only; dropping it frees both.
 class PendingUpload {
  public:
   PendingUpload(PendingUpload&& other) noexcept;
   PendingUpload& operator=(PendingUpload&&) = delete;
   ~PendingUpload();
 
-  // Appends body bytes. Throws JobStoreError when the disk refuses them.
+  // Passes body bytes to the extraction. Throws JobStoreError.
   void Append(const char* data, size_t size);
   int64_t size() const { return size_; }
 
  private:
   friend class JobIntake;
-  PendingUpload(JobScheduler::Reservation reservation, std::filesystem::path dir);
+  PendingUpload(JobScheduler::Reservation reservation, std::filesystem::path dir,
+                const TarLimits& limits);
 
   JobScheduler::Reservation reservation_;
-  std::filesystem::path dir_;  // staging; removed unless it became a job
-  int fd_ = -1;
+  std::filesystem::path dir_;                        // staging; removed unless it became a job
+  std::unique_ptr<StreamingExtraction> extraction_;  // into dir_/upload
   int64_t size_ = 0;
 };
 

@@ -9,8 +9,8 @@
 #include <nlohmann/json.hpp>
 
 #include "core/synth/burst_synthesizer.h"
-#include "daemon/service/ustar.h"
 #include "tests/daemon/fault_helpers.h"
+#include "tests/support/tar_files.h"
 
 namespace dfsm::test {
 namespace {

@@ -17,8 +17,8 @@
 #include "core/io/file_util.h"
 #include "core/synth/burst_synthesizer.h"
 #include "daemon/service/job_store.h"
-#include "daemon/service/ustar.h"
 #include "tests/daemon/fault_helpers.h"
+#include "tests/support/tar_files.h"
 
 namespace dfsm::test {
 namespace {

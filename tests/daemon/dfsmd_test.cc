@@ -11,9 +11,10 @@
 #include "core/io/ground_truth.h"
 #include "core/pipeline/evaluation.h"
 #include "core/synth/burst_synthesizer.h"
-#include "daemon/service/ustar.h"
+#include "daemon/service/tar_extract.h"
 #include "dfsmd/dfsmd_process.h"
 #include "tests/daemon/fault_helpers.h"
+#include "tests/support/tar_files.h"
 
 namespace dfsm::test {
 namespace {
@@ -135,16 +136,14 @@ TEST_F(DfsmdTest, CaptureThenFetchEveryOutput) {
     } else if (file == "calibration.yaml") {
       EXPECT_EQ(body.rfind("%YAML", 0), 0u);
     } else if (file == "burst.tar") {
-      const auto entries = service::ReadTar(body);
-      EXPECT_EQ(entries.size(), 11u);  // manifest + 10 frames
-      bool manifest = false;
-      for (const auto& entry : entries) {
-        if (entry.path == "manifest.json") {
-          manifest = true;
-          EXPECT_EQ(json::parse(entry.data)["source"]["source_sequence_first"], 0);
-        }
-      }
-      EXPECT_TRUE(manifest);
+      // Sent chunked: libarchive writes it as it goes, its size unknown ahead.
+      EXPECT_EQ(result->get_header_value("Transfer-Encoding"), "chunked");
+      fs::create_directories(dir_ / "downloaded");
+      service::ExtractTar(body, dir_ / "downloaded", {});
+      EXPECT_EQ(service::CollectFiles(dir_ / "downloaded").size(), 11u);  // manifest + 10 frames
+      EXPECT_EQ(json::parse(ReadFileToString(dir_ / "downloaded" /
+                                             "manifest.json"))["source"]["source_sequence_first"],
+                0);
     }
   }
   const json result = json::parse(client.Get((location + "/result.json").c_str())->body);
@@ -171,20 +170,48 @@ TEST_F(DfsmdTest, CaptureThenFetchEveryOutput) {
   EXPECT_NE(metrics.find("dfsmd_stage_duration_seconds_count{stage=\"dense\"} 1"),
             std::string::npos);
   EXPECT_EQ(client.Get("/readyz")->status, 200);
+
+  // The downloaded burst.tar uploads again as the same burst, to the same result.
+  const std::string burst_tar = client.Get((location + "/burst.tar").c_str())->body;
+  // A Range is answered with all of it (its size is not known ahead), and
+  // curl -O saves what the client read.
+  const auto ranged = client.Get((location + "/burst.tar").c_str(), {{"Range", "bytes=0-9"}});
+  EXPECT_EQ(ranged->status, 200);
+  EXPECT_EQ(ranged->body, burst_tar);
+  if (std::system("command -v curl >/dev/null 2>&1") == 0) {
+    const std::string url =
+        "http://127.0.0.1:" + std::to_string(daemon->port()) + location + "/burst.tar";
+    ASSERT_EQ(std::system(("cd " + dir_.string() + " && curl -sfO " + url).c_str()), 0);
+    EXPECT_EQ(ReadFileToString(dir_ / "burst.tar"), burst_tar);
+  }
+  const std::string again =
+      Accepted(client.Post("/api/v1/jobs?frames=10", burst_tar, "application/x-tar"));
+  const json redone = AwaitFinished(client, again, kJobTimeout);
+  ASSERT_EQ(redone["status"], "succeeded") << redone.dump(2);
+  EXPECT_EQ(redone["input"], job["input"]);
+  EXPECT_EQ(client.Get((again + "/burst.tar").c_str())->body, burst_tar);
+  const json redone_result = json::parse(client.Get((again + "/result.json").c_str())->body);
+  EXPECT_NEAR(redone_result["calibration"]["fx"].get<double>(),
+              result["calibration"]["fx"].get<double>(),
+              1e-6 * result["calibration"]["fx"].get<double>());
   EXPECT_EQ(daemon->Stop(SIGTERM), 0) << daemon->Log();
 }
 
 TEST_F(DfsmdTest, UploadedBurstIsProcessedTheSameWay) {
   auto daemon = Start();
   httplib::Client client = daemon->Client();
-  // Our writer (top level) and GNU tar (one top-level directory) both work.
+  // Our writer (top level) and GNU tar (one top-level directory) both work,
+  // the latter in tar's default format with names over ustar's 100 characters
+  // (GNU long-name headers).
   const std::string ours = service::WriteTar(service::CollectFiles(root_ / "burst"));
   const std::string location =
       Accepted(client.Post("/api/v1/jobs?keep_burst=false", ours, "application/x-tar"));
-  ASSERT_EQ(std::system(("tar -C " + root_.string() + " -cf " + (dir_ / "b.tar").string() +
-                         " --format=ustar burst")
-                            .c_str()),
-            0);
+  const std::string long_top(120, 'b');
+  fs::copy(root_ / "burst", dir_ / long_top, fs::copy_options::recursive);
+  ASSERT_EQ(
+      std::system(("tar -C " + dir_.string() + " -cf " + (dir_ / "b.tar").string() + " " + long_top)
+                      .c_str()),
+      0);
   const std::string gnu = ReadFileToString(dir_ / "b.tar");
   const std::string second =
       Accepted(client.Post("/api/v1/jobs?frames=8", gnu, "application/x-tar"));

@@ -20,7 +20,7 @@ foreach(test dfsmd_fault_test dfsmd_kill_test dfsmd_amplification_test dfsmd_mem
   endif()
   dfsm_add_test(${test}
     SOURCES ${PROJECT_SOURCE_DIR}/tests/daemon/${test}.cc ${_dfsm_reliability_common}
-    LIBS dfsm_daemon dfsm_dfsmd_process dfsm_synth dfsm_pipeline
+    LIBS dfsm_daemon dfsm_dfsmd_process dfsm_synth dfsm_pipeline dfsm_tar_files
     LABELS ${_labels})
   target_compile_definitions(${test} PRIVATE DFSMD_BINARY="$<TARGET_FILE:dfsmd>")
   add_dependencies(${test} dfsmd)

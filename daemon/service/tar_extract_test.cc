@@ -1,0 +1,179 @@
+#include "daemon/service/tar_extract.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+
+#include "core/io/file_util.h"
+#include "tests/support/tar_files.h"
+
+namespace dfsm::service {
+namespace {
+
+namespace fs = std::filesystem;
+
+class TarExtractTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  // A new empty directory to extract into.
+  fs::path Fresh() {
+    const fs::path out = dir_ / ("out" + std::to_string(next_++));
+    fs::create_directories(out);
+    return out;
+  }
+  std::string ErrorOf(std::string_view archive, const TarLimits& limits = {}) {
+    try {
+      ExtractTar(archive, Fresh(), limits);
+    } catch (const TarError& e) {
+      return e.what();
+    }
+    return "";
+  }
+  bool HasTar() { return std::system("command -v tar >/dev/null 2>&1") == 0; }
+  // `tar -cf` of `what` under dir_ with `options`, read back.
+  std::string Tar(const std::string& options, const std::string& what) {
+    const fs::path file = dir_ / "made.tar";
+    const std::string command =
+        "tar -C " + dir_.string() + " " + options + " -cf " + file.string() + " " + what;
+    EXPECT_EQ(std::system(command.c_str()), 0) << command;
+    return ReadFileToString(file);
+  }
+
+  const fs::path dir_ =
+      fs::temp_directory_path() / ("dfsm-tar-extract-" + std::to_string(::getpid()));
+  int next_ = 0;
+};
+
+// Rewrites the checksum of the header at `offset` after a test edited it.
+void FixChecksum(std::string* archive, size_t offset) {
+  char* header = archive->data() + offset;
+  std::memset(header + 148, ' ', 8);
+  unsigned sum = 0;
+  for (int i = 0; i < 512; ++i) sum += static_cast<unsigned char>(header[i]);
+  std::snprintf(header + 148, 8, "%06o", sum);
+}
+
+TEST_F(TarExtractTest, RoundTripsFilesAndLongNames) {
+  const std::string long_name(150, 'n');  // ustar's name field holds 100
+  const std::vector<TarFile> files = {{"manifest.json", "{}"},
+                                      {"frames/000000.png", std::string(100000, '\x7f')},
+                                      {"frames/" + long_name, ""}};
+  const std::string archive = WriteTar(files);
+  EXPECT_EQ(archive.size() % 512, 0u);
+  EXPECT_NE(archive.find("path=frames/" + long_name), std::string::npos) << "a pax header";
+  const fs::path out = Fresh();
+  ExtractTar(archive, out, {});
+  EXPECT_EQ(CollectFiles(out).size(), files.size());
+  for (const TarFile& file : files) EXPECT_EQ(ReadFileToString(out / file.path), file.data);
+}
+
+// tar's default format (GNU, with 'L' long-name headers), pax and ustar.
+TEST_F(TarExtractTest, ReadsWhatTarWrites) {
+  if (!HasTar()) GTEST_SKIP() << "no tar program";
+  const std::string top(130, 'b');  // every name in it is over ustar's 100
+  fs::create_directories(dir_ / top / "frames");
+  std::ofstream(dir_ / top / "manifest.json") << "{\"format\":\"dfsm-burst/1\"}";
+  std::ofstream(dir_ / top / "frames" / "000000.png") << "png";
+  for (const char* format : {"", "--format=pax", "--format=gnu"}) {
+    const fs::path out = Fresh();
+    ExtractTar(Tar(format, top), out, {});
+    EXPECT_EQ(ReadFileToString(out / top / "frames" / "000000.png"), "png") << format;
+    EXPECT_EQ(ReadFileToString(out / top / "manifest.json"), "{\"format\":\"dfsm-burst/1\"}");
+    EXPECT_EQ(CollectFiles(out).size(), 2u) << format;
+  }
+  // "./" as the archive's top, as `tar -C dir -cf x.tar .` writes it.
+  const fs::path out = Fresh();
+  ExtractTar(Tar("", "./" + top), out, {});
+  EXPECT_TRUE(fs::is_regular_file(out / top / "manifest.json"));
+}
+
+TEST_F(TarExtractTest, RejectsLinksAndSpecialFiles) {
+  if (!HasTar()) GTEST_SKIP() << "no tar program";
+  std::ofstream(dir_ / "file") << "x";
+  fs::create_symlink("file", dir_ / "symlink");
+  fs::create_hard_link(dir_ / "file", dir_ / "hardlink");
+  ASSERT_EQ(::mkfifo((dir_ / "fifo").c_str(), 0600), 0);
+  EXPECT_NE(ErrorOf(Tar("", "symlink")).find("'symlink': links are not allowed"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf(Tar("", "file hardlink")).find("'hardlink': links are not allowed"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf(Tar("--format=pax", "fifo")).find("'fifo': not a regular file or directory"),
+            std::string::npos);
+}
+
+TEST_F(TarExtractTest, RejectsPathsThatLeaveTheArchive) {
+  EXPECT_NE(ErrorOf(WriteTar({{"../etc/passwd", "x"}})).find("leaves the archive"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf(WriteTar({{"a/../../b", "x"}})).find("leaves the archive"), std::string::npos);
+  EXPECT_NE(ErrorOf(WriteTar({{"/etc/passwd", "x"}})).find("absolute path"), std::string::npos);
+  EXPECT_NE(ErrorOf(WriteTar({{"a\\b", "x"}})).find("backslash"), std::string::npos);
+  EXPECT_NE(ErrorOf(WriteTar({{"a", "x"}, {"./a", "y"}})).find("duplicate"), std::string::npos);
+  EXPECT_NE(ErrorOf(WriteTar({{"a", "x"}, {"a/b", "y"}})).find("below the file"),
+            std::string::npos);
+  TarLimits shallow;
+  shallow.max_depth = 2;
+  EXPECT_NE(ErrorOf(WriteTar({{"a/b/c", "x"}}), shallow).find("nested too deeply"),
+            std::string::npos);
+  EXPECT_FALSE(fs::exists(dir_ / "etc"));
+}
+
+// A gzip upload was reported as "checksum in base-256 is not supported".
+TEST_F(TarExtractTest, NamesACompressedArchive) {
+  const std::string tar = WriteTar({{"manifest.json", "{}"}});
+  EXPECT_EQ(ErrorOf("\x1F\x8B\x08" + tar),
+            "a gzip-compressed archive: upload an uncompressed tar (tar -cf, not tar -czf)");
+  EXPECT_NE(ErrorOf("BZh9" + tar).find("a bzip2-compressed archive"), std::string::npos);
+  EXPECT_NE(ErrorOf(std::string("\xFD"
+                                "7zXZ\x00",
+                                6) +
+                    tar)
+                .find("a xz-compressed archive"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf("\x28\xB5\x2F\xFD" + tar).find("a zstd-compressed archive"), std::string::npos);
+}
+
+TEST_F(TarExtractTest, RejectsDamageAndOversize) {
+  const std::string archive = WriteTar({{"manifest.json", std::string(600, 'm')}});
+  std::string corrupt = archive;
+  corrupt[0] = 'n';  // the checksum no longer matches
+  EXPECT_NE(ErrorOf(corrupt).find("not a tar archive"), std::string::npos) << ErrorOf(corrupt);
+  EXPECT_NE(ErrorOf(archive.substr(0, 700)).find("truncated"), std::string::npos);
+  EXPECT_NE(ErrorOf(archive.substr(0, 300)).find("truncated"), std::string::npos);
+  const std::string two = WriteTar({{"a", "x"}, {"b", std::string(600, 'b')}});
+  EXPECT_NE(ErrorOf(two.substr(0, 2000)).find("truncated in 'b'"), std::string::npos);
+  EXPECT_NE(ErrorOf(two.substr(0, 1300)).find("truncated after 'a'"), std::string::npos)
+      << ErrorOf(two.substr(0, 1300));
+  EXPECT_EQ(ErrorOf(std::string(1024, '\0')), "tar archive is empty");
+  EXPECT_NE(
+      ErrorOf("this is not a tar file at all" + std::string(600, ' ')).find("not a tar archive"),
+      std::string::npos);
+  EXPECT_NE(ErrorOf("").find("not a tar archive"), std::string::npos);
+  TarLimits small;
+  small.max_file_bytes = 512;
+  EXPECT_NE(ErrorOf(archive, small).find("exceeds the limit of 512"), std::string::npos);
+  small = TarLimits();
+  small.max_entries = 1;
+  EXPECT_NE(ErrorOf(WriteTar({{"a", ""}, {"b", ""}}), small).find("more than 1 entries"),
+            std::string::npos);
+  small = TarLimits();
+  small.max_total_bytes = 1000;
+  EXPECT_NE(ErrorOf(WriteTar({{"a", std::string(600, 'a')}, {"b", std::string(600, 'b')}}), small)
+                .find("archive content exceeds the limit of 1000 bytes"),
+            std::string::npos);
+  std::string huge = archive;
+  std::memcpy(huge.data() + 124, "77777777777", 11);  // 8 GiB announced
+  FixChecksum(&huge, 0);
+  EXPECT_NE(ErrorOf(huge).find("exceeds the limit"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace dfsm::service
