@@ -143,6 +143,27 @@ TEST_F(TarExtractTest, ReadsWhatTarWrites) {
   EXPECT_TRUE(fs::is_regular_file(out / top / "manifest.json"));
 }
 
+// A GNU sparse file's holes come back as zeros and count at their full size.
+TEST_F(TarExtractTest, SparseFilesCountAtFullSize) {
+  if (!HasTar()) GTEST_SKIP() << "no tar program";
+  const std::string end = "end of a mostly empty file";
+  {
+    std::ofstream file(dir_ / "sparse.bin", std::ios::binary);
+    file.seekp(1 << 20);
+    file << end;
+  }
+  for (const char* format : {"--format=gnu", "--format=pax"}) {
+    const std::string archive = Tar(std::string("-S ") + format, "sparse.bin");
+    const fs::path out = Fresh();
+    ExtractTar(archive, out, {});
+    EXPECT_EQ(ReadFileToString(out / "sparse.bin"), std::string(1 << 20, '\0') + end) << format;
+    TarLimits small;
+    small.max_file_bytes = 4096;
+    EXPECT_NE(ErrorOf(archive, small).find("exceeds the limit of 4096"), std::string::npos)
+        << format << ": " << ErrorOf(archive, small);
+  }
+}
+
 TEST_F(TarExtractTest, RejectsLinksAndSpecialFiles) {
   if (!HasTar()) GTEST_SKIP() << "no tar program";
   std::ofstream(dir_ / "file") << "x";
