@@ -81,6 +81,9 @@ TEST_F(RoutesTest, BadUploadsAreNamed) {
   EXPECT_NE(ExpectProblem(tar("not a tar" + std::string(600, ' ')), 422).find("not a tar archive"),
             std::string::npos);
   EXPECT_NE(ExpectProblem(tar(""), 400).find("must be a tar"), std::string::npos);
+  EXPECT_NE(ExpectProblem(tar("\x1F\x8B\x08" + std::string(600, '\0')), 422)
+                .find("a gzip-compressed archive: upload an uncompressed tar"),
+            std::string::npos);
   ExpectProblem(client_->Post("/api/v1/jobs", "{}", "application/json"), 415);
   EXPECT_NE(ExpectProblem(tar("x", "?planes=0"), 400).find("'planes'"), std::string::npos);
   EXPECT_NE(ExpectProblem(tar(std::string(128 * 1024, '\0')), 413).find("max_body_bytes"),

@@ -9,13 +9,14 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <map>
 #include <opencv2/imgcodecs.hpp>
 
 #include "api/problem.h"
 #include "core/io/burst.h"
 #include "core/io/file_util.h"
+#include "daemon/service/tar_writer.h"
 #include "dfsmd/routes_test_harness.h"
-#include "tests/support/tar_files.h"
 
 namespace dfsm::api {
 namespace {
@@ -72,17 +73,31 @@ class SecurityRoutesTest : public ::testing::Test {
 
   std::string AddFinishedJob() { return routes_->AddJob(service::JobStatus::kFailed); }
 
-  // A ustar archive of a burst of `frames` PNGs, each `png`, declared width x height.
-  std::string BurstTar(int frames, const std::string& png, int width, int height) {
-    std::vector<service::TarFile> files;
+  // A tar of `files` (name -> contents), as GET .../burst.tar writes it.
+  static std::string Tar(const std::map<std::string, std::string>& files) {
+    const fs::path dir = fs::temp_directory_path() / ("security-tar-" + std::to_string(::getpid()));
+    for (const auto& [name, data] : files) {
+      fs::create_directories((dir / name).parent_path());
+      WriteFileAtomically(dir / name, data);
+    }
+    service::DirectoryTar tar(dir);
+    std::string archive;
+    for (std::string piece = tar.Next(); !piece.empty(); piece = tar.Next()) archive += piece;
+    fs::remove_all(dir);
+    return archive;
+  }
+
+  // A tar of a burst of `frames` PNGs, each `png`, declared width x height.
+  static std::string BurstTar(int frames, const std::string& png, int width, int height) {
+    std::map<std::string, std::string> files;
     nlohmann::json manifest = {{"format", "dfsm-burst/1"}, {"width", width}, {"height", height}};
     for (int i = 0; i < frames; ++i) {
       const std::string name = "frames/" + std::to_string(i) + ".png";
       manifest["frames"].push_back({{"file", name}});
-      files.push_back({"burst/" + name, png});
+      files["burst/" + name] = png;
     }
-    files.push_back({"burst/manifest.json", manifest.dump()});
-    return service::WriteTar(files);
+    files["burst/manifest.json"] = manifest.dump();
+    return Tar(files);
   }
 
   std::unique_ptr<RoutesTestHarness> routes_;
@@ -262,7 +277,7 @@ TEST_F(SecurityRoutesTest, UploadLimitsAreNamed) {
 // details (which showed absolute paths) go through HideStateDirectory, which
 // writes "<state_dir>" for it.
 TEST_F(SecurityRoutesTest, ProblemsDoNotShowTheStateDirectory) {
-  std::vector<service::TarFile> files = {
+  const std::map<std::string, std::string> files = {
       {"burst/manifest.json",
        nlohmann::json(
            {{"format", "dfsm-burst/1"},
@@ -273,8 +288,8 @@ TEST_F(SecurityRoutesTest, ProblemsDoNotShowTheStateDirectory) {
            .dump()},
       {"burst/frames/0.png", Png(8, 8)},
       {"burst/frames/1.png", Png(8, 8)}};
-  const std::string detail = ExpectProblem(
-      client_->Post("/api/v1/jobs", service::WriteTar(files), "application/x-tar"), 422);
+  const std::string detail =
+      ExpectProblem(client_->Post("/api/v1/jobs", Tar(files), "application/x-tar"), 422);
   EXPECT_NE(detail.find("frames/2.png"), std::string::npos) << detail;
   EXPECT_EQ(detail.find(routes_->dir().string()), std::string::npos) << detail;
   EXPECT_EQ(HideStateDirectory("/var/lib/dfsmd/jobs/x/job.json.tmp: No space left on device",

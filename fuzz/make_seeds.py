@@ -108,6 +108,8 @@ def tar_upload_seeds():
     write(h, "burst-in-dir.tar", burst_tar(top="burst/", directories=True))
     write(h, "burst-color-gnu.tar", burst_tar(channels=3, tar_format=tarfile.GNU_FORMAT))
     write(h, "burst-dot-slash.tar", burst_tar(top="./"))
+    for name, tar_format in (("pax", tarfile.PAX_FORMAT), ("gnu", tarfile.GNU_FORMAT)):
+        write(h, f"burst-{name}-long-name.tar", burst_tar(top="b" * 120 + "/", tar_format=tar_format))
     truncated = burst_tar()
     write(h, "truncated.tar", truncated[:700])
 

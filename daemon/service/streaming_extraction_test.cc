@@ -4,9 +4,10 @@
 #include <unistd.h>
 
 #include <filesystem>
+#include <map>
 
 #include "core/io/file_util.h"
-#include "tests/support/tar_files.h"
+#include "daemon/service/tar_writer.h"
 
 namespace dfsm::service {
 namespace {
@@ -17,6 +18,20 @@ class StreamingExtractionTest : public ::testing::Test {
  protected:
   void SetUp() override { fs::remove_all(dir_); }
   void TearDown() override { fs::remove_all(dir_); }
+
+  // A tar of `files` (name -> contents), as GET .../burst.tar writes it.
+  std::string Tar(const std::map<std::string, std::string>& files) {
+    const fs::path src = dir_.string() + "-src";
+    for (const auto& [name, data] : files) {
+      fs::create_directories((src / name).parent_path());
+      WriteFileAtomically(src / name, data);
+    }
+    DirectoryTar tar(src);
+    std::string archive;
+    for (std::string piece = tar.Next(); !piece.empty(); piece = tar.Next()) archive += piece;
+    fs::remove_all(src);
+    return archive;
+  }
 
   // Writes `archive` in pieces of `piece` bytes, as httplib hands them over.
   static void WriteInPieces(StreamingExtraction* extraction, const std::string& archive,
@@ -32,7 +47,7 @@ class StreamingExtractionTest : public ::testing::Test {
 // More than the pipe holds (64 KiB), so writing waits on the extraction.
 TEST_F(StreamingExtractionTest, ExtractsWhileTheArchiveArrives) {
   const std::string big(1 << 20, 'f');
-  const std::string archive = WriteTar({{"burst/manifest.json", "{}"}, {"burst/f.bin", big}});
+  const std::string archive = Tar({{"burst/manifest.json", "{}"}, {"burst/f.bin", big}});
   for (const size_t piece : {size_t{1000}, size_t{1} << 20}) {
     {
       StreamingExtraction extraction(dir_, {});
@@ -50,7 +65,7 @@ TEST_F(StreamingExtractionTest, AnErrorWaitsForTheEndOfTheBody) {
   TarLimits limits;
   limits.max_file_bytes = 1000;
   StreamingExtraction extraction(dir_, limits);
-  WriteInPieces(&extraction, WriteTar({{"f.bin", std::string(4 << 20, 'f')}}), 64 << 10);
+  WriteInPieces(&extraction, Tar({{"f.bin", std::string(4 << 20, 'f')}}), 64 << 10);
   try {
     extraction.Finish();
     FAIL() << "accepted";
@@ -63,7 +78,7 @@ TEST_F(StreamingExtractionTest, AnErrorWaitsForTheEndOfTheBody) {
 // A body that ended early (the client went away): dropping the extraction
 // ends its thread.
 TEST_F(StreamingExtractionTest, DroppedMidArchive) {
-  const std::string archive = WriteTar({{"f.bin", std::string(1 << 20, 'f')}});
+  const std::string archive = Tar({{"f.bin", std::string(1 << 20, 'f')}});
   {
     StreamingExtraction extraction(dir_, {});
     WriteInPieces(&extraction, archive.substr(0, archive.size() / 2), 4096);

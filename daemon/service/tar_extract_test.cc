@@ -7,9 +7,13 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iomanip>
+#include <sstream>
+#include <utility>
+#include <vector>
 
 #include "core/io/file_util.h"
-#include "tests/support/tar_files.h"
+#include "daemon/service/tar_writer.h"
 
 namespace dfsm::service {
 namespace {
@@ -62,18 +66,61 @@ void FixChecksum(std::string* archive, size_t offset) {
   std::snprintf(header + 148, 8, "%06o", sum);
 }
 
+using Files = std::vector<std::pair<std::string, std::string>>;  // name, data
+
+// A ustar archive of regular files written by hand, so that any name, however
+// hostile, can be put in it (dfsmd's writer only tars a directory).
+std::string Ustar(const Files& files) {
+  std::string archive;
+  for (const auto& [name, data] : files) {
+    std::string header(512, '\0');
+    const auto octal = [&header](size_t at, int digits, uint64_t value) {
+      std::ostringstream text;
+      text << std::oct << std::setw(digits) << std::setfill('0') << value;
+      text.str().copy(&header[at], static_cast<size_t>(digits));
+    };
+    name.copy(&header[0], 100);
+    octal(100, 7, 0644);  // mode
+    octal(124, 11, data.size());
+    octal(136, 11, 0);  // mtime
+    header[156] = '0';
+    header.replace(257, 8,
+                   std::string("ustar\0"
+                               "00",
+                               8));
+    archive += header;
+    FixChecksum(&archive, archive.size() - 512);
+    archive += data + std::string((512 - data.size() % 512) % 512, '\0');
+  }
+  return archive + std::string(1024, '\0');
+}
+
+// How many regular files lie under `dir`.
+size_t CountFiles(const fs::path& dir) {
+  size_t count = 0;
+  for (const auto& entry : fs::recursive_directory_iterator(dir)) count += entry.is_regular_file();
+  return count;
+}
+
+// What GET .../burst.tar writes (pax for a long name) extracts the same.
 TEST_F(TarExtractTest, RoundTripsFilesAndLongNames) {
   const std::string long_name(150, 'n');  // ustar's name field holds 100
-  const std::vector<TarFile> files = {{"manifest.json", "{}"},
-                                      {"frames/000000.png", std::string(100000, '\x7f')},
-                                      {"frames/" + long_name, ""}};
-  const std::string archive = WriteTar(files);
+  const Files files = {{"manifest.json", "{}"},
+                       {"frames/000000.png", std::string(100000, '\x7f')},
+                       {"frames/" + long_name, ""}};
+  for (const auto& [name, data] : files) {
+    fs::create_directories((dir_ / "src" / name).parent_path());
+    WriteFileAtomically(dir_ / "src" / name, data);
+  }
+  DirectoryTar tar(dir_ / "src");
+  std::string archive;
+  for (std::string piece = tar.Next(); !piece.empty(); piece = tar.Next()) archive += piece;
   EXPECT_EQ(archive.size() % 512, 0u);
   EXPECT_NE(archive.find("path=frames/" + long_name), std::string::npos) << "a pax header";
   const fs::path out = Fresh();
   ExtractTar(archive, out, {});
-  EXPECT_EQ(CollectFiles(out).size(), files.size());
-  for (const TarFile& file : files) EXPECT_EQ(ReadFileToString(out / file.path), file.data);
+  EXPECT_EQ(CountFiles(out), files.size());
+  for (const auto& [name, data] : files) EXPECT_EQ(ReadFileToString(out / name), data);
 }
 
 // tar's default format (GNU, with 'L' long-name headers), pax and ustar.
@@ -88,12 +135,33 @@ TEST_F(TarExtractTest, ReadsWhatTarWrites) {
     ExtractTar(Tar(format, top), out, {});
     EXPECT_EQ(ReadFileToString(out / top / "frames" / "000000.png"), "png") << format;
     EXPECT_EQ(ReadFileToString(out / top / "manifest.json"), "{\"format\":\"dfsm-burst/1\"}");
-    EXPECT_EQ(CollectFiles(out).size(), 2u) << format;
+    EXPECT_EQ(CountFiles(out), 2u) << format;
   }
   // "./" as the archive's top, as `tar -C dir -cf x.tar .` writes it.
   const fs::path out = Fresh();
   ExtractTar(Tar("", "./" + top), out, {});
   EXPECT_TRUE(fs::is_regular_file(out / top / "manifest.json"));
+}
+
+// A GNU sparse file's holes come back as zeros and count at their full size.
+TEST_F(TarExtractTest, SparseFilesCountAtFullSize) {
+  if (!HasTar()) GTEST_SKIP() << "no tar program";
+  const std::string end = "end of a mostly empty file";
+  {
+    std::ofstream file(dir_ / "sparse.bin", std::ios::binary);
+    file.seekp(1 << 20);
+    file << end;
+  }
+  for (const char* format : {"--format=gnu", "--format=pax"}) {
+    const std::string archive = Tar(std::string("-S ") + format, "sparse.bin");
+    const fs::path out = Fresh();
+    ExtractTar(archive, out, {});
+    EXPECT_EQ(ReadFileToString(out / "sparse.bin"), std::string(1 << 20, '\0') + end) << format;
+    TarLimits small;
+    small.max_file_bytes = 4096;
+    EXPECT_NE(ErrorOf(archive, small).find("exceeds the limit of 4096"), std::string::npos)
+        << format << ": " << ErrorOf(archive, small);
+  }
 }
 
 TEST_F(TarExtractTest, RejectsLinksAndSpecialFiles) {
@@ -111,24 +179,21 @@ TEST_F(TarExtractTest, RejectsLinksAndSpecialFiles) {
 }
 
 TEST_F(TarExtractTest, RejectsPathsThatLeaveTheArchive) {
-  EXPECT_NE(ErrorOf(WriteTar({{"../etc/passwd", "x"}})).find("leaves the archive"),
-            std::string::npos);
-  EXPECT_NE(ErrorOf(WriteTar({{"a/../../b", "x"}})).find("leaves the archive"), std::string::npos);
-  EXPECT_NE(ErrorOf(WriteTar({{"/etc/passwd", "x"}})).find("absolute path"), std::string::npos);
-  EXPECT_NE(ErrorOf(WriteTar({{"a\\b", "x"}})).find("backslash"), std::string::npos);
-  EXPECT_NE(ErrorOf(WriteTar({{"a", "x"}, {"./a", "y"}})).find("duplicate"), std::string::npos);
-  EXPECT_NE(ErrorOf(WriteTar({{"a", "x"}, {"a/b", "y"}})).find("below the file"),
-            std::string::npos);
+  EXPECT_NE(ErrorOf(Ustar({{"../etc/passwd", "x"}})).find("leaves the archive"), std::string::npos);
+  EXPECT_NE(ErrorOf(Ustar({{"a/../../b", "x"}})).find("leaves the archive"), std::string::npos);
+  EXPECT_NE(ErrorOf(Ustar({{"/etc/passwd", "x"}})).find("absolute path"), std::string::npos);
+  EXPECT_NE(ErrorOf(Ustar({{"a\\b", "x"}})).find("backslash"), std::string::npos);
+  EXPECT_NE(ErrorOf(Ustar({{"a", "x"}, {"./a", "y"}})).find("duplicate"), std::string::npos);
+  EXPECT_NE(ErrorOf(Ustar({{"a", "x"}, {"a/b", "y"}})).find("below the file"), std::string::npos);
   TarLimits shallow;
   shallow.max_depth = 2;
-  EXPECT_NE(ErrorOf(WriteTar({{"a/b/c", "x"}}), shallow).find("nested too deeply"),
-            std::string::npos);
+  EXPECT_NE(ErrorOf(Ustar({{"a/b/c", "x"}}), shallow).find("nested too deeply"), std::string::npos);
   EXPECT_FALSE(fs::exists(dir_ / "etc"));
 }
 
 // A gzip upload was reported as "checksum in base-256 is not supported".
 TEST_F(TarExtractTest, NamesACompressedArchive) {
-  const std::string tar = WriteTar({{"manifest.json", "{}"}});
+  const std::string tar = Ustar({{"manifest.json", "{}"}});
   EXPECT_EQ(ErrorOf("\x1F\x8B\x08" + tar),
             "a gzip-compressed archive: upload an uncompressed tar (tar -cf, not tar -czf)");
   EXPECT_NE(ErrorOf("BZh9" + tar).find("a bzip2-compressed archive"), std::string::npos);
@@ -142,13 +207,13 @@ TEST_F(TarExtractTest, NamesACompressedArchive) {
 }
 
 TEST_F(TarExtractTest, RejectsDamageAndOversize) {
-  const std::string archive = WriteTar({{"manifest.json", std::string(600, 'm')}});
+  const std::string archive = Ustar({{"manifest.json", std::string(600, 'm')}});
   std::string corrupt = archive;
   corrupt[0] = 'n';  // the checksum no longer matches
   EXPECT_NE(ErrorOf(corrupt).find("not a tar archive"), std::string::npos) << ErrorOf(corrupt);
   EXPECT_NE(ErrorOf(archive.substr(0, 700)).find("truncated"), std::string::npos);
   EXPECT_NE(ErrorOf(archive.substr(0, 300)).find("truncated"), std::string::npos);
-  const std::string two = WriteTar({{"a", "x"}, {"b", std::string(600, 'b')}});
+  const std::string two = Ustar({{"a", "x"}, {"b", std::string(600, 'b')}});
   EXPECT_NE(ErrorOf(two.substr(0, 2000)).find("truncated in 'b'"), std::string::npos);
   EXPECT_NE(ErrorOf(two.substr(0, 1300)).find("truncated after 'a'"), std::string::npos)
       << ErrorOf(two.substr(0, 1300));
@@ -162,11 +227,11 @@ TEST_F(TarExtractTest, RejectsDamageAndOversize) {
   EXPECT_NE(ErrorOf(archive, small).find("exceeds the limit of 512"), std::string::npos);
   small = TarLimits();
   small.max_entries = 1;
-  EXPECT_NE(ErrorOf(WriteTar({{"a", ""}, {"b", ""}}), small).find("more than 1 entries"),
+  EXPECT_NE(ErrorOf(Ustar({{"a", ""}, {"b", ""}}), small).find("more than 1 entries"),
             std::string::npos);
   small = TarLimits();
   small.max_total_bytes = 1000;
-  EXPECT_NE(ErrorOf(WriteTar({{"a", std::string(600, 'a')}, {"b", std::string(600, 'b')}}), small)
+  EXPECT_NE(ErrorOf(Ustar({{"a", std::string(600, 'a')}, {"b", std::string(600, 'b')}}), small)
                 .find("archive content exceeds the limit of 1000 bytes"),
             std::string::npos);
   std::string huge = archive;
