@@ -3,14 +3,17 @@
 // Kinect's depth) through the whole pipeline, with the known calibration held
 // fixed and self-calibrated, scored against the Kinect depth after one global
 // scale, beside a constant-depth guess. One JSON line per window and mode,
-// then a Markdown table.
+// then a Markdown table; with --pictures DIR, one picture per window
+// (reference, depth, Kinect depth, error; known calibration above,
+// self-calibrated below) as DIR/window-FIRST-LAST.jpg.
 //   tum_benchmark [--dataset DIR] [--frames N] [--step S] [--calibration FILE]
-//                 [--rolling-shutter global|estimate|R]
+//                 [--rolling-shutter global|estimate|R] [--pictures DIR]
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
@@ -19,6 +22,7 @@
 #include <string>
 #include <vector>
 
+#include "bench/tum_pictures.h"
 #include "core/export/calibration_import.h"
 #include "core/pipeline/evaluation.h"
 #include "core/pipeline/pipeline.h"
@@ -79,6 +83,7 @@ int main(int argc, char** argv) {
   using namespace dfsm;
   std::string dataset = "../shared/data/tum_fr1_xyz";
   std::string calibration_file = std::string(DFSM_SOURCE_DIR) + "/bench/data/tum_freiburg1.yaml";
+  std::string pictures;
   int frames = 10, step = 3;
   RollingShutterOptions rolling_shutter;
   for (int i = 1; i + 1 < argc; i += 2) {
@@ -90,6 +95,8 @@ int main(int argc, char** argv) {
       step = std::atoi(argv[i + 1]);
     else if (!std::strcmp(argv[i], "--calibration"))
       calibration_file = argv[i + 1];
+    else if (!std::strcmp(argv[i], "--pictures"))
+      pictures = argv[i + 1];
     else if (!std::strcmp(argv[i], "--rolling-shutter"))
       rolling_shutter = ParseRollingShutter(argv[i + 1]);
   }
@@ -118,6 +125,7 @@ int main(int argc, char** argv) {
     const Burst burst = Window(dataset, rgb, first, frames);
     const cv::Mat truth = KinectDepth(dataset, depths, rgb[first + frames / 2].time);
     const cv::Mat constant(truth.size(), CV_32FC1, cv::Scalar(1.0f));
+    std::vector<cv::Mat> picture_rows;
     for (const std::string mode : {"known", "self"}) {
       PipelineOptions options;
       options.sparse.rolling_shutter = rolling_shutter;
@@ -155,6 +163,27 @@ int main(int argc, char** argv) {
       std::printf("%s\n", line.dump().c_str());
       std::fflush(stdout);
       rows.push_back(row);
+      if (!pictures.empty()) {
+        char score[64], baseline[64];
+        std::snprintf(score, sizeof(score), "AbsRel %.1f %%, coverage %.0f %%",
+                      100.0 * row.score.abs_rel, 100.0 * row.score.coverage);
+        std::snprintf(baseline, sizeof(baseline), "a constant: AbsRel %.1f %%",
+                      100.0 * row.constant.abs_rel);
+        const bool made = output.result.ok && output.dense;
+        picture_rows.push_back(TumComparisonRow(
+            burst.reference_color, made ? output.dense->depth : cv::Mat(), row.score.scale, truth,
+            "frames " + std::to_string(first) + "-" + std::to_string(first + frames - 1) + ", " +
+                (mode == std::string("known") ? "published calibration" : "self-calibrated"),
+            made ? std::string(score) : "failed: " + output.result.error, baseline));
+      }
+    }
+    if (!pictures.empty()) {
+      cv::Mat picture;
+      cv::vconcat(picture_rows, picture);
+      std::filesystem::create_directories(pictures);
+      const std::string file = pictures + "/window-" + std::to_string(first) + "-" +
+                               std::to_string(first + frames - 1) + ".jpg";
+      cv::imwrite(file, picture, {cv::IMWRITE_JPEG_QUALITY, 80});
     }
   }
   std::printf(
