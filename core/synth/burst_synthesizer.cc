@@ -2,13 +2,17 @@
 
 #include <algorithm>
 #include <cmath>
+#include <nlohmann/json.hpp>
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
+#include "core/io/file_util.h"
 #include "core/synth/camera_path.h"
+#include "core/synth/moving_object.h"
 #include "core/synth/textured_scene.h"
 
 namespace dfsm {
@@ -33,73 +37,149 @@ void Validate(const SynthOptions& o) {
           "noise_sigma must be between 0 and 50 grey levels");
   Require(o.jpeg_quality >= 0 && o.jpeg_quality <= 100, "jpeg_quality must be between 0 and 100");
   Require(o.supersampling >= 1 && o.supersampling <= 8, "supersampling must be between 1 and 8");
+  Require(o.moving_object >= 0.0 && o.moving_object <= 0.2,
+          "moving_object must be between 0 and 0.2 image widths per frame");
+  Require(o.curved_surfaces >= 0 && o.curved_surfaces <= 8,
+          "curved_surfaces must be between 0 and 8");
+  Require(o.untextured >= 0.0 && o.untextured <= 1.0, "untextured must be between 0 and 1");
   o.effects.Check();
 }
 
 // The D->U map must be monotonic out to the image corner, or the captured
-// image would fold over itself.
-void RequireInvertibleDistortion(const CameraModel& camera) {
+// image would fold over itself (the extra radial term k3 included).
+void RequireInvertibleDistortion(const CameraModel& camera, double k3) {
   const double r_corner = std::hypot(std::max(camera.cx, camera.width - camera.cx),
                                      std::max(camera.cy, camera.height - camera.cy)) /
                           camera.f;
   for (int step = 0; step <= 100; ++step) {
     const double r2 = std::pow(r_corner * step / 100.0, 2);
-    Require(1.0 + 3.0 * camera.k1 * r2 + 5.0 * camera.k2 * r2 * r2 > 0.05,
-            "k1/k2 fold the image over itself before its corner");
+    Require(1.0 + 3.0 * camera.k1 * r2 + 5.0 * camera.k2 * r2 * r2 + 7.0 * k3 * r2 * r2 * r2 > 0.05,
+            k3 != 0.0 ? "k1/k2/k3 fold the image over itself before its corner"
+                      : "k1/k2 fold the image over itself before its corner");
   }
 }
 
+// The nearest surface along a ray at time t (frame intervals), the moving
+// object included; *object tells whether it was the object.
+bool TraceAt(const TexturedScene& scene, const MovingObject* moving, const Eigen::Vector3d& centre,
+             const Eigen::Vector3d& direction, double t, double* distance, cv::Vec3f* bgr,
+             bool* object) {
+  bool hit = scene.Trace(centre, direction, distance, bgr);
+  *object = false;
+  if (moving != nullptr) {
+    const double lambda = moving->Intersect(centre, direction, t);
+    if (lambda > 0.0 && (!hit || lambda < *distance)) {
+      *distance = lambda;
+      *bgr = moving->Sample(centre + lambda * direction, t);
+      *object = hit = true;
+    }
+  }
+  return hit;
+}
+
+struct RenderInputs {
+  const TexturedScene& scene;
+  const MovingObject* moving;  // may be null
+  const CameraModel& camera;
+  const CameraEffects& effects;
+  const std::vector<Pose>& path;
+  int supersampling;
+};
+
 // Renders frame `frame` of the path: the mean of supersampling^2 rays per
 // pixel, spread over the pixel's footprint (anti-aliasing). With a rolling
-// shutter each row is seen from the pose at its own exposure time.
-cv::Mat RenderFrame(const TexturedScene& scene, const CameraModel& camera,
-                    const std::vector<Pose>& path, int frame, double readout, int supersampling) {
+// shutter each row is seen from the pose at its own exposure time. With motion
+// blur the shutter stays open exposure_time of the frame interval around that
+// time: kMotionBlurSamples sub-frame poses, each with a grid of at most
+// supersampling^2 / kMotionBlurSamples rays (at least one) whose sub-pixel
+// offset differs from sub-frame to sub-frame, so that the ray count stays
+// bounded and the pixel footprint is still covered. *object_mask (when given)
+// marks the pixels where any ray saw the moving object.
+cv::Mat RenderFrame(const RenderInputs& in, int frame, cv::Mat* object_mask) {
+  const CameraModel& camera = in.camera;
+  const double readout = in.effects.rolling_shutter_readout;
+  const double exposure = in.effects.exposure_time;
+  const int times = exposure > 0.0 ? CameraEffects::kMotionBlurSamples : 1;
+  static_assert(CameraEffects::kMotionBlurSamples == 8, "the offsets below permute 8 strata");
+  int grid = in.supersampling;
+  if (times > 1) {
+    grid = 1;
+    while ((grid + 1) * (grid + 1) * times <= in.supersampling * in.supersampling) ++grid;
+  }
+  // Sub-pixel offset of each sub-frame's grid, as permuted strata of the cell
+  // (uncorrelated with time); the cell's centre without blur.
+  std::vector<double> jitter_x(times, 0.5), jitter_y(times, 0.5);
+  if (times > 1)
+    for (int k = 0; k < times; ++k) {
+      jitter_x[k] = ((3 * k) % times + 0.5) / times;
+      jitter_y[k] = ((5 * k + 2) % times + 0.5) / times;
+    }
   cv::Mat image(camera.height, camera.width, CV_32FC3);
+  if (object_mask != nullptr) *object_mask = cv::Mat(camera.height, camera.width, CV_8UC1, 0.0);
   cv::parallel_for_(cv::Range(0, camera.height), [&](const cv::Range& rows) {
+    std::vector<Eigen::Matrix3d> to_reference(times);
+    std::vector<Eigen::Vector3d> centres(times);
+    std::vector<double> sample_time(times);
     for (int v = rows.start; v < rows.end; ++v) {
-      const Pose pose = readout > 0.0
-                            ? PoseAtTime(path, frame + readout * ((v + 0.5) / camera.height - 0.5))
-                            : path[frame];
-      const Eigen::Matrix3d to_reference = pose.R.transpose();
-      const Eigen::Vector3d centre = pose.Centre();
+      const double row_time =
+          readout > 0.0 ? frame + readout * ((v + 0.5) / camera.height - 0.5) : frame;
+      for (int k = 0; k < times; ++k) {
+        sample_time[k] = times > 1 ? row_time + exposure * ((k + 0.5) / times - 0.5) : row_time;
+        const Pose pose =
+            readout > 0.0 || times > 1 ? PoseAtTime(in.path, sample_time[k]) : in.path[frame];
+        to_reference[k] = pose.R.transpose();
+        centres[k] = pose.Centre();
+      }
       cv::Vec3f* out = image.ptr<cv::Vec3f>(v);
+      uchar* mask = object_mask != nullptr ? object_mask->ptr<uchar>(v) : nullptr;
       for (int u = 0; u < camera.width; ++u) {
         cv::Vec3f sum(0.0f, 0.0f, 0.0f);
         int hits = 0;
-        for (int sy = 0; sy < supersampling; ++sy) {
-          for (int sx = 0; sx < supersampling; ++sx) {
-            const Eigen::Vector2d pixel(u + (sx + 0.5) / supersampling - 0.5,
-                                        v + (sy + 0.5) / supersampling - 0.5);
-            const Eigen::Vector2d x = camera.PixelToUndistorted(pixel);
-            double distance;
-            cv::Vec3f bgr;
-            if (scene.Trace(centre, to_reference * Eigen::Vector3d(x.x(), x.y(), 1.0), &distance,
-                            &bgr)) {
-              sum += bgr;
-              ++hits;
+        bool saw_object = false;
+        for (int k = 0; k < times; ++k) {
+          for (int sy = 0; sy < grid; ++sy) {
+            for (int sx = 0; sx < grid; ++sx) {
+              const Eigen::Vector2d pixel(u + (sx + jitter_x[k]) / grid - 0.5,
+                                          v + (sy + jitter_y[k]) / grid - 0.5);
+              const Eigen::Vector2d x = RenderedPixelToUndistorted(camera, in.effects, pixel);
+              double distance;
+              cv::Vec3f bgr;
+              bool object;
+              if (TraceAt(in.scene, in.moving, centres[k],
+                          to_reference[k] * Eigen::Vector3d(x.x(), x.y(), 1.0), sample_time[k],
+                          &distance, &bgr, &object)) {
+                sum += bgr;
+                ++hits;
+                saw_object = saw_object || object;
+              }
             }
           }
         }
         out[u] = hits > 0 ? sum * (1.0f / hits) : cv::Vec3f(0.0f, 0.0f, 0.0f);
+        if (mask != nullptr && saw_object) mask[u] = 255;
       }
     }
   });
   return image;
 }
 
-// Depth (Z in the reference camera) of the surface seen at each pixel centre.
-cv::Mat RenderReferenceDepth(const TexturedScene& scene, const CameraModel& camera) {
+// Depth (Z in the reference camera) of the surface seen at each pixel centre,
+// through the rendering's lens, the moving object where it is at time 0.
+cv::Mat RenderReferenceDepth(const TexturedScene& scene, const MovingObject* moving,
+                             const CameraModel& camera, const CameraEffects& effects) {
   cv::Mat depth(camera.height, camera.width, CV_32FC1, cv::Scalar(0.0f));
   cv::parallel_for_(cv::Range(0, camera.height), [&](const cv::Range& rows) {
     for (int v = rows.start; v < rows.end; ++v) {
       float* out = depth.ptr<float>(v);
       for (int u = 0; u < camera.width; ++u) {
-        const Eigen::Vector2d x = camera.PixelToUndistorted(Eigen::Vector2d(u, v));
+        const Eigen::Vector2d x =
+            RenderedPixelToUndistorted(camera, effects, Eigen::Vector2d(u, v));
         double distance;
         cv::Vec3f bgr;
+        bool object;
         // The ray (x, y, 1) has unit z, so the distance along it is the depth.
-        if (scene.Trace(Eigen::Vector3d::Zero(), Eigen::Vector3d(x.x(), x.y(), 1.0), &distance,
-                        &bgr))
+        if (TraceAt(scene, moving, Eigen::Vector3d::Zero(), Eigen::Vector3d(x.x(), x.y(), 1.0), 0.0,
+                    &distance, &bgr, &object))
           out[u] = static_cast<float>(distance);
       }
     }
@@ -107,10 +187,15 @@ cv::Mat RenderReferenceDepth(const TexturedScene& scene, const CameraModel& came
   return depth;
 }
 
-// Sensor noise, 8-bit quantization and the optional JPEG round trip.
+// Shot noise, sensor (read) noise, 8-bit quantization and the optional JPEG
+// round trip.
 cv::Mat Capture(const cv::Mat& radiance, const SynthOptions& options, int frame_index) {
   cv::Mat image = radiance;
   if (!options.color) cv::cvtColor(radiance, image, cv::COLOR_BGR2GRAY);
+  if (options.effects.shot_noise_gain > 0.0) {
+    if (image.data == radiance.data) image = radiance.clone();
+    AddShotNoise(options.effects.shot_noise_gain, frame_index, options.seed, &image);
+  }
   if (options.noise_sigma > 0.0) {
     cv::Mat noise(image.size(), image.type());
     cv::RNG rng(options.seed * 1000003ULL + static_cast<uint64_t>(frame_index) + 1);
@@ -140,10 +225,25 @@ nlohmann::json OptionsJson(const SynthOptions& o, const CameraModel& camera,
           {"supersampling", o.supersampling},
           {"seed", o.seed},
           {"effects", ToJson(o.effects)},
+          {"moving_object", o.moving_object},
+          {"curved_surfaces", o.curved_surfaces},
+          {"untextured", o.untextured},
           {"textures", textures}};
 }
 
 }  // namespace
+
+SceneOptions SceneOptionsFor(const SynthOptions& options, double f) {
+  SceneOptions scene_options;
+  scene_options.width = options.width;
+  scene_options.height = options.height;
+  scene_options.f = f;
+  scene_options.seed = options.seed;
+  scene_options.texture_dir = options.texture_dir;
+  scene_options.untextured = options.untextured;
+  scene_options.curved_surfaces = options.curved_surfaces;
+  return scene_options;
+}
 
 SynthBurst SynthesizeBurst(const SynthOptions& options) {
   Validate(options);
@@ -155,15 +255,23 @@ SynthBurst SynthesizeBurst(const SynthOptions& options) {
   camera.cy = 0.5 * options.height;
   camera.k1 = options.k1;
   camera.k2 = options.k2;
-  RequireInvertibleDistortion(camera);
+  RequireInvertibleDistortion(camera, options.effects.k3);
 
-  SceneOptions scene_options;
-  scene_options.width = options.width;
-  scene_options.height = options.height;
-  scene_options.f = camera.f;
-  scene_options.seed = options.seed;
-  scene_options.texture_dir = options.texture_dir;
+  const SceneOptions scene_options = SceneOptionsFor(options, camera.f);
   const TexturedScene scene(scene_options);
+  std::optional<MovingObject> moving;
+  if (options.moving_object > 0.0) {
+    MovingObjectOptions object_options;
+    object_options.speed = options.moving_object;
+    object_options.width = options.width;
+    object_options.height = options.height;
+    object_options.f = camera.f;
+    object_options.depth = 0.75 * scene_options.near_depth;
+    object_options.frames = options.frames;
+    object_options.seed = options.seed;
+    moving.emplace(object_options, cv::Mat());
+  }
+  const MovingObject* moving_object = moving ? &*moving : nullptr;
 
   CameraPathOptions path_options;
   path_options.frames = options.frames;
@@ -172,9 +280,10 @@ SynthBurst SynthesizeBurst(const SynthOptions& options) {
   path_options.seed = options.seed;
 
   SynthBurst burst;
+  burst.effects = options.effects;
   burst.truth.camera = camera;
   burst.truth.poses = HandheldCameraPath(path_options);
-  burst.truth.depth = RenderReferenceDepth(scene, camera);
+  burst.truth.depth = RenderReferenceDepth(scene, moving_object, camera, options.effects);
 
   burst.manifest.width = options.width;
   burst.manifest.height = options.height;
@@ -183,11 +292,18 @@ SynthBurst SynthesizeBurst(const SynthOptions& options) {
   burst.manifest.source = {{"device", "synthetic"},
                            {"fps", 30.0},
                            {"synthetic", OptionsJson(options, camera, scene.texture_names())}};
+  const RenderInputs inputs{scene,           moving_object,     camera,
+                            options.effects, burst.truth.poses, options.supersampling};
   for (int i = 0; i < options.frames; ++i) {
-    cv::Mat radiance = RenderFrame(scene, camera, burst.truth.poses, i,
-                                   options.effects.rolling_shutter_readout, options.supersampling);
-    if (options.effects.any()) ApplyPhotometricEffects(options.effects, i, options.seed, &radiance);
+    cv::Mat mask;
+    cv::Mat radiance = RenderFrame(inputs, i, moving_object != nullptr ? &mask : nullptr);
+    if (options.effects.photometric())
+      ApplyPhotometricEffects(options.effects, i, options.seed, &radiance);
     burst.frames.push_back(Capture(radiance, options, i));
+    if (moving_object != nullptr) {
+      burst.object_boxes.push_back(cv::boundingRect(mask));
+      burst.object_masks.push_back(mask);
+    }
     BurstFrameInfo info;
     char name[32];
     std::snprintf(name, sizeof(name), "frames/%06d.png", i);
@@ -204,6 +320,36 @@ void WriteSynthBurst(const std::filesystem::path& burst_dir, const SynthBurst& b
   // burst complete.
   std::filesystem::create_directories(burst_dir);
   WriteGroundTruth(burst_dir, burst.truth);
+  // What the camera model leaves out, beside it: the rendering's extra lens
+  // terms and where the moving object is.
+  nlohmann::json truth = nlohmann::json::parse(ReadFileToString(burst_dir / "ground_truth.json"));
+  truth["k3"] = burst.effects.k3;
+  truth["p1"] = burst.effects.p1;
+  truth["p2"] = burst.effects.p2;
+  truth["rendered_distortion"] =
+      "D->U of the captured normalized (x, y), r^2 = x^2 + y^2: x_u = x (1 + k1 r^2 + k2 r^4 + k3 "
+      "r^6) + 2 p1 x y + p2 (r^2 + 2 x^2), y_u = y (1 + k1 r^2 + k2 r^4 + k3 r^6) + p1 (r^2 + 2 "
+      "y^2) + 2 p2 x y";
+  if (!burst.object_masks.empty()) {
+    std::filesystem::create_directories(burst_dir / "object_masks");
+    nlohmann::json frames = nlohmann::json::array();
+    for (size_t i = 0; i < burst.object_masks.size(); ++i) {
+      char name[40];
+      std::snprintf(name, sizeof(name), "object_masks/%06zu.png", i);
+      std::vector<unsigned char> png;
+      if (!cv::imencode(".png", burst.object_masks[i], png))
+        throw std::runtime_error("cannot encode the moving object's mask " + std::to_string(i));
+      WriteFileAtomically(burst_dir / name, png);
+      const cv::Rect& box = burst.object_boxes[i];
+      frames.push_back({{"mask", name}, {"box", {box.x, box.y, box.width, box.height}}});
+    }
+    truth["moving_object"] = {
+        {"frames", frames},
+        {"note",
+         "pixels where any sample saw the object (255 in the mask; box x, y, width, height); "
+         "depth_gt shows it at the reference time"}};
+  }
+  WriteFileAtomically(burst_dir / "ground_truth.json", truth.dump(2) + "\n");
   WriteBurst(burst_dir, burst.manifest, burst.frames);
 }
 

@@ -1,7 +1,9 @@
 // The ground-truth generator: renders a handheld small-motion burst of a
 // textured 3-D scene (slanted, photo-textured planes at several depths in front
-// of a background) through the contract's camera model, with its exact poses,
-// calibration and reference depth.
+// of a background; optionally curved surfaces, flat-colour patches and an
+// object that moves on its own) through the contract's camera model and the
+// camera effects of camera_effects.h, with its exact poses, calibration and
+// reference depth.
 #pragma once
 
 #include <cstdint>
@@ -13,6 +15,7 @@
 #include "core/io/burst.h"
 #include "core/io/ground_truth.h"
 #include "core/synth/camera_effects.h"
+#include "core/synth/textured_scene.h"
 
 namespace dfsm {
 
@@ -29,7 +32,11 @@ struct SynthOptions {
   int jpeg_quality = 0;       // 1..100: JPEG round trip of every frame; 0: none
   int supersampling = 3;      // samples per pixel side (anti-aliasing)
   bool color = true;          // bgr8 frames, else gray8
-  CameraEffects effects;      // rolling shutter, exposure, white balance, vignetting (off)
+  CameraEffects effects;      // rolling shutter, exposure, ..., motion blur, shot noise (off)
+  // Scene content beyond textured planes (issue 13), each off at 0:
+  double moving_object = 0.0;  // a textured disc crossing the view, image widths per frame
+  int curved_surfaces = 0;     // textured cylinders and spheres among the patches
+  double untextured = 0.0;     // share of the patches rendered in one flat colour
   uint64_t seed = 1;
   // Where real photographs are looked for (Debian's opencv-doc); a procedural
   // texture replaces any that is missing.
@@ -40,12 +47,23 @@ struct SynthBurst {
   BurstManifest manifest;       // reference 0, timestamps at 30 fps, source {"synthetic": options}
   std::vector<cv::Mat> frames;  // CV_8UC3 (BGR) or CV_8UC1, as captured (distorted)
   GroundTruth truth;            // camera, poses (X_i = R_i X_ref + T_i, metres), reference depth
+  CameraEffects effects;        // as rendered; k3, p1, p2 go into ground_truth.json
+  // With a moving object: per frame, 255 where any sample of a pixel saw it
+  // (CV_8UC1), and the bounding box of that mask (empty where it is out of view).
+  std::vector<cv::Mat> object_masks;
+  std::vector<cv::Rect> object_boxes;
 };
 
 // Deterministic for given options. Throws std::invalid_argument naming a bad option.
 SynthBurst SynthesizeBurst(const SynthOptions& options);
 
-// Writes the dfsm-burst/1 directory with ground_truth.json and depth_gt.tiff.
+// The scene SynthesizeBurst renders for `options` with focal length f.
+SceneOptions SceneOptionsFor(const SynthOptions& options, double f);
+
+// Writes the dfsm-burst/1 directory with ground_truth.json and depth_gt.tiff;
+// ground_truth.json also gets the rendering's extra lens terms (k3, p1, p2,
+// not part of the camera model) and, with a moving object, its per-frame box
+// and mask file (object_masks/NNNNNN.png).
 void WriteSynthBurst(const std::filesystem::path& burst_dir, const SynthBurst& burst);
 
 // A Burst in memory as ReadBurst would return it for the written directory.

@@ -1,16 +1,21 @@
 // What a real camera does to a burst beyond the pinhole and its lens, for the
-// generator to render (issue: real footage): rolling shutter, auto exposure
-// and white-balance drift between frames, vignetting. Each is off at 0, so a
-// burst without them is rendered exactly as before; the ground truth keeps its
-// meaning (a rolling-shutter frame's pose is that of its middle row).
+// generator to render (issue 13: real footage): rolling shutter, auto exposure
+// and white-balance drift between frames, vignetting, motion blur, lens
+// distortion beyond the model's two radial terms, signal-dependent (shot)
+// noise. Each is off at 0, so a burst without them is rendered exactly as
+// before; the ground truth keeps its meaning (a frame's pose is that of its
+// middle row at the middle of its exposure; the camera is the model the
+// pipeline estimates, the extra lens terms are recorded beside it).
 #pragma once
 
 #include <cstdint>
 #include <nlohmann/json_fwd.hpp>
 #include <opencv2/core.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "core/camera/camera_model.h"
 #include "core/camera/pose.h"
 
 namespace dfsm {
@@ -30,16 +35,47 @@ struct CameraEffects {
   // Vignetting: brightness falls as 1 - vignetting (r / r_corner)^2, 0.3 at
   // the corner for 0.3.
   double vignetting = 0.0;
+  // Motion blur: the shutter is open for this fraction of the frame interval,
+  // centred on the frame's (row's) time; rendered as the mean of
+  // kMotionBlurSamples sub-frame renders along the camera path.
+  double exposure_time = 0.0;
+  // Lens distortion beyond the model (rendering only; the pipeline models k1,
+  // k2): added to the D->U map of the captured normalized point (x, y), r^2 =
+  // x^2 + y^2: x_u += x k3 r^6 + 2 p1 x y + p2 (r^2 + 2 x^2),
+  //            y_u += y k3 r^6 + p1 (r^2 + 2 y^2) + 2 p2 x y.
+  double k3 = 0.0, p1 = 0.0, p2 = 0.0;
+  // Shot noise: electrons per grey level (the sensor's conversion gain seen
+  // through the 8-bit output). A pixel of level L collects L * gain electrons,
+  // Poisson distributed, so its variance is L / gain grey levels^2; the
+  // Gaussian noise_sigma of SynthOptions is the read noise beside it. 0: off.
+  double shot_noise_gain = 0.0;
+
+  static constexpr int kMotionBlurSamples = 8;
 
   // Throws std::invalid_argument naming an out-of-range effect.
   void Check() const;
   bool any() const;
+  // The per-frame brightness changes (exposure, white balance, vignetting).
+  bool photometric() const;
+  bool lens_extras() const { return k3 != 0.0 || p1 != 0.0 || p2 != 0.0; }
   // Named presets: "ideal" (all 0), "webcam", "phone". Throws
   // std::invalid_argument for another name.
   static CameraEffects Preset(const std::string& name);
+  // The JPEG quality that goes with a preset (0: none for "ideal").
+  static int PresetJpegQuality(const std::string& name);
 };
 
 nlohmann::json ToJson(const CameraEffects& effects);
+
+// The rendering's D->U map of a captured pixel: the camera's model plus the
+// extra lens terms of `effects`; exactly camera.PixelToUndistorted without them.
+Eigen::Vector2d RenderedPixelToUndistorted(const CameraModel& camera, const CameraEffects& effects,
+                                           const Eigen::Vector2d& pixel);
+// Its inverse by Gauss-Newton from the camera model's inverse; empty where it
+// does not converge to 1e-9 px.
+std::optional<Eigen::Vector2d> RenderedUndistortedToPixel(const CameraModel& camera,
+                                                          const CameraEffects& effects,
+                                                          const Eigen::Vector2d& x_u);
 
 // The pose at fractional frame time t of a path with one pose per frame:
 // linear in the camera centre and in the rotation's angle-axis between the
@@ -50,5 +86,10 @@ Pose PoseAtTime(const std::vector<Pose>& poses, double t);
 // exposure, white balance and the vignetting. Deterministic for (seed, frame).
 void ApplyPhotometricEffects(const CameraEffects& effects, int frame_index, uint64_t seed,
                              cv::Mat* radiance);
+
+// Replaces each value L of `image` (CV_32FC1 or CV_32FC3, grey levels) by a
+// Poisson draw of L * gain electrons divided by gain (a Gaussian of the same
+// mean and variance above 64 electrons). Deterministic for (seed, frame).
+void AddShotNoise(double gain, int frame_index, uint64_t seed, cv::Mat* image);
 
 }  // namespace dfsm

@@ -93,5 +93,159 @@ TEST(CameraEffects, PoseAtTimeInterpolatesAndExtrapolates) {
   EXPECT_NEAR((before.Centre() - Eigen::Vector3d(-0.005, 0.0, 0.0)).norm(), 0.0, 1e-12);
 }
 
+// Every effect of issue 13 set to 0 explicitly renders what the default
+// options render, byte for byte (frames and depth), with and without the
+// older effects on.
+TEST(CameraEffects, NewEffectsAtZeroRenderTheDefaultBurst) {
+  for (const double readout : {0.0, 0.6}) {
+    SynthOptions options = EffectsOptions();
+    options.noise_sigma = 1.0;
+    options.jpeg_quality = 85;
+    options.supersampling = 2;
+    options.effects.rolling_shutter_readout = readout;
+    options.effects.vignetting = readout;
+    const SynthBurst plain = SynthesizeBurst(options);
+    options.effects.exposure_time = 0.0;
+    options.effects.k3 = options.effects.p1 = options.effects.p2 = 0.0;
+    options.effects.shot_noise_gain = 0.0;
+    options.moving_object = 0.0;
+    options.curved_surfaces = 0;
+    options.untextured = 0.0;
+    const SynthBurst zero = SynthesizeBurst(options);
+    for (int i = 0; i < 3; ++i)
+      EXPECT_EQ(cv::norm(plain.frames[i], zero.frames[i], cv::NORM_INF), 0) << "frame " << i;
+    EXPECT_EQ(cv::norm(plain.truth.depth, zero.truth.depth, cv::NORM_INF), 0.0);
+    // Each one on changes the frames.
+    for (int effect = 0; effect < 8 && readout == 0.0; ++effect) {
+      SynthOptions on = options;
+      switch (effect) {
+        case 0:
+          on.effects.exposure_time = 0.5;
+          break;
+        case 1:
+          on.effects.k3 = 0.3;
+          break;
+        case 2:
+          on.effects.p1 = 0.005;
+          break;
+        case 3:
+          on.effects.p2 = 0.005;
+          break;
+        case 4:
+          on.effects.shot_noise_gain = 4.0;
+          break;
+        case 5:
+          on.moving_object = 0.02;
+          break;
+        case 6:
+          on.curved_surfaces = 1;
+          break;
+        default:
+          on.untextured = 0.5;
+          break;
+      }
+      const SynthBurst changed = SynthesizeBurst(on);
+      EXPECT_GT(cv::norm(plain.frames[1], changed.frames[1], cv::NORM_L1), 0.0)
+          << "effect " << effect << " readout " << readout;
+    }
+  }
+}
+
+// Poisson statistics: mean L, variance L / gain, in both of the sampler's
+// regimes (Knuth's below 64 electrons, Gaussian above).
+TEST(CameraEffects, ShotNoiseHasPoissonStatistics) {
+  for (const double gain : {0.5, 4.0}) {
+    for (const double level : {10.0, 100.0}) {
+      cv::Mat image(200, 200, CV_32FC3, cv::Scalar::all(level));
+      AddShotNoise(gain, 1, 7, &image);
+      cv::Scalar mean, stddev;
+      cv::meanStdDev(image.reshape(1), mean, stddev);
+      EXPECT_NEAR(mean[0], level, 0.02 * level) << "gain " << gain << " level " << level;
+      EXPECT_NEAR(stddev[0] * stddev[0], level / gain, 0.05 * level / gain)
+          << "gain " << gain << " level " << level;
+    }
+  }
+  cv::Mat a(50, 50, CV_32FC1, cv::Scalar(30.0)), b = a.clone(), c = a.clone();
+  AddShotNoise(2.0, 1, 7, &a);
+  AddShotNoise(2.0, 1, 7, &b);
+  AddShotNoise(2.0, 2, 7, &c);
+  EXPECT_EQ(cv::norm(a, b, cv::NORM_INF), 0.0);  // deterministic per (seed, frame)
+  EXPECT_GT(cv::norm(a, c, cv::NORM_INF), 0.0);
+}
+
+// In a rendered burst the noise grows with brightness: darker pixels vary less.
+TEST(CameraEffects, ShotNoiseVarianceGrowsWithBrightness) {
+  SynthOptions options = EffectsOptions();
+  options.width = 320;
+  options.height = 240;
+  const SynthBurst clean = SynthesizeBurst(options);
+  options.effects.shot_noise_gain = 2.0;
+  const SynthBurst noisy = SynthesizeBurst(options);
+  // Variance of noisy - clean per brightness band of the clean frame.
+  double sum[2] = {0, 0}, sum2[2] = {0, 0}, level[2] = {0, 0};
+  int count[2] = {0, 0};
+  const cv::Mat c = clean.frames[1].reshape(1), n = noisy.frames[1].reshape(1);
+  for (int v = 0; v < c.rows; ++v)
+    for (int u = 0; u < c.cols; ++u) {
+      const int value = c.at<uchar>(v, u);
+      const int band = value >= 20 && value < 60 ? 0 : value >= 150 && value < 210 ? 1 : -1;
+      if (band < 0) continue;
+      const double d = n.at<uchar>(v, u) - value;
+      sum[band] += d;
+      sum2[band] += d * d;
+      level[band] += value;
+      ++count[band];
+    }
+  double variance[2];
+  for (int band = 0; band < 2; ++band) {
+    ASSERT_GT(count[band], 1000) << "band " << band;
+    const double mean = sum[band] / count[band];
+    variance[band] = sum2[band] / count[band] - mean * mean;
+    EXPECT_LT(std::abs(mean), 0.5) << "band " << band;
+    // L / gain, plus the two 8-bit roundings (1/12 each).
+    EXPECT_NEAR(variance[band], level[band] / count[band] / 2.0 + 1.0 / 6.0,
+                0.15 * level[band] / count[band] / 2.0)
+        << "band " << band;
+  }
+  EXPECT_GT(variance[1], 2.5 * variance[0]);
+}
+
+TEST(CameraEffects, PresetsCarryTheNewEffects) {
+  for (const char* name : {"webcam", "phone"}) {
+    const CameraEffects effects = CameraEffects::Preset(name);
+    EXPECT_NO_THROW(effects.Check());
+    EXPECT_GT(effects.exposure_time, 0.0) << name;
+    EXPECT_NE(effects.k3, 0.0) << name;
+    EXPECT_NE(effects.p1, 0.0) << name;
+    EXPECT_GT(effects.shot_noise_gain, 0.0) << name;
+  }
+  EXPECT_FALSE(CameraEffects::Preset("ideal").any());
+  EXPECT_EQ(CameraEffects::PresetJpegQuality("ideal"), 0);
+  EXPECT_EQ(CameraEffects::PresetJpegQuality("webcam"), 80);
+  EXPECT_EQ(CameraEffects::PresetJpegQuality("phone"), 90);
+  EXPECT_THROW(CameraEffects::PresetJpegQuality("dslr"), std::invalid_argument);
+  // Bad values are refused by name.
+  const auto message = [](const CameraEffects& effects) {
+    try {
+      effects.Check();
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  CameraEffects bad;
+  bad.exposure_time = 1.5;
+  EXPECT_NE(message(bad).find("exposure_time"), std::string::npos);
+  bad = CameraEffects();
+  bad.p2 = 0.1;
+  EXPECT_NE(message(bad).find("p2"), std::string::npos);
+  bad = CameraEffects();
+  bad.shot_noise_gain = 0.01;
+  EXPECT_NE(message(bad).find("shot_noise_gain"), std::string::npos);
+  bad = CameraEffects();
+  bad.k3 = std::nan("");
+  EXPECT_NE(message(bad).find("k3"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace dfsm

@@ -27,7 +27,15 @@ inline int MirroredIndex(int i, int n) {
   return m < n ? m : period - 1 - m;
 }
 
-// Multi-octave value noise in colour: the fallback where no photograph exists.
+Eigen::Matrix3d RotationXYZ(double ax, double ay, double az) {
+  return (Eigen::AngleAxisd(az, Eigen::Vector3d::UnitZ()) *
+          Eigen::AngleAxisd(ay, Eigen::Vector3d::UnitY()) *
+          Eigen::AngleAxisd(ax, Eigen::Vector3d::UnitX()))
+      .toRotationMatrix();
+}
+
+}  // namespace
+
 cv::Mat ProceduralTexture(std::mt19937_64* rng) {
   constexpr int kSize = 512;
   cv::Mat texture(kSize, kSize, CV_32FC3, cv::Scalar::all(0.0));
@@ -46,14 +54,17 @@ cv::Mat ProceduralTexture(std::mt19937_64* rng) {
   return texture;
 }
 
-Eigen::Matrix3d RotationXYZ(double ax, double ay, double az) {
-  return (Eigen::AngleAxisd(az, Eigen::Vector3d::UnitZ()) *
-          Eigen::AngleAxisd(ay, Eigen::Vector3d::UnitY()) *
-          Eigen::AngleAxisd(ax, Eigen::Vector3d::UnitX()))
-      .toRotationMatrix();
+cv::Vec3f SampleMirrored(const cv::Mat& texture, double x, double y) {
+  const double x_floor = std::floor(x), y_floor = std::floor(y);
+  const float fx = static_cast<float>(x - x_floor), fy = static_cast<float>(y - y_floor);
+  const int x0 = static_cast<int>(x_floor), y0 = static_cast<int>(y_floor);
+  const int c0 = MirroredIndex(x0, texture.cols), c1 = MirroredIndex(x0 + 1, texture.cols);
+  const int r0 = MirroredIndex(y0, texture.rows), r1 = MirroredIndex(y0 + 1, texture.rows);
+  const cv::Vec3f* row0 = texture.ptr<cv::Vec3f>(r0);
+  const cv::Vec3f* row1 = texture.ptr<cv::Vec3f>(r1);
+  return (row0[c0] * (1.0f - fx) + row0[c1] * fx) * (1.0f - fy) +
+         (row1[c0] * (1.0f - fx) + row1[c1] * fx) * fy;
 }
-
-}  // namespace
 
 double TexturedPlane::Intersect(const Eigen::Vector3d& centre,
                                 const Eigen::Vector3d& direction) const {
@@ -69,17 +80,8 @@ double TexturedPlane::Intersect(const Eigen::Vector3d& centre,
 
 cv::Vec3f TexturedPlane::Sample(const Eigen::Vector3d& point) const {
   const Eigen::Vector3d offset = point - origin;
-  const double x = offset.dot(axis_s) / texel_m + 0.5 * texture.cols;
-  const double y = offset.dot(axis_t) / texel_m + 0.5 * texture.rows;
-  const double x_floor = std::floor(x), y_floor = std::floor(y);
-  const float fx = static_cast<float>(x - x_floor), fy = static_cast<float>(y - y_floor);
-  const int x0 = static_cast<int>(x_floor), y0 = static_cast<int>(y_floor);
-  const int c0 = MirroredIndex(x0, texture.cols), c1 = MirroredIndex(x0 + 1, texture.cols);
-  const int r0 = MirroredIndex(y0, texture.rows), r1 = MirroredIndex(y0 + 1, texture.rows);
-  const cv::Vec3f* row0 = texture.ptr<cv::Vec3f>(r0);
-  const cv::Vec3f* row1 = texture.ptr<cv::Vec3f>(r1);
-  return (row0[c0] * (1.0f - fx) + row0[c1] * fx) * (1.0f - fy) +
-         (row1[c0] * (1.0f - fx) + row1[c1] * fx) * fy;
+  return SampleMirrored(texture, offset.dot(axis_s) / texel_m + 0.5 * texture.cols,
+                        offset.dot(axis_t) / texel_m + 0.5 * texture.rows);
 }
 
 TexturedScene::TexturedScene(const SceneOptions& options) {
@@ -155,6 +157,41 @@ TexturedScene::TexturedScene(const SceneOptions& options) {
     planes_.push_back(patch);
     texture_names_.push_back(name);
   }
+
+  // What follows draws from its own random streams, so that a scene without
+  // it is the scene it always was.
+  if (options.untextured > 0.0 && options.patches > 0) {
+    const int flat = std::clamp(static_cast<int>(std::lround(options.untextured * options.patches)),
+                                1, options.patches);
+    std::vector<int> order(options.patches);
+    for (int k = 0; k < options.patches; ++k) order[k] = k + 1;
+    std::mt19937_64 flat_rng(options.seed * 0xE7037ED1A0B428DBULL + 5);
+    std::shuffle(order.begin(), order.end(), flat_rng);
+    for (int k = 0; k < flat; ++k) {
+      TexturedPlane& patch = planes_[order[k]];
+      // Whole grey levels: the 8-bit frames show exactly one colour.
+      cv::Scalar mean = cv::mean(patch.texture);
+      for (int c = 0; c < 3; ++c) mean[c] = std::round(mean[c]);
+      patch.texture = cv::Mat(2, 2, CV_32FC3, mean);
+      texture_names_[order[k]] = "flat";
+      flat_patches_.push_back(order[k]);
+    }
+    std::sort(flat_patches_.begin(), flat_patches_.end());
+  }
+  if (options.curved_surfaces > 0) {
+    CurvedSurfaceOptions curved;
+    curved.count = options.curved_surfaces;
+    curved.width = options.width;
+    curved.height = options.height;
+    curved.f = options.f;
+    curved.near_depth = options.near_depth;
+    curved.far_depth = options.far_depth;
+    curved.seed = options.seed;
+    curved_ = MakeCurvedSurfaces(curved, photographs);
+    for (int k = 0; k < options.curved_surfaces; ++k)  // as MakeCurvedSurfaces picks them
+      texture_names_.push_back(
+          photographs.empty() ? "procedural" : photograph_names[(k + 1) % photograph_names.size()]);
+  }
 }
 
 bool TexturedScene::Trace(const Eigen::Vector3d& centre, const Eigen::Vector3d& direction,
@@ -167,6 +204,19 @@ bool TexturedScene::Trace(const Eigen::Vector3d& centre, const Eigen::Vector3d& 
       nearest_lambda = lambda;
       nearest = &plane;
     }
+  }
+  const TexturedCurvedSurface* nearest_curved = nullptr;
+  for (const TexturedCurvedSurface& surface : curved_) {
+    const double lambda = surface.Intersect(centre, direction);
+    if (lambda > 0.0 && lambda < nearest_lambda) {
+      nearest_lambda = lambda;
+      nearest_curved = &surface;
+    }
+  }
+  if (nearest_curved != nullptr) {
+    *distance = nearest_lambda;
+    *bgr = nearest_curved->Sample(centre + nearest_lambda * direction);
+    return true;
   }
   if (nearest == nullptr) return false;
   *distance = nearest_lambda;
