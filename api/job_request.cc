@@ -5,25 +5,48 @@
 
 #include "core/camera/rolling_shutter_options.h"
 #include "core/io/bounded_json.h"
+#include "daemon/service/config_keys.h"
 #include "daemon/service/number_text.h"
 
 namespace dfsm::api {
 namespace {
 
+using service::ConfigKey;
+using service::ConfigKeyNamed;
 using service::JobOptions;
+using service::KeyType;
 
-void CheckRange(const std::string& field, int64_t value, int64_t low, int64_t high) {
-  if (value < low || value > high) {
-    throw RequestError("'" + field + "' must be in [" + std::to_string(low) + ", " +
-                       std::to_string(high) + "], got " + std::to_string(value));
-  }
+// A job's fields and the daemon's keys whose default, type, range and choices
+// they take (config_keys.h); "calibration" has no key.
+struct Field {
+  const char* name;
+  const char* key;
+};
+constexpr Field kFields[] = {
+    {"frames", "pipeline.frames"}, {"when", "pipeline.when"},
+    {"planes", "pipeline.planes"}, {"grid", "pipeline.grid"},
+    {"init", "pipeline.init"},     {"rolling_shutter", "pipeline.rolling_shutter"},
+    {"dense", "pipeline.dense"},   {"keep_burst", "jobs.keep_burst"},
+    {"calibration", nullptr}};
+
+// "auto": the configured or the fused calibration; "self": this burst alone.
+ConfigKey CalibrationChoice() {
+  ConfigKey key;
+  key.name = "calibration";
+  key.type = KeyType::kString;
+  key.choices = {"auto", "self"};
+  return key;
 }
 
-void CheckChoice(const std::string& field, const std::string& value, const char* a, const char* b) {
-  if (value != a && value != b) {
-    throw RequestError("'" + field + "' must be \"" + a + "\" or \"" + b + "\", got \"" + value +
-                       "\"");
+const Field* FindField(const std::string& name, bool upload) {
+  for (const Field& field : kFields) {
+    if (name == field.name && !(upload && name == "when")) return &field;
   }
+  return nullptr;
+}
+
+ConfigKey KeyOf(const Field& field) {
+  return field.key ? ConfigKeyNamed(field.key) : CalibrationChoice();
 }
 
 int64_t ParseIntegerText(const std::string& field, const std::string& text) {
@@ -40,60 +63,67 @@ bool ParseBoolText(const std::string& field, const std::string& text) {
 
 // Applies one field (shared by the JSON body and the query string), already
 // converted to a json value of the right kind.
-void ApplyField(const std::string& field, const nlohmann::json& value, bool upload,
+void ApplyField(const std::string& name, const nlohmann::json& value, bool upload,
                 const service::DaemonConfig& config, JobOptions* options) {
-  const auto integer = [&]() -> int64_t {
-    if (!value.is_number_integer()) throw RequestError("'" + field + "' must be an integer");
-    return value.get<int64_t>();
+  const Field* field = FindField(name, upload);
+  if (!field) {
+    std::string known;
+    for (const Field& f : kFields) {
+      if (FindField(f.name, upload)) known += (known.empty() ? "" : ", ") + std::string(f.name);
+    }
+    throw RequestError("unknown field '" + name + "' (known: " + known + ")");
+  }
+  ConfigKey key = KeyOf(*field);
+  const auto fail = [&](const std::string& problem) {
+    throw RequestError("'" + name + "' " + problem);
+  };
+  const auto integer = [&]() -> int {
+    if (!value.is_number_integer()) fail("must be an integer");
+    const int64_t number = value.get<int64_t>();
+    if (const auto problem = key.RangeProblem(number)) fail(*problem);
+    return static_cast<int>(number);
   };
   const auto text = [&]() -> std::string {
-    if (!value.is_string()) throw RequestError("'" + field + "' must be a string");
+    if (!value.is_string()) fail("must be a string");
+    if (const auto problem = key.ChoiceProblem(value.get<std::string>())) fail(*problem);
     return value.get<std::string>();
   };
   const auto boolean = [&]() -> bool {
-    if (!value.is_boolean()) throw RequestError("'" + field + "' must be true or false");
+    if (!value.is_boolean()) fail("must be true or false");
     return value.get<bool>();
   };
-  if (field == "frames") {
-    const int64_t frames = integer();
-    if (upload) {
-      if (frames != 0) CheckRange(field, frames, 3, 1000);
-    } else {
-      CheckRange(field, frames, 3, config.capture.ring_frames);
-    }
-    options->frames = static_cast<int>(frames);
-  } else if (field == "when" && !upload) {
+  if (name == "frames") {
+    // A capture takes at most the ring; an upload at most a burst's frames
+    // (0: all of them).
+    key.max = upload ? config.limits.max_burst_frames : config.capture.ring_frames;
+    options->frames = upload && value == 0 ? 0 : integer();
+  } else if (name == "when") {
     options->when = text();
-    CheckChoice(field, options->when, "last", "next");
-  } else if (field == "planes") {
-    const int64_t planes = integer();
-    CheckRange(field, planes, 2, 1024);
-    options->planes = static_cast<int>(planes);
-  } else if (field == "grid") {
-    const int64_t grid = integer();
-    CheckRange(field, grid, 0, 4096);
-    options->grid = static_cast<int>(grid);
-  } else if (field == "init") {
+  } else if (name == "planes") {
+    options->planes = integer();
+  } else if (name == "grid") {
+    options->grid = integer();
+  } else if (name == "init") {
     options->init = text();
-    CheckChoice(field, options->init, "rank1", "naive");
-  } else if (field == "rolling_shutter") {
+  } else if (name == "rolling_shutter") {
     options->rolling_shutter = text();
     try {
       ParseRollingShutter(options->rolling_shutter);
     } catch (const std::invalid_argument& e) {
       throw RequestError("'rolling_shutter': " + std::string(e.what()));
     }
-  } else if (field == "dense") {
+  } else if (name == "dense") {
     options->dense = boolean();
-  } else if (field == "keep_burst") {
+  } else if (name == "keep_burst") {
     options->keep_burst = boolean();
-  } else if (field == "calibration") {
+  } else if (name == "calibration") {
     options->calibration = text();
-    CheckChoice(field, options->calibration, "auto", "self");
-  } else {
-    throw RequestError("unknown field '" + field + "' (known: frames, " + (upload ? "" : "when, ") +
-                       "planes, grid, init, rolling_shutter, dense, keep_burst, calibration)");
   }
+}
+
+std::string ChoiceName(const char* key, const service::DaemonConfig& config) {
+  const ConfigKey& choice = ConfigKeyNamed(key);
+  return choice.choices.at(choice.get_choice(config));
 }
 
 }  // namespace
@@ -101,10 +131,10 @@ void ApplyField(const std::string& field, const nlohmann::json& value, bool uplo
 JobOptions DefaultJobOptions(const service::DaemonConfig& config) {
   JobOptions options;
   options.frames = config.pipeline.frames;
-  options.when = config.pipeline.when;
+  options.when = ChoiceName("pipeline.when", config);
   options.planes = config.pipeline.planes;
   options.grid = config.pipeline.grid;
-  options.init = config.pipeline.init;
+  options.init = ChoiceName("pipeline.init", config);
   options.rolling_shutter = config.pipeline.rolling_shutter;
   options.dense = config.pipeline.dense;
   options.keep_burst = config.jobs.keep_burst;
@@ -136,10 +166,12 @@ JobOptions ParseUploadQuery(const std::multimap<std::string, std::string>& query
   for (const auto& [field, text] : query) {
     if (field == previous) throw RequestError("'" + field + "' is given more than once");
     previous = field;
+    const Field* known = FindField(field, true);
+    const KeyType type = known ? KeyOf(*known).type : KeyType::kString;
     nlohmann::json value;
-    if (field == "frames" || field == "planes" || field == "grid") {
+    if (type == KeyType::kInt) {
       value = ParseIntegerText(field, text);
-    } else if (field == "dense" || field == "keep_burst") {
+    } else if (type == KeyType::kBool) {
       value = ParseBoolText(field, text);
     } else {
       value = text;
@@ -154,7 +186,9 @@ ListQuery ParseListQuery(const std::multimap<std::string, std::string>& query) {
   for (const auto& [field, text] : query) {
     if (field == "limit") {
       const int64_t limit = ParseIntegerText(field, text);
-      CheckRange(field, limit, 1, 1000);
+      if (limit < 1 || limit > 1000) {
+        throw RequestError("'limit' must be in [1, 1000], got " + std::to_string(limit));
+      }
       list.limit = static_cast<int>(limit);
     } else if (field == "after") {
       if (!service::IsValidJobId(text))

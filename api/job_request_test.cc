@@ -84,6 +84,19 @@ TEST(JobRequestTest, UploadQueryIsTextAndHasNoWhen) {
             "'dense' is given more than once");
 }
 
+// The upload's cap on frames is limits.max_burst_frames, not a number of its own.
+TEST(JobRequestTest, UploadFramesFollowTheBurstFrameLimit) {
+  service::DaemonConfig config;
+  config.limits.max_burst_frames = 5000;
+  EXPECT_EQ(ParseUploadQuery({{"frames", "4000"}}, config).frames, 4000);
+  config.limits.max_burst_frames = 20;
+  EXPECT_EQ(ErrorOf([&] {
+              ParseUploadQuery({{"frames", "21"}}, config);
+            }),
+            "'frames' must be in [3, 20], got 21");
+  EXPECT_EQ(ParseUploadQuery({{"frames", "0"}}, config).frames, 0);  // all of them
+}
+
 TEST(JobRequestTest, ListQuery) {
   const ListQuery query = ParseListQuery({{"limit", "5"}, {"status", "failed"}});
   EXPECT_EQ(query.limit, 5);

@@ -217,12 +217,10 @@ void GetJobFile(const ApiContext& context, const httplib::Request& request,
   const std::string file = request.matches[2];
   const char* content_type = JobFileContentType(file);
   if (!content_type) {
-    return SetProblem(
-        response, 404, "unknown-file", "No such job file",
-        "'" + file +
-            "' is not a job file (result.json, depth.tiff, depth_filled.tiff, depth.png, " +
-            "preview.png, confidence.png, points.ply, sparse_points.ply, " +
-            "calibration.json, calibration.yaml, burst.tar)");
+    std::string names;
+    for (const std::string& name : JobFileNames()) names += (names.empty() ? "" : ", ") + name;
+    return SetProblem(response, 404, "unknown-file", "No such job file",
+                      "'" + file + "' is not a job file (" + names + ")");
   }
   const std::optional<Job> job = context.store->Get(id);
   if (!job) return NoSuchJob(response, id);
@@ -475,6 +473,12 @@ void StreamJobEvents(const ApiContext& context, httplib::Response& response) {
 
 }  // namespace
 
+std::vector<std::string> JobFileNames() {
+  std::vector<std::string> names;
+  for (const auto& entry : kJobFiles) names.emplace_back(entry[0]);
+  return names;
+}
+
 const char* JobFileContentType(const std::string& file) {
   for (const auto& entry : kJobFiles) {
     if (file == entry[0]) return entry[1];
@@ -482,19 +486,48 @@ const char* JobFileContentType(const std::string& file) {
   return nullptr;
 }
 
-std::string AllowedMethods(const std::string& path) {
-  static const std::pair<std::regex, const char*> kResources[] = {
-      {std::regex("/(healthz|readyz|metrics)?"), "GET, HEAD"},
-      {std::regex("/ui/.+"), "GET, HEAD"},
-      {std::regex("/api/v1/events"), "GET, HEAD"},
-      {std::regex("/api/v1/(openapi\\.json|camera|snapshot\\.jpg)"), "GET, HEAD"},
-      {std::regex("/api/v1/calibration"), "GET, HEAD, DELETE"},
-      {std::regex("/api/v1/captures"), "POST"},
-      {std::regex("/api/v1/jobs"), "GET, HEAD, POST"},
-      {std::regex("/api/v1/jobs/[^/]+"), "GET, HEAD, DELETE"},
-      {std::regex("/api/v1/jobs/[^/]+/[^/]+"), "GET, HEAD"},
+const std::vector<ApiResource>& ApiResources() {
+  static const std::vector<ApiResource> resources = {
+      {"/", "GET, HEAD"},
+      {"/healthz", "GET, HEAD"},
+      {"/readyz", "GET, HEAD"},
+      {"/metrics", "GET, HEAD"},
+      {"/ui/{path}", "GET, HEAD"},
+      {"/api/v1/events", "GET, HEAD"},
+      {"/api/v1/openapi.json", "GET, HEAD"},
+      {"/api/v1/camera", "GET, HEAD"},
+      {"/api/v1/snapshot.jpg", "GET, HEAD"},
+      {"/api/v1/calibration", "GET, HEAD, DELETE"},
+      {"/api/v1/captures", "POST"},
+      {"/api/v1/jobs", "GET, HEAD, POST"},
+      {"/api/v1/jobs/{id}", "GET, HEAD, DELETE"},
+      {"/api/v1/jobs/{id}/{file}", "GET, HEAD"},
   };
-  for (const auto& [pattern, methods] : kResources) {
+  return resources;
+}
+
+std::string AllowedMethods(const std::string& path) {
+  // The resources' paths as patterns: {path} is the rest of the path, any
+  // other {name} one segment.
+  static const std::vector<std::pair<std::regex, std::string>> patterns = [] {
+    std::vector<std::pair<std::regex, std::string>> list;
+    for (const ApiResource& resource : ApiResources()) {
+      std::string pattern;
+      for (size_t i = 0; i < resource.path.size(); ++i) {
+        if (resource.path[i] == '{') {
+          const size_t close = resource.path.find('}', i);
+          pattern += resource.path.compare(i, close - i + 1, "{path}") == 0 ? ".+" : "[^/]+";
+          i = close;
+        } else {
+          pattern +=
+              resource.path[i] == '.' ? std::string("\\.") : std::string(1, resource.path[i]);
+        }
+      }
+      list.emplace_back(std::regex(pattern), resource.methods);
+    }
+    return list;
+  }();
+  for (const auto& [pattern, methods] : patterns) {
     if (std::regex_match(path, pattern)) return methods;
   }
   return "";

@@ -34,12 +34,23 @@ struct ApiContext {
 // server's request guard (request_guard.h) from the configuration.
 void RegisterRoutes(const ApiContext& context, HttpServer* server);
 
-// The methods the API has on `path` ("GET, HEAD, DELETE"), "" for none: the
-// Allow header of a 405.
+// A resource and its methods; `path` as OpenAPI writes it ({id}: one path
+// segment; {path}: the rest). api/openapi.json documents each of them
+// (openapi_test.cc), the web page's files under /ui/ excepted.
+struct ApiResource {
+  std::string path;
+  std::string methods;  // "GET, HEAD, DELETE": the Allow header of a 405
+};
+const std::vector<ApiResource>& ApiResources();
+
+// The methods of the resource `path` matches, "" for none.
 std::string AllowedMethods(const std::string& path);
 
 // A job as the API shows it: its record, its progress (0..1) and its links.
 nlohmann::json JobJson(const service::Job& job);
+
+// The files of a job (GET /api/v1/jobs/{id}/{file}).
+std::vector<std::string> JobFileNames();
 
 // Content type of a job file, or nullptr when `file` is not a job file.
 const char* JobFileContentType(const std::string& file);

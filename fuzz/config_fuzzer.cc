@@ -1,4 +1,5 @@
-// Fuzzes dfsmd's configuration reader (daemon/service/config.h): a TOML file
+// Fuzzes dfsmd's configuration reader and its options table
+// (daemon/service/config.h, config_keys.h): a TOML file
 // through ApplyToml, or, when the input starts with "--", one
 // "--section.key=value" flag per line through ApplyFlag; then Validate.
 // Anything unusable must be a ConfigError naming the key or the line. (The
@@ -6,10 +7,12 @@
 // would also open files named by --config and read credentials.)
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <sstream>
 #include <string>
 
 #include "daemon/service/config.h"
+#include "daemon/service/config_keys.h"
 #include "fuzz/fuzz_check.h"
 
 namespace {
@@ -45,10 +48,21 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     dfsm::fuzz::CheckNamedError(error);
     return 0;
   }
-  // A configuration that passed Validate is what the daemon runs with.
-  FUZZ_CHECK(config.server.port >= 0 && config.server.port <= 65535, "port out of range");
-  FUZZ_CHECK(config.pipeline.frames >= 3 && config.pipeline.frames <= config.capture.ring_frames,
-             "pipeline.frames outside [3, ring_frames]");
-  FUZZ_CHECK(config.server.max_body_bytes >= 1024, "max_body_bytes below 1 KiB");
+  // A configuration that passed Validate is what the daemon runs with: every
+  // key within the options table's range or choices, and written back as a
+  // flag, every value reads as itself.
+  DaemonConfig copy;
+  for (const dfsm::service::ConfigKey& key : dfsm::service::ConfigKeys()) {
+    const std::optional<std::string> problem = key.Problem(config);
+    FUZZ_CHECK(!problem, key.name + ": " + problem.value_or(""));
+    std::string text = key.ValueText(config);
+    const bool quoted = text.size() >= 2 && text.front() == '"';
+    if (quoted) text = text.substr(1, text.size() - 2);
+    if (key.type == dfsm::service::KeyType::kDouble) continue;  // printed rounded
+    key.SetFromText(text, &copy);
+    FUZZ_CHECK(key.ValueText(copy) == key.ValueText(config), key.name + " does not read back");
+  }
+  FUZZ_CHECK(config.pipeline.frames <= config.capture.ring_frames,
+             "pipeline.frames over capture.ring_frames");
   return 0;
 }

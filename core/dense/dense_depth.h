@@ -14,6 +14,8 @@
 namespace dfsm {
 
 struct DenseOptions {
+  // The sweep's planes; dfsm and dfsmd accept [kMinPlanes, kMaxPlanes].
+  static constexpr int kMinPlanes = 2, kMaxPlanes = 1024;
   int planes = 128;
   // The rolling shutter's readout the poses are for (core/camera/rolling_shutter.h;
   // the sparse stage's SparseState::readout), 0 a global shutter: each

@@ -14,7 +14,9 @@
 namespace dfsm {
 
 struct GridedFeatureOptions {
-  // Cell side in pixels; 0 = 80 px at 1080p, scaled with the shorter image side.
+  // Cell side in pixels; 0 = 80 px at 1080p, scaled with the shorter image
+  // side. dfsm and dfsmd accept up to kMaxCellPx.
+  static constexpr int kMaxCellPx = 4096;
   int cell_px = 0;
   // A cell's corner must reach this fraction of the strongest corner response
   // in the image: a floor above noise, not a bar for texture. At 0.01 a weakly

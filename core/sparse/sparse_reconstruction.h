@@ -16,6 +16,7 @@
 #include "core/sparse/bundle_adjustment.h"
 #include "core/sparse/calibration_quality.h"
 #include "core/sparse/grided_features.h"
+#include "core/sparse/init_mode.h"
 #include "core/sparse/rank_one_init.h"
 #include "core/sparse/rotation_init.h"
 
@@ -27,10 +28,6 @@ class ReconstructionError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
 };
-
-enum class InitMode { kRankOne, kNaive };
-InitMode ParseInitMode(const std::string& name);  // "rank1" | "naive"; throws std::invalid_argument
-const char* InitModeName(InitMode mode);
 
 // How a known calibration (a file, or the daemon's fused one) enters the
 // adjustment: held fixed, or as a prior the burst may move within its widths.

@@ -9,6 +9,7 @@
 #include "daemon/capture/source_uri.h"
 #include "daemon/capture/streaming_service.h"
 #include "daemon/capture/v4l2_source.h"
+#include "daemon/service/capture_limits.h"
 #ifdef DFSM_HAVE_LIBCAMERA
 #include "daemon/capture/libcamera_source.h"
 #endif
@@ -27,10 +28,14 @@ void CheckConfig(const CaptureConfig& config) {
          " is negative");
   if ((config.width == 0) != (config.height == 0))
     fail("capture width and height must be given together (or both 0 for the default)");
-  if (config.ring_frames < 3 || config.ring_frames > 4096)
-    fail("ring_frames " + std::to_string(config.ring_frames) + " is outside 3..4096");
-  if (config.device_buffers < 4 || config.device_buffers > 32)
-    fail("device_buffers " + std::to_string(config.device_buffers) + " is outside 4..32");
+  const auto check_range = [&](const char* name, int value, int min, int max) {
+    if (value < min || value > max)
+      fail(std::string(name) + " " + std::to_string(value) + " is outside " + std::to_string(min) +
+           ".." + std::to_string(max));
+  };
+  check_range("ring_frames", config.ring_frames, service::kMinRingFrames, service::kMaxRingFrames);
+  check_range("device_buffers", config.device_buffers, service::kMinDeviceBuffers,
+              service::kMaxDeviceBuffers);
   if (config.frame_timeout.count() <= 0) fail("frame_timeout must be positive");
   if (config.reconnect_backoff.count() < 0) fail("reconnect_backoff must not be negative");
   if (!std::isfinite(config.fps)) fail("fps must be a finite number");

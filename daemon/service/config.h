@@ -1,5 +1,5 @@
-// dfsmd's configuration: one table of keys, read from a TOML file and then
-// from command-line flags (flags win). Every key has a default, so an empty
+// dfsmd's configuration: one table of keys (config_keys.h), read from a TOML
+// file and then from command-line flags (flags win). Every key has a default, so an empty
 // file and no flags give a working daemon on 127.0.0.1:8080.
 //
 // Invariant: a DaemonConfig returned by LoadDaemonConfig has passed Validate():
@@ -13,6 +13,8 @@
 #include <vector>
 
 #include "core/camera/rolling_shutter_options.h"
+#include "core/sparse/init_mode.h"
+#include "daemon/service/camera_port.h"
 
 namespace dfsm::service {
 
@@ -69,10 +71,10 @@ struct CaptureSection {
 
 struct PipelineSection {
   int frames = 10;
-  std::string when = "last";  // "last" | "next"
+  BurstWhen when = BurstWhen::kLast;
   int planes = 128;
   int grid = 0;  // feature grid cell in pixels; 0: scaled with the image
-  std::string init = "rank1";
+  InitMode init = InitMode::kRankOne;
   // The camera's readout (core/camera/rolling_shutter.h): "global" |
   // "estimate" | a readout in [0, 1] of the frame interval.
   std::string rolling_shutter = kDefaultRollingShutter;
@@ -132,7 +134,8 @@ struct DaemonConfig {
   LimitsSection limits;
 };
 
-// Checks every value's range; throws ConfigError naming the first bad key.
+// Checks every value against the options table's range or choices, and the
+// rules that tie keys together; throws ConfigError naming the first bad key.
 void Validate(const DaemonConfig& config);
 
 // Applies a TOML document. Unknown sections or keys and values of the wrong

@@ -10,50 +10,42 @@
 #include "core/io/file_util.h"
 #include "core/sparse/calibration_fusion.h"
 #include "core/sparse/sparse_reconstruction.h"
-#include "tools/dfsm/arg_parser.h"
 #include "tools/dfsm/command.h"
+#include "tools/dfsm/command_line.h"
 
 namespace dfsm::tools {
-namespace {
-
-constexpr const char* kHelp =
-    "usage: dfsm calibrate BURST... --out DIR [--frames N] [--rolling-shutter global|estimate|R]\n"
-    "\n"
-    "  --out DIR     written: calibration.json and calibration.yaml of the fused camera\n"
-    "                (as 'dfsm process' writes them) and fusion.json (the fusion's state,\n"
-    "                sigma, and each burst's estimate and outcome)\n"
-    "  --frames N    use N frames of each burst, centred on its reference (default: all)\n"
-    "  --rolling-shutter global|estimate|R\n"
-    "                the sensor's readout, as for 'dfsm process' (default estimate)\n"
-    "\n"
-    "Bursts must share one image size. Exit status: 0 a fused calibration was written,\n"
-    "1 no burst could be fused, 2 usage.\n";
-
-}  // namespace
 
 int RunCalibrateCommand(const Args& args) {
-  ArgParser parser({"out", "frames", "rolling-shutter"}, {"help"});
-  parser.Parse(args);
-  if (parser.Has("help")) {
-    std::fputs(kHelp, stdout);
-    return 0;
-  }
-  if (parser.positionals().empty()) throw UsageError("expected one or more BURST directories");
-  if (!parser.Has("out")) throw UsageError("--out DIR is required");
+  CLI::App app("Calibrates one camera from several of its bursts, as dfsmd fuses them.",
+               "dfsm calibrate");
+  app.footer(
+      "Bursts must share one image size. Exit status: 0 a fused calibration was written, "
+      "1 no burst could be fused, 2 usage.");
+  std::vector<std::string> bursts;
+  std::string out_dir, rolling_shutter = kDefaultRollingShutter;
   ReadBurstOptions read_options;
-  read_options.max_frames = parser.Int("frames", 0);
-  if (read_options.max_frames < 0 || read_options.max_frames == 1 || read_options.max_frames == 2)
-    throw UsageError("--frames must be at least 3");
+  app.add_option("BURST", bursts, "dfsm-burst/1 directories of one camera")->required();
+  app.add_option("--out", out_dir,
+                 "written: calibration.json and calibration.yaml of the fused camera (as 'dfsm "
+                 "process' writes them) and fusion.json (the fusion's state, sigma, and each "
+                 "burst's estimate and outcome)")
+      ->required();
+  app.add_option("--frames", read_options.max_frames,
+                 "use N frames of each burst, centred on its reference (0: all)")
+      ->check(FrameCount());
+  app.add_option("--rolling-shutter", rolling_shutter,
+                 "global | estimate | R: the sensor's readout, as for 'dfsm process'")
+      ->capture_default_str();
+  if (const auto status = ParseCommandLine(app, args)) return *status;
   SparseOptions sparse_options;
   try {
-    sparse_options.rolling_shutter =
-        ParseRollingShutter(parser.String("rolling-shutter", kDefaultRollingShutter));
+    sparse_options.rolling_shutter = ParseRollingShutter(rolling_shutter);
   } catch (const std::invalid_argument& e) {
     throw UsageError(std::string("--rolling-shutter: ") + e.what());
   }
 
   CalibrationFusion fusion;
-  for (const std::string& burst_dir : parser.positionals()) {
+  for (const std::string& burst_dir : bursts) {
     std::string outcome;
     try {
       const Burst burst = ReadBurst(burst_dir, read_options);
@@ -92,7 +84,6 @@ int RunCalibrateCommand(const Args& args) {
     std::fprintf(stderr, "dfsm calibrate: no burst could be fused\n");
     return 1;
   }
-  const std::string out_dir = parser.String("out", "");
   std::filesystem::create_directories(out_dir);
   WriteCalibrationFiles(out_dir, fusion.camera());
   WriteFileAtomically(std::filesystem::path(out_dir) / "fusion.json",

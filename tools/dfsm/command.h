@@ -2,10 +2,17 @@
 // returns the process exit status (0 ok, 1 processing failed, 2 usage error).
 #pragma once
 
+#include <stdexcept>
 #include <string>
 #include <vector>
 
 namespace dfsm::tools {
+
+// A bad command line: main prints it and exits 2.
+class UsageError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
 
 using Args = std::vector<std::string>;
 

@@ -8,22 +8,19 @@
 #include "core/io/depth_tiff.h"
 #include "core/io/file_util.h"
 #include "core/pipeline/evaluation.h"
-#include "tools/dfsm/arg_parser.h"
 #include "tools/dfsm/command.h"
+#include "tools/dfsm/command_line.h"
 
 namespace dfsm::tools {
 
 int RunEvaluateCommand(const Args& args) {
-  ArgParser parser({"result", "truth"}, {"help"});
-  parser.Parse(args);
-  if (parser.Has("help")) {
-    std::puts("usage: dfsm evaluate --result DIR --truth BURST   (prints JSON)");
-    return 0;
-  }
-  if (!parser.Has("result") || !parser.Has("truth"))
-    throw UsageError("--result DIR and --truth BURST are required");
-  const std::filesystem::path result_dir = parser.String("result", "");
-  const std::filesystem::path burst_dir = parser.String("truth", "");
+  CLI::App app("Compares a result against a synthetic burst's ground truth; prints JSON.",
+               "dfsm evaluate");
+  std::filesystem::path result_dir, burst_dir;
+  app.add_option("--result", result_dir, "a dfsm-result/1 directory")->required();
+  app.add_option("--truth", burst_dir, "the synthetic burst (dfsm synth) it was made from")
+      ->required();
+  if (const auto status = ParseCommandLine(app, args)) return *status;
 
   const nlohmann::json result = nlohmann::json::parse(ReadFileToString(result_dir / "result.json"));
   if (result.value("status", "") != "ok")

@@ -4,7 +4,6 @@
 #include <exception>
 #include <string>
 
-#include "tools/dfsm/arg_parser.h"
 #include "tools/dfsm/command.h"
 
 namespace {
@@ -13,11 +12,11 @@ constexpr const char* kUsage =
     "usage: dfsm <command> [options]\n"
     "\n"
     "commands:\n"
-    "  process BURST --out DIR [--init rank1|naive] [--frames N] [--grid PX] [--planes N]\n"
+    "  process BURST --out DIR [options]\n"
     "        run the pipeline on a dfsm-burst/1 directory, write a dfsm-result/1 directory\n"
-    "  synth --out DIR [--width W --height H --frames N --f F --k1 K1 --k2 K2 ...]\n"
+    "  synth --out DIR [options]\n"
     "        render a handheld small-motion burst of a textured scene with ground truth\n"
-    "  calibrate BURST... --out DIR [--frames N]\n"
+    "  calibrate BURST... --out DIR [options]\n"
     "        calibrate one camera from several of its bursts (fused, with sigma)\n"
     "  evaluate --result DIR --truth BURST\n"
     "        compare a result against a synthetic burst's ground truth (prints JSON)\n"

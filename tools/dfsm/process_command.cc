@@ -4,83 +4,75 @@
 
 #include "core/export/calibration_import.h"
 #include "core/pipeline/pipeline.h"
-#include "tools/dfsm/arg_parser.h"
 #include "tools/dfsm/command.h"
+#include "tools/dfsm/command_line.h"
 
 namespace dfsm::tools {
-namespace {
-
-constexpr const char* kHelp =
-    "usage: dfsm process BURST --out DIR [options]\n"
-    "\n"
-    "  --out DIR            result directory (dfsm-result/1); created when missing\n"
-    "  --init rank1|naive   bundle-adjustment start (default rank1)\n"
-    "  --frames N           use N consecutive frames centred on the reference (default: all)\n"
-    "  --grid PX            feature cell size (default: 80 px at 1080p, scaled)\n"
-    "  --planes N           plane-sweep planes (default 128)\n"
-    "  --no-dense           stop after the sparse stage (no depth map)\n"
-    "  --threads N          worker threads (default: all cores)\n"
-    "  --max-iterations N   bundle-adjustment iteration limit per run (default 100)\n"
-    "  --calibration FILE   a known calibration: dfsm's calibration.json/.yaml, an OpenCV\n"
-    "                       FileStorage (camera_matrix, distortion_coefficients) or a ROS\n"
-    "                       CameraInfo YAML; its principal point replaces the image centre\n"
-    "  --calibration-mode fixed|prior\n"
-    "                       hold it fixed, or use it as a prior (f 1 %, distortion 0.5 px;\n"
-    "                       default prior)\n"
-    "  --rolling-shutter global|estimate|R\n"
-    "                       the sensor's readout: none, estimated by the adjustment, or\n"
-    "                       R of the frame interval (default estimate: phones and most\n"
-    "                       webcams read out row by row; needs frames in capture order)\n"
-
-    "\n"
-    "Exit status: 0 ok, 1 the burst could not be processed (result.json says why), 2 usage.\n";
-
-}  // namespace
 
 int RunProcessCommand(const Args& args) {
-  ArgParser parser({"out", "init", "frames", "grid", "planes", "threads", "max-iterations",
-                    "calibration", "calibration-mode", "rolling-shutter"},
-                   {"no-dense", "help"});
-  parser.Parse(args);
-  if (parser.Has("help")) {
-    std::fputs(kHelp, stdout);
-    return 0;
-  }
-  if (parser.positionals().size() != 1) throw UsageError("expected exactly one BURST directory");
-  if (!parser.Has("out")) throw UsageError("--out DIR is required");
-
+  CLI::App app(
+      "Runs the pipeline on a dfsm-burst/1 directory and writes a dfsm-result/1 "
+      "directory.",
+      "dfsm process");
+  app.footer(
+      "Exit status: 0 ok, 1 the burst could not be processed (result.json says why), "
+      "2 usage.");
+  std::string burst_dir, out_dir, init = InitModeName(InitMode::kRankOne);
+  std::string rolling_shutter = kDefaultRollingShutter, calibration_file;
+  std::string calibration_mode = KnownCalibrationModeName(KnownCalibrationMode::kPrior);
   PipelineOptions options;
+  ReadBurstOptions read_options;
+  bool no_dense = false;
+  int threads = 0;
+  app.add_option("BURST", burst_dir, "a dfsm-burst/1 directory")->required();
+  app.add_option("--out", out_dir, "result directory (dfsm-result/1); created when missing")
+      ->required();
+  app.add_option("--init", init, "bundle-adjustment start")
+      ->check(CLI::IsMember({InitModeName(InitMode::kRankOne), InitModeName(InitMode::kNaive)}))
+      ->capture_default_str();
+  app.add_option("--frames", read_options.max_frames,
+                 "use N consecutive frames centred on the reference (0: all)")
+      ->check(FrameCount());
+  app.add_option("--grid", options.sparse.features.cell_px,
+                 "feature cell size, pixels (0: 80 px at 1080p, scaled)")
+      ->check(CLI::Range(0, GridedFeatureOptions::kMaxCellPx));
+  app.add_option("--planes", options.dense.planes, "plane-sweep planes")
+      ->check(CLI::Range(DenseOptions::kMinPlanes, DenseOptions::kMaxPlanes))
+      ->capture_default_str();
+  app.add_flag("--no-dense", no_dense, "stop after the sparse stage (no depth map)");
+  app.add_option("--threads", threads, "worker threads (0: all cores)")
+      ->check(CLI::NonNegativeNumber);
+  app.add_option("--max-iterations", options.sparse.bundle_adjustment.max_iterations,
+                 "bundle-adjustment iteration limit per run")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  CLI::Option* calibration = app.add_option(
+      "--calibration", calibration_file,
+      "a known calibration: dfsm's calibration.json/.yaml, an OpenCV FileStorage "
+      "(camera_matrix, distortion_coefficients) or a ROS CameraInfo YAML; its principal point "
+      "replaces the image centre");
+  app.add_option("--calibration-mode", calibration_mode,
+                 "hold it fixed, or use it as a prior (f 1 %, distortion 0.5 px)")
+      ->check(CLI::IsMember({KnownCalibrationModeName(KnownCalibrationMode::kFixed),
+                             KnownCalibrationModeName(KnownCalibrationMode::kPrior)}))
+      ->needs(calibration)
+      ->capture_default_str();
+  app.add_option("--rolling-shutter", rolling_shutter,
+                 "global | estimate | R: the sensor's readout: none, estimated by the "
+                 "adjustment, or R of the frame interval (phones and most webcams read out row "
+                 "by row; needs frames in capture order)")
+      ->capture_default_str();
+  if (const auto status = ParseCommandLine(app, args)) return *status;
+
+  options.sparse.init = ParseInitMode(init);
   try {
-    options.sparse.init = ParseInitMode(parser.String("init", "rank1"));
-  } catch (const std::invalid_argument& e) {
-    throw UsageError(std::string("--init: ") + e.what());
-  }
-  try {
-    options.sparse.rolling_shutter =
-        ParseRollingShutter(parser.String("rolling-shutter", kDefaultRollingShutter));
+    options.sparse.rolling_shutter = ParseRollingShutter(rolling_shutter);
   } catch (const std::invalid_argument& e) {
     throw UsageError(std::string("--rolling-shutter: ") + e.what());
   }
-  options.sparse.features.cell_px = parser.Int("grid", 0);
-  if (options.sparse.features.cell_px < 0 || options.sparse.features.cell_px > 4096)
-    throw UsageError("--grid must be between 1 and 4096 pixels");
-  options.dense.planes = parser.Int("planes", 128);
-  if (options.dense.planes < 2 || options.dense.planes > 1024)
-    throw UsageError("--planes must be between 2 and 1024");
-  options.sparse.bundle_adjustment.max_iterations = parser.Int("max-iterations", 100);
-  if (options.sparse.bundle_adjustment.max_iterations < 1)
-    throw UsageError("--max-iterations must be positive");
-  options.run_dense = !parser.Has("no-dense");
-  const int threads = parser.Int("threads", 0);
-  if (threads < 0) throw UsageError("--threads must not be negative");
+  options.run_dense = !no_dense;
   if (threads > 0) cv::setNumThreads(threads);
-  ReadBurstOptions read_options;
-  read_options.max_frames = parser.Int("frames", 0);
-  if (read_options.max_frames < 0 || read_options.max_frames == 1 || read_options.max_frames == 2)
-    throw UsageError("--frames must be at least 3");
 
-  const std::string burst_dir = parser.positionals()[0];
-  const std::string out_dir = parser.String("out", "");
   Burst burst;
   try {
     burst = ReadBurst(burst_dir, read_options);
@@ -88,14 +80,10 @@ int RunProcessCommand(const Args& args) {
     std::fprintf(stderr, "dfsm process: %s\n", e.what());
     return 1;
   }
-  if (parser.Has("calibration")) {
+  if (!calibration_file.empty()) {
     KnownCalibration known;
-    try {
-      known.mode = ParseKnownCalibrationMode(parser.String("calibration-mode", "prior"));
-    } catch (const std::invalid_argument& e) {
-      throw UsageError(std::string("--calibration-mode: ") + e.what());
-    }
-    const std::string file = parser.String("calibration", "");
+    known.mode = ParseKnownCalibrationMode(calibration_mode);
+    const std::string& file = calibration_file;
     try {
       const ImportedCalibration imported = ReadCalibrationFile(file, burst.width(), burst.height());
       known.camera = imported.camera;
@@ -111,8 +99,6 @@ int RunProcessCommand(const Args& args) {
       return 1;
     }
     options.sparse.known = known;
-  } else if (parser.Has("calibration-mode")) {
-    throw UsageError("--calibration-mode needs --calibration FILE");
   }
   PipelineOutput output = RunPipeline(burst, options, [](const std::string& stage) {
     std::fprintf(stderr, "dfsm process: %s...\n", stage.c_str());

@@ -1,84 +1,99 @@
 // dfsm synth --out DIR: renders a small-motion burst with ground truth.
 #include <cstdio>
+#include <optional>
 #include <stdexcept>
 
 #include "core/synth/burst_synthesizer.h"
-#include "tools/dfsm/arg_parser.h"
 #include "tools/dfsm/command.h"
+#include "tools/dfsm/command_line.h"
 
 namespace dfsm::tools {
-namespace {
-
-constexpr const char* kHelp =
-    "usage: dfsm synth --out DIR [options]\n"
-    "\n"
-    "Renders a handheld small-motion burst of a textured 3-D scene (photo-textured\n"
-    "slanted planes in front of a background) through the ha2016-d2u camera model,\n"
-    "and writes it as dfsm-burst/1 with ground_truth.json and depth_gt.tiff.\n"
-    "\n"
-    "  --width W --height H  frame size (default 1920x1080)\n"
-    "  --frames N            frames (default 10)\n"
-    "  --f F                 focal length in pixels (default 1.1 * max(W, H))\n"
-    "  --k1 K1 --k2 K2       D->U radial distortion (default -0.06, 0.015)\n"
-    "  --baseline M          extent of the camera path in metres (default 0.008)\n"
-    "  --rotation DEG        largest rotation against the reference (default 0.5)\n"
-    "  --noise SIGMA         sensor noise in grey levels (default 1.0)\n"
-    "  --jpeg Q              JPEG round trip at quality Q (default: none)\n"
-    "  --supersampling S     S x S samples per pixel (default 3)\n"
-    "  --gray                gray8 frames instead of bgr8\n"
-    "  --seed N              scene and motion seed (default 1)\n"
-    "  --textures DIR        photographs to texture the scene with\n"
-    "                        (default /usr/share/doc/opencv-doc/examples/data)\n"
-    "\n"
-    "What a real camera adds (core/synth/camera_effects.h), each switchable:\n"
-    "  --camera ideal|webcam|phone\n"
-    "                        preset of the effects below (default ideal: none; phone:\n"
-    "                        readout 0.6, exposure 0.12, white balance 0.03, vignetting 0.3)\n"
-    "  --rolling-shutter R   readout time as a fraction of the frame interval (0: global)\n"
-    "  --exposure-drift D    per-frame exposure/gain change, up to +-D (0.12: +-12 %)\n"
-    "  --white-balance-drift D  per-frame, per-channel gain change, up to +-D\n"
-    "  --vignetting V        brightness falls by V at the corners\n";
-
-}  // namespace
 
 int RunSynthCommand(const Args& args) {
-  ArgParser parser({"out", "width", "height", "frames", "f", "k1", "k2", "baseline", "rotation",
-                    "noise", "jpeg", "supersampling", "seed", "textures", "camera",
-                    "rolling-shutter", "exposure-drift", "white-balance-drift", "vignetting"},
-                   {"gray", "help"});
-  parser.Parse(args);
-  if (parser.Has("help")) {
-    std::fputs(kHelp, stdout);
-    return 0;
-  }
-  if (!parser.Has("out")) throw UsageError("--out DIR is required");
-  if (!parser.positionals().empty()) throw UsageError("unexpected argument");
+  CLI::App app(
+      "Renders a handheld small-motion burst of a textured 3-D scene (photo-textured slanted "
+      "planes in front of a background) through the ha2016-d2u camera model, and writes it as "
+      "dfsm-burst/1 with ground_truth.json and depth_gt.tiff.",
+      "dfsm synth");
   SynthOptions options;
-  options.width = parser.Int("width", options.width);
-  options.height = parser.Int("height", options.height);
-  options.frames = parser.Int("frames", options.frames);
-  options.f = parser.Double("f", options.f);
-  options.k1 = parser.Double("k1", options.k1);
-  options.k2 = parser.Double("k2", options.k2);
-  options.baseline = parser.Double("baseline", options.baseline);
-  options.rotation_deg = parser.Double("rotation", options.rotation_deg);
-  options.noise_sigma = parser.Double("noise", options.noise_sigma);
-  options.jpeg_quality = parser.Int("jpeg", options.jpeg_quality);
-  options.supersampling = parser.Int("supersampling", options.supersampling);
-  options.seed = static_cast<uint64_t>(parser.Int("seed", 1));
-  options.color = !parser.Has("gray");
-  options.texture_dir = parser.String("textures", options.texture_dir);
-  try {
-    options.effects = CameraEffects::Preset(parser.String("camera", "ideal"));
-  } catch (const std::invalid_argument& e) {
-    throw UsageError(std::string("--camera: ") + e.what());
-  }
+  std::string out, camera = "ideal";
+  bool gray = false;
+  app.add_option("--out", out, "burst directory to write")->required();
+  app.add_option("--width", options.width, "frame width")->capture_default_str();
+  app.add_option("--height", options.height, "frame height")->capture_default_str();
+  app.add_option("--frames", options.frames, "frames")->capture_default_str();
+  app.add_option("--f", options.f, "focal length in pixels (0: 1.1 * max(W, H))");
+  app.add_option("--k1", options.k1, "D->U radial distortion k1")->capture_default_str();
+  app.add_option("--k2", options.k2, "D->U radial distortion k2")->capture_default_str();
+  app.add_option("--baseline", options.baseline, "extent of the camera path, metres")
+      ->capture_default_str();
+  app.add_option("--rotation", options.rotation_deg,
+                 "largest rotation against the reference, degrees")
+      ->capture_default_str();
+  app.add_option("--noise", options.noise_sigma, "sensor noise in grey levels")
+      ->capture_default_str();
+  std::optional<int> jpeg;
+  app.add_option("--jpeg", jpeg,
+                 "JPEG round trip at quality Q (0: none; default: the --camera preset's, none for "
+                 "ideal)");
+  app.add_option("--supersampling", options.supersampling, "S x S samples per pixel")
+      ->capture_default_str();
+  app.add_flag("--gray", gray, "gray8 frames instead of bgr8");
+  app.add_option("--seed", options.seed, "scene and motion seed")->capture_default_str();
+  app.add_option("--textures", options.texture_dir, "photographs to texture the scene with")
+      ->capture_default_str();
+  // What a real camera adds (core/synth/camera_effects.h): a preset, then
+  // each effect on its own.
+  app.add_option("--camera", camera,
+                 "preset of the effects below and of --jpeg (ideal: none; webcam: readout 0.8, "
+                 "exposure 0.05, white balance 0.02, vignetting 0.2, motion blur 0.5, k3 0.15, "
+                 "p1 2e-3, p2 -1.5e-3, shot noise 8, JPEG 80; phone: readout 0.6, exposure 0.12, "
+                 "white balance 0.03, vignetting 0.3, motion blur 0.25, k3 -0.05, p1 5e-4, "
+                 "p2 5e-4, shot noise 16, JPEG 90)")
+      ->check(CLI::IsMember({"ideal", "webcam", "phone"}))
+      ->capture_default_str();
+  std::optional<double> readout, exposure, white_balance, vignetting;
+  app.add_option("--rolling-shutter", readout,
+                 "readout time as a fraction of the frame interval (0: global)");
+  app.add_option("--exposure-drift", exposure,
+                 "per-frame exposure/gain change, up to +-D (0.12: +-12 %)");
+  app.add_option("--white-balance-drift", white_balance,
+                 "per-frame, per-channel gain change, up to +-D");
+  app.add_option("--vignetting", vignetting, "brightness falls by V at the corners");
+  std::optional<double> motion_blur, k3, p1, p2, shot_noise;
+  app.add_option("--motion-blur", motion_blur,
+                 "shutter open time as a fraction of the frame interval: motion blur along the "
+                 "camera path (0: none)");
+  app.add_option("--k3", k3, "third D->U radial term, rendered only (the model has k1, k2)");
+  app.add_option("--p1", p1, "tangential distortion p1, rendered only");
+  app.add_option("--p2", p2, "tangential distortion p2, rendered only");
+  app.add_option("--shot-noise", shot_noise,
+                 "Poisson shot noise: electrons per grey level (variance L / G at level L; 0: "
+                 "none); --noise is the read noise beside it");
+  // What a real scene has beyond textured planes (not part of the presets).
+  app.add_option("--moving-object", options.moving_object,
+                 "a textured disc crossing the view at this many image widths per frame (0: none)")
+      ->capture_default_str();
+  app.add_option("--curved", options.curved_surfaces, "textured cylinders and spheres (0: none)")
+      ->capture_default_str();
+  app.add_option("--untextured", options.untextured,
+                 "share of the scene's patches rendered in one flat colour (0: none)")
+      ->capture_default_str();
+  if (const auto status = ParseCommandLine(app, args)) return *status;
+
+  options.color = !gray;
+  options.effects = CameraEffects::Preset(camera);
   CameraEffects& effects = options.effects;
-  effects.rolling_shutter_readout =
-      parser.Double("rolling-shutter", effects.rolling_shutter_readout);
-  effects.exposure_drift = parser.Double("exposure-drift", effects.exposure_drift);
-  effects.white_balance_drift = parser.Double("white-balance-drift", effects.white_balance_drift);
-  effects.vignetting = parser.Double("vignetting", effects.vignetting);
+  effects.rolling_shutter_readout = readout.value_or(effects.rolling_shutter_readout);
+  effects.exposure_drift = exposure.value_or(effects.exposure_drift);
+  effects.white_balance_drift = white_balance.value_or(effects.white_balance_drift);
+  effects.vignetting = vignetting.value_or(effects.vignetting);
+  effects.exposure_time = motion_blur.value_or(effects.exposure_time);
+  effects.k3 = k3.value_or(effects.k3);
+  effects.p1 = p1.value_or(effects.p1);
+  effects.p2 = p2.value_or(effects.p2);
+  effects.shot_noise_gain = shot_noise.value_or(effects.shot_noise_gain);
+  options.jpeg_quality = jpeg.value_or(CameraEffects::PresetJpegQuality(camera));
 
   SynthBurst burst;
   try {
@@ -86,7 +101,6 @@ int RunSynthCommand(const Args& args) {
   } catch (const std::invalid_argument& e) {
     throw UsageError(e.what());
   }
-  const std::string out = parser.String("out", "");
   WriteSynthBurst(out, burst);
   std::printf("synth       %s: %d frames %dx%d, f = %.1f px, k1 = %.4f, k2 = %.4f\n", out.c_str(),
               options.frames, options.width, options.height, burst.truth.camera.f, options.k1,
