@@ -91,9 +91,10 @@ std::unique_ptr<Parts> Assemble(const service::DaemonConfig& config,
   } catch (const service::JobStoreError& e) {
     throw ConfigError(std::string("jobs.state_dir: ") + e.what());
   }
+  p.persister = std::make_unique<service::BurstPersister>(p.store.get());
   p.calibration = std::make_unique<service::CalibrationKeeper>(c.calibration, c.jobs.state_dir);
   p.processor = std::make_unique<service::JobProcessor>(p.store.get(), &p.metrics, c.retention,
-                                                        p.calibration.get());
+                                                        p.calibration.get(), p.persister.get());
   p.scheduler = std::make_unique<service::JobScheduler>(
       c.jobs.workers, c.jobs.queue,
       [processor = p.processor.get()](const std::string& id, std::shared_ptr<const Burst> burst) {
@@ -121,8 +122,9 @@ std::unique_ptr<Parts> Assemble(const service::DaemonConfig& config,
   burst_limits.max_frames = c.limits.max_burst_frames;
   burst_limits.max_frame_pixels = c.limits.max_frame_pixels;
   burst_limits.max_burst_pixels = c.limits.max_burst_pixels;
-  p.intake = std::make_unique<service::JobIntake>(p.store.get(), p.scheduler.get(), p.camera.get(),
-                                                  &p.metrics, tar_limits, burst_limits);
+  p.intake =
+      std::make_unique<service::JobIntake>(p.store.get(), p.scheduler.get(), p.camera.get(),
+                                           p.persister.get(), &p.metrics, tar_limits, burst_limits);
 
   p.http = std::make_unique<api::HttpServer>(c.server);
   api::ApiContext context;

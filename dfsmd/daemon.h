@@ -15,6 +15,7 @@
 
 #include "api/http_server.h"
 #include "daemon/capture/capture_service.h"
+#include "daemon/service/burst_persister.h"
 #include "daemon/service/calibration_keeper.h"
 #include "daemon/service/config.h"
 #include "daemon/service/job_intake.h"
@@ -43,6 +44,9 @@ struct Parts {
   const service::DaemonConfig config;
   service::Metrics metrics;
   std::unique_ptr<service::JobStore> store;
+  // Destroyed after the scheduler: the bursts of queued captures are written
+  // before dfsmd exits.
+  std::unique_ptr<service::BurstPersister> persister;
   std::unique_ptr<service::CalibrationKeeper> calibration;
   std::unique_ptr<service::JobProcessor> processor;
   std::unique_ptr<service::JobScheduler> scheduler;

@@ -47,7 +47,7 @@ struct Intake {
   Metrics metrics;
   JobStore store{dir.path()};
   JobScheduler scheduler{1, 4, [](const std::string&, std::shared_ptr<const dfsm::Burst>) {}};
-  JobIntake intake{&store, &scheduler, nullptr, &metrics, FuzzLimits(), FuzzBurstLimits()};
+  JobIntake intake{&store, &scheduler, nullptr, nullptr, &metrics, FuzzLimits(), FuzzBurstLimits()};
 };
 
 // What ExtractTar wrote: plain files and directories within the limits, which

@@ -48,7 +48,7 @@ OpenCvDistortionFit FitOpenCvDistortion(const CameraModel& camera) {
 }
 
 nlohmann::json WriteCalibrationFiles(const std::filesystem::path& out_dir,
-                                     const CameraModel& camera) {
+                                     const CameraModel& camera, Flush flush) {
   const OpenCvDistortionFit fit = FitOpenCvDistortion(camera);
   const std::vector<double> camera_matrix = {camera.f,  0.0, camera.cx, 0.0, camera.f,
                                              camera.cy, 0.0, 0.0,       1.0};
@@ -62,7 +62,7 @@ nlohmann::json WriteCalibrationFiles(const std::filesystem::path& out_dir,
       {"distortion_coefficients", {{"rows", 1}, {"cols", 5}, {"data", distortion}}},
       {"distortion_fit", {{"max_error_px", fit.max_error_px}, {"rms_error_px", fit.rms_error_px}}},
       {"native", ToJson(camera)}};
-  WriteFileAtomically(out_dir / "calibration.json", json.dump(2) + "\n");
+  WriteFileAtomically(out_dir / "calibration.json", json.dump(2) + "\n", flush);
 
   cv::FileStorage yaml(".yaml", cv::FileStorage::WRITE | cv::FileStorage::MEMORY);
   yaml << "image_width" << camera.width << "image_height" << camera.height;
@@ -73,7 +73,7 @@ nlohmann::json WriteCalibrationFiles(const std::filesystem::path& out_dir,
   yaml << "distortion_fit_rms_error_px" << fit.rms_error_px;
   yaml << "native_model" << kDistortionModelName;
   yaml << "native_k1" << camera.k1 << "native_k2" << camera.k2;
-  WriteFileAtomically(out_dir / "calibration.yaml", yaml.releaseAndGetString());
+  WriteFileAtomically(out_dir / "calibration.yaml", yaml.releaseAndGetString(), flush);
 
   return {{"files", {"calibration.json", "calibration.yaml"}},
           {"opencv_fit_max_error_px", fit.max_error_px}};

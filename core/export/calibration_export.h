@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/camera/camera_model.h"
+#include "core/io/file_util.h"
 
 namespace dfsm {
 
@@ -22,9 +23,9 @@ struct OpenCvDistortionFit {
 
 OpenCvDistortionFit FitOpenCvDistortion(const CameraModel& camera);
 
-// Writes calibration.json and calibration.yaml atomically into out_dir and
-// returns a summary for result.json (files, fit error).
+// Writes calibration.json and calibration.yaml atomically (file_util.h:
+// `flush`) into out_dir and returns a summary for result.json (files, fit error).
 nlohmann::json WriteCalibrationFiles(const std::filesystem::path& out_dir,
-                                     const CameraModel& camera);
+                                     const CameraModel& camera, Flush flush = Flush::kEach);
 
 }  // namespace dfsm

@@ -11,17 +11,22 @@
 
 #include "core/camera/camera_model.h"
 #include "core/export/ply.h"
+#include "core/io/file_util.h"
 
 namespace dfsm {
 
 struct DepthExportOptions {
   int max_points = 250000;  // points.ply is subsampled on a regular grid to at most this
+  // Flush::kBatched: the caller makes the directory durable at once
+  // (SyncFileSystem) instead of one fsync per file.
+  Flush flush = Flush::kEach;
 };
 
 // depth: CV_32FC1 on the captured grid, 0 = none; confidence: CV_32FC1 in [0, 1]
-// (may be empty); reference_color: BGR8 or gray8 reference frame. Writes every
-// file atomically and returns their description for result.json, including
-// the scale of depth.png (depth = value * scale).
+// (may be empty); reference_color: BGR8 or gray8 reference frame. Encodes and
+// writes the files in parallel, each atomically, and returns their
+// description for result.json, including the scale of depth.png (depth =
+// value * scale).
 nlohmann::json WriteDepthOutputs(const std::filesystem::path& out_dir, const cv::Mat& depth,
                                  const cv::Mat& confidence, const cv::Mat& reference_color,
                                  const CameraModel& camera, const DepthExportOptions& options = {});

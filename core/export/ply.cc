@@ -7,7 +7,8 @@
 
 namespace dfsm {
 
-void WritePly(const std::filesystem::path& path, const std::vector<ColoredPoint>& points) {
+void WritePly(const std::filesystem::path& path, const std::vector<ColoredPoint>& points,
+              Flush flush) {
   std::string data =
       "ply\nformat binary_little_endian 1.0\ncomment written by dfsm\nelement vertex " +
       std::to_string(points.size()) +
@@ -26,7 +27,7 @@ void WritePly(const std::filesystem::path& path, const std::vector<ColoredPoint>
     out[14] = static_cast<char>(point.b);
     out += kStride;
   }
-  WriteFileAtomically(path, data);
+  WriteFileAtomically(path, data, flush);
 }
 
 }  // namespace dfsm

@@ -6,6 +6,8 @@
 #include <filesystem>
 #include <vector>
 
+#include "core/io/file_util.h"
+
 namespace dfsm {
 
 struct ColoredPoint {
@@ -13,7 +15,9 @@ struct ColoredPoint {
   uint8_t r = 255, g = 255, b = 255;
 };
 
-// Writes atomically; throws std::runtime_error naming the path on failure.
-void WritePly(const std::filesystem::path& path, const std::vector<ColoredPoint>& points);
+// Writes atomically (file_util.h: `flush`); throws std::runtime_error naming
+// the path on failure.
+void WritePly(const std::filesystem::path& path, const std::vector<ColoredPoint>& points,
+              Flush flush = Flush::kEach);
 
 }  // namespace dfsm

@@ -76,11 +76,21 @@ Burst ReadBurst(const std::filesystem::path& burst_dir, const ReadBurstOptions& 
 // Converts a decoded frame (8/16-bit, 1/3/4 channels) to 8-bit gray.
 cv::Mat ToGray8(const cv::Mat& frame);
 
+// `manifest` completed for `frames` as WriteBurst stores them: size and pixel
+// format from the frames, frames[].file ("frames/NNNNNN.png") and sequence
+// filled in where empty. Throws BurstError when the frames do not make a burst
+// (fewer than 3, sizes that differ, a count the manifest contradicts).
+BurstManifest CompleteManifest(BurstManifest manifest, const std::vector<cv::Mat>& frames);
+
 // Writes `frames` as PNG (lossless, so a replay is bit-exact) under
 // burst_dir/frames/ and the manifest last, each through a temporary file and a
-// rename, so a reader never sees a half-written burst. manifest.frames[].file is
-// filled in when empty. Throws BurstError on an I/O failure.
+// rename, so a reader never sees a half-written burst. The burst is flushed to
+// the disk once at the end (one syncfs, not one fsync per file): it is durable
+// when the call returns. Frames are encoded in parallel unless `in_parallel`
+// is false (a background writer that must take only the CPU left over).
+// manifest.frames[].file is filled in when empty. Throws BurstError on an I/O
+// failure.
 void WriteBurst(const std::filesystem::path& burst_dir, BurstManifest manifest,
-                const std::vector<cv::Mat>& frames);
+                const std::vector<cv::Mat>& frames, bool in_parallel = true);
 
 }  // namespace dfsm

@@ -8,7 +8,7 @@
 
 namespace dfsm {
 
-void WriteDepthTiff(const std::filesystem::path& path, const cv::Mat& depth) {
+void WriteDepthTiff(const std::filesystem::path& path, const cv::Mat& depth, Flush flush) {
   if (depth.type() != CV_32FC1)
     throw std::runtime_error(path.string() + ": depth map must be CV_32FC1");
   std::vector<unsigned char> bytes;
@@ -16,7 +16,7 @@ void WriteDepthTiff(const std::filesystem::path& path, const cv::Mat& depth) {
   const std::vector<int> params = {cv::IMWRITE_TIFF_COMPRESSION, 8 /* COMPRESSION_ADOBE_DEFLATE */};
   if (!cv::imencode(".tiff", depth, bytes, params))
     throw std::runtime_error(path.string() + ": cannot encode float32 TIFF");
-  WriteFileAtomically(path, bytes);
+  WriteFileAtomically(path, bytes, flush);
 }
 
 cv::Mat ReadDepthTiff(const std::filesystem::path& path) {

@@ -38,25 +38,35 @@ JobScheduler::Reservation JobIntake::Reserve() {
 
 Job JobIntake::FromCapture(const JobOptions& options, std::chrono::milliseconds timeout) {
   JobScheduler::Reservation reservation = Reserve();
-  if (!camera_) throw CameraUnavailable("this daemon has no capture source");
+  if (!camera_ || !persister_) throw CameraUnavailable("this daemon has no capture source");
+  // Bursts waiting to be stored hold their frames in memory: as many as the
+  // queue holds jobs, no more.
+  if (persister_->Pending() >= scheduler_->capacity()) {
+    metrics_->JobRejected();
+    throw QueueFull("the bursts of " + std::to_string(persister_->Pending()) +
+                    " captures are still being stored");
+  }
   const BurstWhen when = options.when == "next" ? BurstWhen::kNext : BurstWhen::kLast;
   CameraBurst grabbed = camera_->GrabBurst(options.frames, when, timeout);
 
-  StagingGuard staging{store_->NewStagingDir()};
-  const fs::path burst_dir = staging.dir / "burst";
-  try {
-    WriteBurst(burst_dir, grabbed.manifest, grabbed.frames);
-  } catch (const BurstError& e) {
-    throw JobStoreError(std::string("cannot store the burst: ") + e.what());
-  }
-
   auto burst = std::make_shared<Burst>();
-  burst->manifest = ReadBurstManifest(burst_dir);
-  for (const cv::Mat& frame : grabbed.frames) burst->gray.push_back(ToGray8(frame));
+  try {
+    grabbed.manifest = CompleteManifest(std::move(grabbed.manifest), grabbed.frames);
+  } catch (const BurstError& e) {
+    throw CameraUnavailable(std::string("the camera gave no usable burst: ") + e.what());
+  }
+  burst->manifest = grabbed.manifest;
+  burst->gray.resize(grabbed.frames.size());
+  cv::parallel_for_(cv::Range(0, static_cast<int>(grabbed.frames.size())),
+                    [&](const cv::Range& range) {
+                      for (int i = range.start; i < range.end; ++i)
+                        burst->gray[i] = ToGray8(grabbed.frames[i]);
+                    });
   const cv::Mat& reference = grabbed.frames.at(burst->manifest.reference);
   burst->reference_color = reference.channels() == 3 ? reference : burst->gray[burst->reference()];
 
-  Job job = store_->Create("capture", options, burst_dir, InputSummary(*burst));
+  Job job = store_->Create("capture", options, {}, InputSummary(*burst));
+  persister_->Enqueue(job.id, std::move(grabbed));
   scheduler_->Submit(std::move(reservation), job.id, std::move(burst));
   return job;
 }

@@ -1,6 +1,8 @@
 // Turns a request into a stored, queued job: a burst taken from the capture
-// ring or an uploaded tar of a dfsm-burst/1 directory. The burst is written
-// to disk before the job exists, so an accepted job survives a crash.
+// ring or an uploaded tar of a dfsm-burst/1 directory. An upload is on disk
+// before its job exists. A capture's job is recorded at once and runs on the
+// frames in memory, while BurstPersister stores them beside it: the answer
+// does not wait for ten PNG encodings.
 #pragma once
 
 #include <chrono>
@@ -11,6 +13,7 @@
 #include <string_view>
 
 #include "daemon/service/burst_limits.h"
+#include "daemon/service/burst_persister.h"
 #include "daemon/service/camera_port.h"
 #include "daemon/service/job_scheduler.h"
 #include "daemon/service/job_store.h"
@@ -58,12 +61,14 @@ class PendingUpload {
 
 class JobIntake {
  public:
-  // `camera` may be null (then FromCapture throws CameraUnavailable).
-  JobIntake(JobStore* store, JobScheduler* scheduler, CameraPort* camera, Metrics* metrics,
-            TarLimits tar_limits, BurstLimits burst_limits = {})
+  // `camera` may be null (then FromCapture throws CameraUnavailable);
+  // `persister` stores the captured bursts.
+  JobIntake(JobStore* store, JobScheduler* scheduler, CameraPort* camera, BurstPersister* persister,
+            Metrics* metrics, TarLimits tar_limits, BurstLimits burst_limits = {})
       : store_(store),
         scheduler_(scheduler),
         camera_(camera),
+        persister_(persister),
         metrics_(metrics),
         tar_limits_(tar_limits),
         burst_limits_(burst_limits) {}
@@ -88,6 +93,7 @@ class JobIntake {
   JobStore* store_;
   JobScheduler* scheduler_;
   CameraPort* camera_;
+  BurstPersister* persister_;
   Metrics* metrics_;
   const TarLimits tar_limits_;
   const BurstLimits burst_limits_;

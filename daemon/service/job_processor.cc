@@ -22,7 +22,10 @@ PipelineOptions ToPipelineOptions(const JobOptions& options) {
 
 void JobProcessor::Process(const std::string& id, std::shared_ptr<const Burst> preloaded) {
   std::optional<Job> found = store_->Get(id);
-  if (!found) return;  // deleted while queued
+  if (!found) {  // deleted while queued
+    if (persister_) persister_->Settle(id, false);
+    return;
+  }
   Job job = *found;
   try {
     if (job.attempts >= kMaxAttempts) {
@@ -37,6 +40,14 @@ void JobProcessor::Process(const std::string& id, std::shared_ptr<const Burst> p
     store_->Update(job);
 
     std::shared_ptr<const Burst> burst = preloaded;
+    if (!burst && !job.has_burst) {
+      // A capture runs on its frames in memory while they are stored beside
+      // it (BurstPersister); dfsmd stopped before they were.
+      Finish(&job, false,
+             "the captured burst was lost: dfsmd stopped before it was stored; trigger a new "
+             "capture");
+      return;
+    }
     if (!burst) {
       ReadBurstOptions read;
       read.max_frames = job.options.frames;
@@ -87,14 +98,15 @@ void JobProcessor::Process(const std::string& id, std::shared_ptr<const Burst> p
 
 void JobProcessor::Finish(Job* job, bool ok, const std::string& error) {
   try {
+    if (ok && !job->options.keep_burst) {
+      // A capture's burst still queued for storing is not written at all.
+      if (persister_) persister_->Settle(job->id, false);
+      store_->DropBurst(job->id);
+    }
     job->status = ok ? JobStatus::kSucceeded : JobStatus::kFailed;
     job->error = ok ? "" : error;
     job->finished_ms = NowUnixMs();
     job->stage = "done";
-    if (ok && !job->options.keep_burst) {
-      store_->DropBurst(job->id);
-      job->has_burst = false;
-    }
     job->bytes = JobStore::DirectoryBytes(store_->BurstDir(job->id)) +
                  JobStore::DirectoryBytes(store_->OutputDir(job->id));
     store_->Update(*job);

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "core/io/burst.h"
+#include "daemon/service/burst_persister.h"
 #include "daemon/service/calibration_keeper.h"
 #include "daemon/service/config.h"
 #include "daemon/service/job_store.h"
@@ -22,10 +23,15 @@ class JobProcessor {
   // failed instead of run again: it may be what kills the daemon.
   static constexpr int kMaxAttempts = 3;
 
-  // `calibration` may be null: every job then calibrates alone.
+  // `calibration` may be null: every job then calibrates alone. `persister`
+  // may be null where no job is a capture stored in the background.
   JobProcessor(JobStore* store, Metrics* metrics, RetentionSection retention,
-               CalibrationKeeper* calibration = nullptr)
-      : store_(store), metrics_(metrics), retention_(retention), calibration_(calibration) {}
+               CalibrationKeeper* calibration = nullptr, BurstPersister* persister = nullptr)
+      : store_(store),
+        metrics_(metrics),
+        retention_(retention),
+        calibration_(calibration),
+        persister_(persister) {}
 
   // Never throws.
   void Process(const std::string& id, std::shared_ptr<const Burst> preloaded);
@@ -37,6 +43,7 @@ class JobProcessor {
   Metrics* metrics_;
   const RetentionSection retention_;
   CalibrationKeeper* calibration_;
+  BurstPersister* persister_;
 };
 
 }  // namespace dfsm::service

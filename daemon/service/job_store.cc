@@ -86,7 +86,7 @@ Job JobStore::Create(const std::string& origin, const JobOptions& options,
   // jobs/ with one rename.
   const fs::path assembly = NewStagingDir();
   std::error_code moved;
-  fs::rename(staged_burst, assembly / "burst", moved);
+  if (!staged_burst.empty()) fs::rename(staged_burst, assembly / "burst", moved);
   if (moved) {
     std::error_code ignored;
     fs::remove_all(assembly, ignored);
@@ -99,7 +99,7 @@ Job JobStore::Create(const std::string& origin, const JobOptions& options,
   job.origin = origin;
   job.options = options;
   job.created_ms = NowUnixMs();
-  job.has_burst = true;
+  job.has_burst = !staged_burst.empty();
   job.input = input;
   try {
     WriteRecord(assembly, job);
@@ -115,8 +115,37 @@ Job JobStore::Create(const std::string& origin, const JobOptions& options,
     fs::remove_all(assembly);
     throw JobStoreError("cannot store job " + job.id + ": " + error.message());
   }
+  SyncJobs();
   jobs_.emplace(job.id, job);
   return job;
+}
+
+bool JobStore::AttachBurst(const std::string& id, const fs::path& staged_burst) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const auto it = jobs_.find(id);
+  if (it == jobs_.end()) return false;
+  std::error_code error;
+  fs::rename(staged_burst, BurstDir(id), error);
+  if (error) throw JobStoreError("cannot store the burst of job " + id + ": " + error.message());
+  try {
+    SyncDirectory(JobDir(id));
+  } catch (const std::exception& e) {
+    throw JobStoreError(e.what());
+  }
+  Job& job = it->second;
+  job.has_burst = true;
+  // A job that finished first counted its bytes without the burst.
+  if (IsFinished(job.status)) job.bytes += DirectoryBytes(BurstDir(id));
+  WriteRecord(JobDir(id), job);
+  return true;
+}
+
+void JobStore::SyncJobs() const {
+  try {
+    SyncDirectory(state_dir_ / "jobs");
+  } catch (const std::exception& e) {
+    throw JobStoreError(e.what());
+  }
 }
 
 std::optional<Job> JobStore::Get(const std::string& id) const {
@@ -159,16 +188,18 @@ void JobStore::Update(const Job& job) {
   std::lock_guard<std::mutex> lock(mutex_);
   const auto it = jobs_.find(job.id);
   if (it == jobs_.end()) throw JobStoreError("unknown job " + job.id);
+  Job stored = job;
+  stored.has_burst = it->second.has_burst;
   try {
-    WriteRecord(JobDir(job.id), job);
+    WriteRecord(JobDir(job.id), stored);
   } catch (const JobStoreError&) {
     // Clients see the job as it is (failed, say, because the disk is full)
     // rather than a stage that never ends; the record on disk still says what
     // it said before, so a restart re-runs the job.
-    it->second = job;
+    it->second = stored;
     throw;
   }
-  it->second = job;
+  it->second = stored;
 }
 
 void JobStore::SetStage(const std::string& id, const std::string& stage) {
@@ -183,11 +214,19 @@ void JobStore::CommitOutput(const std::string& id, const fs::path& staged_output
   if (fs::exists(target)) Discard(target);
   fs::rename(staged_output, target, error);
   if (error) throw JobStoreError("cannot store the output of job " + id + ": " + error.message());
+  try {
+    SyncDirectory(JobDir(id));
+  } catch (const std::exception& e) {
+    throw JobStoreError(e.what());
+  }
 }
 
 void JobStore::DropBurst(const std::string& id) {
   const fs::path burst = BurstDir(id);
   if (fs::exists(burst)) Discard(burst);
+  std::lock_guard<std::mutex> lock(mutex_);
+  const auto it = jobs_.find(id);
+  if (it != jobs_.end()) it->second.has_burst = false;
 }
 
 bool JobStore::Remove(const std::string& id) {

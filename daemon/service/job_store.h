@@ -51,9 +51,16 @@ class JobStore {
   std::filesystem::path NewStagingDir();
 
   // Makes a queued job from a complete burst in `staged_burst` (a directory
-  // from NewStagingDir(), consumed). Returns the stored record.
+  // from NewStagingDir(), consumed), or without a burst when `staged_burst` is
+  // empty (a capture whose burst is stored afterwards: AttachBurst). Returns
+  // the stored record.
   Job Create(const std::string& origin, const JobOptions& options,
              const std::filesystem::path& staged_burst, const nlohmann::json& input);
+  // Moves a complete burst (`staged_burst`, consumed) into a job created
+  // without one, makes the rename durable and records has_burst (and, for a
+  // job already finished, the burst's bytes). False when the job is gone.
+  // Throws JobStoreError.
+  bool AttachBurst(const std::string& id, const std::filesystem::path& staged_burst);
 
   std::optional<Job> Get(const std::string& id) const;
   // Newest first.
@@ -63,9 +70,10 @@ class JobStore {
   // The newest job that succeeded (by finish time), if any.
   std::optional<Job> LatestSucceeded() const;
 
-  // Replaces the stored record (same id). Throws JobStoreError for an unknown
-  // id, or when the record cannot be written (then the job is updated in
-  // memory only).
+  // Replaces the stored record (same id). has_burst is the store's own (set
+  // by Create, AttachBurst and DropBurst), whatever `job` says. Throws
+  // JobStoreError for an unknown id, or when the record cannot be written
+  // (then the job is updated in memory only).
   void Update(const Job& job);
 
   // Sets the job's current stage in memory only: a stage is progress news for
@@ -74,7 +82,8 @@ class JobStore {
 
   // Replaces <job>/output with `staged_output` (a directory from NewStagingDir()).
   void CommitOutput(const std::string& id, const std::filesystem::path& staged_output);
-  // Deletes <job>/burst (keep_burst false, after success).
+  // Deletes <job>/burst (keep_burst false, after success); has_burst becomes
+  // false with the next Update.
   void DropBurst(const std::string& id);
   // Deletes the job. Returns false for an unknown id. The caller makes sure the
   // job is not in flight.
@@ -93,6 +102,8 @@ class JobStore {
  private:
   std::filesystem::path JobDir(const std::string& id) const;
   void WriteRecord(const std::filesystem::path& job_dir, const Job& job) const;
+  // fsync of jobs/: a job directory renamed in survives a power cut.
+  void SyncJobs() const;
   std::string NewIdLocked();
   // Moves a directory into tmp/ (atomic, instant) and deletes it from there.
   void Discard(const std::filesystem::path& dir);

@@ -301,13 +301,16 @@ TEST_F(DfsmdTest, KillDuringAJobThenRestartCompletesIt) {
 
   const std::string second = Accepted(
       client.Post("/api/v1/captures", R"({"frames":10,"when":"next"})", "application/json"));
-  // Kill it mid-pipeline.
+  // Kill it mid-pipeline, once its burst is stored (the pipeline starts on
+  // the frames in memory while they are written beside it).
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
-  std::string status;
-  while (std::chrono::steady_clock::now() < deadline && status != "processing") {
-    status = json::parse(client.Get(second.c_str())->body)["status"];
+  json seen = json::object();
+  while (std::chrono::steady_clock::now() < deadline &&
+         !(seen.value("status", "") == "processing" && seen.value("has_burst", false))) {
+    seen = json::parse(client.Get(second.c_str())->body);
   }
-  ASSERT_EQ(status, "processing");
+  ASSERT_EQ(seen["status"], "processing") << seen.dump(2);
+  ASSERT_TRUE(seen["has_burst"]) << seen.dump(2);
   EXPECT_EQ(daemon->Stop(SIGKILL), 128 + SIGKILL);
   daemon.reset();
 
