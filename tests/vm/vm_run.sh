@@ -39,24 +39,9 @@ command -v depmod >/dev/null || skip "depmod missing (apt-get install kmod)"
 command -v cpio >/dev/null || skip "cpio missing (apt-get install cpio)"
 
 # --- the kernel: resolve linux-image-amd64's dependency now, not at write time
-mkdir -p "$cache"
-package="$(apt-cache depends linux-image-amd64 2>/dev/null | awk '/Depends: linux-image-[0-9]/ {print $2; exit}')"
-[ -n "$package" ] || skip "apt-cache cannot resolve linux-image-amd64"
-kver="${package#linux-image-}"
-kroot="$cache/$package"
-if [ ! -f "$kroot/.ready" ]; then
-  echo "vm_run: fetching $package" >&2
-  rm -rf "$kroot" "$cache/download"
-  mkdir -p "$cache/download"
-  (cd "$cache/download" && apt-get download "$package" >/dev/null 2>&1) ||
-    skip "cannot download $package (offline?)"
-  dpkg -x "$cache"/download/*.deb "$kroot"
-  depmod -b "$kroot" "$kver"
-  rm -rf "$cache/download"
-  touch "$kroot/.ready"
-fi
-vmlinuz="$kroot/boot/vmlinuz-$kver"
-moddir="$kroot/lib/modules/$kver"
+# shellcheck source=tests/vm/vm_kernel.sh
+source "$(dirname "${BASH_SOURCE[0]}")/vm_kernel.sh"
+fetch_vm_kernel
 
 # --- the initramfs: busybox, the modules the VM needs, /init
 initrd="$cache/initramfs-$kver.cpio.gz"
