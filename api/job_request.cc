@@ -98,13 +98,13 @@ void ApplyField(const std::string& name, const nlohmann::json& value, bool uploa
     key.max = upload ? config.limits.max_burst_frames : config.capture.ring_frames;
     options->frames = upload && value == 0 ? 0 : integer();
   } else if (name == "when") {
-    options->when = text();
+    options->when = service::ParseBurstWhen(text());
   } else if (name == "planes") {
     options->planes = integer();
   } else if (name == "grid") {
     options->grid = integer();
   } else if (name == "init") {
-    options->init = text();
+    options->init = ParseInitMode(text());
   } else if (name == "rolling_shutter") {
     options->rolling_shutter = text();
     try {
@@ -121,20 +121,15 @@ void ApplyField(const std::string& name, const nlohmann::json& value, bool uploa
   }
 }
 
-std::string ChoiceName(const char* key, const service::DaemonConfig& config) {
-  const ConfigKey& choice = ConfigKeyNamed(key);
-  return choice.choices.at(choice.get_choice(config));
-}
-
 }  // namespace
 
 JobOptions DefaultJobOptions(const service::DaemonConfig& config) {
   JobOptions options;
   options.frames = config.pipeline.frames;
-  options.when = ChoiceName("pipeline.when", config);
+  options.when = config.pipeline.when;
   options.planes = config.pipeline.planes;
   options.grid = config.pipeline.grid;
-  options.init = ChoiceName("pipeline.init", config);
+  options.init = config.pipeline.init;
   options.rolling_shutter = config.pipeline.rolling_shutter;
   options.dense = config.pipeline.dense;
   options.keep_burst = config.jobs.keep_burst;
@@ -161,7 +156,7 @@ JobOptions ParseUploadQuery(const std::multimap<std::string, std::string>& query
                             const service::DaemonConfig& config) {
   JobOptions options = DefaultJobOptions(config);
   options.frames = 0;
-  options.when.clear();
+  options.when.reset();  // an upload's frames are taken already
   std::string previous;
   for (const auto& [field, text] : query) {
     if (field == previous) throw RequestError("'" + field + "' is given more than once");

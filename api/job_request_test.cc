@@ -20,9 +20,22 @@ TEST(JobRequestTest, EmptyBodyGivesTheConfiguredDefaults) {
   config.jobs.keep_burst = false;
   const service::JobOptions options = ParseCaptureRequest("  \n", config);
   EXPECT_EQ(options.frames, 10);
-  EXPECT_EQ(options.when, "last");
+  EXPECT_EQ(options.when, service::BurstWhen::kLast);
+  EXPECT_EQ(options.init, InitMode::kRankOne);
   EXPECT_EQ(options.planes, 48);
   EXPECT_FALSE(options.keep_burst);
+}
+
+TEST(JobRequestTest, TheConfiguredChoicesAreTheDefaults) {
+  service::DaemonConfig config;
+  config.pipeline.when = service::BurstWhen::kNext;
+  config.pipeline.init = InitMode::kNaive;
+  const service::JobOptions options = ParseCaptureRequest("", config);
+  EXPECT_EQ(options.when, service::BurstWhen::kNext);
+  EXPECT_EQ(options.init, InitMode::kNaive);
+  EXPECT_EQ(ParseCaptureRequest(R"({"when":"last","init":"rank1"})", config).when,
+            service::BurstWhen::kLast);
+  EXPECT_EQ(ParseUploadQuery({}, config).init, InitMode::kNaive);
 }
 
 TEST(JobRequestTest, BodyOverridesEachField) {
@@ -30,10 +43,10 @@ TEST(JobRequestTest, BodyOverridesEachField) {
       R"({"frames":12,"when":"next","planes":64,"grid":40,"init":"naive","rolling_shutter":"0.6","dense":false,"keep_burst":false})",
       service::DaemonConfig());
   EXPECT_EQ(options.frames, 12);
-  EXPECT_EQ(options.when, "next");
+  EXPECT_EQ(options.when, service::BurstWhen::kNext);
   EXPECT_EQ(options.planes, 64);
   EXPECT_EQ(options.grid, 40);
-  EXPECT_EQ(options.init, "naive");
+  EXPECT_EQ(options.init, InitMode::kNaive);
   EXPECT_EQ(options.rolling_shutter, "0.6");
   EXPECT_FALSE(options.dense);
   EXPECT_FALSE(options.keep_burst);
@@ -65,10 +78,11 @@ TEST(JobRequestTest, UploadQueryIsTextAndHasNoWhen) {
   const service::DaemonConfig config;
   const service::JobOptions all = ParseUploadQuery({}, config);
   EXPECT_EQ(all.frames, 0);  // every frame of the upload
+  EXPECT_FALSE(all.when.has_value());
   const service::JobOptions options =
       ParseUploadQuery({{"frames", "8"}, {"init", "naive"}, {"keep_burst", "false"}}, config);
   EXPECT_EQ(options.frames, 8);
-  EXPECT_EQ(options.init, "naive");
+  EXPECT_EQ(options.init, InitMode::kNaive);
   EXPECT_FALSE(options.keep_burst);
   EXPECT_EQ(ErrorOf([&] {
               ParseUploadQuery({{"planes", "many"}}, config);

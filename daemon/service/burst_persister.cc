@@ -1,17 +1,9 @@
 #include "daemon/service/burst_persister.h"
 
-#include <system_error>
-
 #include "daemon/log/log.h"
+#include "daemon/service/staging_guard.h"
 
 namespace dfsm::service {
-namespace {
-
-// Failed writes remembered for jobs that never settle (deleted while queued);
-// ids sort by creation time, so the oldest go first.
-constexpr size_t kMaxRememberedFailures = 1000;
-
-}  // namespace
 
 BurstPersister::BurstPersister(JobStore* store) : store_(store) {
   thread_ = std::thread([this] { Loop(); });
@@ -34,28 +26,16 @@ void BurstPersister::Enqueue(const std::string& id, CameraBurst burst) {
   changed_.notify_all();
 }
 
-std::string BurstPersister::Settle(const std::string& id, bool needed) {
+void BurstPersister::Drop(const std::string& id) {
   std::unique_lock<std::mutex> lock(mutex_);
-  const auto queued = [&] {
-    for (auto it = queue_.begin(); it != queue_.end(); ++it) {
-      if (it->id == id) return it;
-    }
-    return queue_.end();
-  };
-  if (!needed) {
-    const auto it = queued();
-    if (it != queue_.end()) {
+  for (auto it = queue_.begin(); it != queue_.end(); ++it) {
+    if (it->id == id) {
       queue_.erase(it);
       changed_.notify_all();
-      return "";
+      return;
     }
   }
-  changed_.wait(lock, [&] { return writing_ != id && queued() == queue_.end(); });
-  const auto failed = settled_.find(id);
-  if (failed == settled_.end()) return "";
-  std::string error = failed->second;
-  settled_.erase(failed);
-  return error;
+  changed_.wait(lock, [&] { return writing_ != id; });
 }
 
 int BurstPersister::Pending() const {
@@ -72,40 +52,31 @@ void BurstPersister::Loop() {
     queue_.pop_front();
     writing_ = entry.id;
     lock.unlock();
-    const std::string error = Store(entry);
+    Store(entry);
     entry.burst = {};  // the frames go before the lock is taken again
     lock.lock();
     writing_.clear();
-    if (!error.empty()) {
-      settled_[entry.id] = error;
-      if (settled_.size() > kMaxRememberedFailures) settled_.erase(settled_.begin());
-    }
     changed_.notify_all();
   }
 }
 
-std::string BurstPersister::Store(const Entry& entry) {
-  std::filesystem::path staged;
+void BurstPersister::Store(const Entry& entry) {
   try {
-    staged = store_->NewStagingDir();
+    // Removed on every path: after AttachBurst has moved the burst out of it,
+    // or with the half-written burst of a failure.
+    const StagingGuard staged(store_->NewStagingDir());
     // One frame after another on this one thread: the job's pipeline, running
     // on the same frames meanwhile, keeps the other cores. (Encoding on every
     // core made a 1080p pipeline 60 % slower on 2 cores; a lower nice value
     // starved the writer whenever anything else ran, and unwritten bursts
     // hold their frames in memory.)
-    WriteBurst(staged / "burst", entry.burst.manifest, entry.burst.frames, /*in_parallel=*/false);
+    WriteBurst(staged.dir() / "burst", entry.burst.manifest, entry.burst.frames,
+               /*in_parallel=*/false);
     // False when the job was deleted while its burst was written: nothing to keep.
-    store_->AttachBurst(entry.id, staged / "burst");
-    std::error_code ignored;
-    std::filesystem::remove_all(staged, ignored);
-    return "";
+    store_->AttachBurst(entry.id, staged.dir() / "burst");
   } catch (const std::exception& e) {
-    std::error_code ignored;
-    if (!staged.empty()) std::filesystem::remove_all(staged, ignored);
-    const std::string error =
-        "cannot store the burst: " + WithoutDirectory(e.what(), store_->state_dir(), "<state_dir>");
-    log::Error("job " + entry.id + ": " + error);
-    return error;
+    log::Error("job " + entry.id + ": cannot store the burst: " +
+               WithoutDirectory(e.what(), store_->state_dir(), "<state_dir>"));
   }
 }
 

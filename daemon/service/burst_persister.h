@@ -19,7 +19,6 @@
 
 #include <condition_variable>
 #include <deque>
-#include <map>
 #include <mutex>
 #include <string>
 #include <thread>
@@ -39,11 +38,11 @@ class BurstPersister {
   // Queues `burst` for job `id` (created without one).
   void Enqueue(const std::string& id, CameraBurst burst);
 
-  // Waits until job `id`'s burst is stored or has failed. With `needed` false
-  // a burst not yet begun is dropped instead (a job that succeeded without
-  // keep_burst has no use for it). Returns the error of a failed write (also
-  // logged), empty when stored, dropped, or never queued.
-  std::string Settle(const std::string& id, bool needed);
+  // Job `id` has no use for its burst (deleted, or succeeded without
+  // keep_burst): a burst still queued is dropped unwritten; one being written
+  // is waited for, so that it is attached (or has failed, logged) before this
+  // returns. Returns at once for a job with nothing queued or being written.
+  void Drop(const std::string& id);
 
   // Bursts queued or being written.
   int Pending() const;
@@ -54,14 +53,15 @@ class BurstPersister {
     CameraBurst burst;
   };
   void Loop();
-  std::string Store(const Entry& entry);
+  // Writes and attaches one burst; a failure is logged (the job then has no
+  // burst: has_burst stays false).
+  void Store(const Entry& entry);
 
   JobStore* const store_;
   mutable std::mutex mutex_;
   std::condition_variable changed_;
   std::deque<Entry> queue_;
-  std::string writing_;                         // id being written, empty when none
-  std::map<std::string, std::string> settled_;  // id -> error, until Settle() takes it
+  std::string writing_;  // id being written, empty when none
   bool stopping_ = false;
   std::thread thread_;
 };

@@ -3,6 +3,9 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <chrono>
+#include <thread>
+
 #include "core/io/burst.h"
 
 namespace dfsm::service {
@@ -34,6 +37,27 @@ class BurstPersisterTest : public ::testing::Test {
     return burst;
   }
 
+  // Waits until every burst queued so far is written (or has failed): the
+  // persister's public view of its work.
+  static void WaitUntilWritten(const BurstPersister& persister) {
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+    while (persister.Pending() > 0) {
+      ASSERT_LT(std::chrono::steady_clock::now(), deadline) << "bursts still pending";
+      std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    }
+  }
+
+  // Staging directories of the store's (JobStore::NewStagingDir) left behind.
+  std::vector<std::string> LeftStaging() const {
+    std::vector<std::string> left;
+    if (!fs::exists(dir_ / "tmp")) return left;
+    for (const auto& entry : fs::directory_iterator(dir_ / "tmp")) {
+      const std::string name = entry.path().filename().string();
+      if (name.rfind("stage-", 0) == 0) left.push_back(name);
+    }
+    return left;
+  }
+
   fs::path dir_;
 };
 
@@ -45,9 +69,10 @@ TEST_F(BurstPersisterTest, StoresTheBurstInItsJobLosslessly) {
   const CameraBurst frames = Frames();
   BurstPersister persister(&store);
   persister.Enqueue(job.id, frames);
-  EXPECT_EQ(persister.Settle(job.id, true), "");
-  EXPECT_EQ(persister.Pending(), 0);
+  EXPECT_EQ(persister.Pending(), 1);
+  WaitUntilWritten(persister);
   EXPECT_TRUE(store.Get(job.id)->has_burst);
+  EXPECT_TRUE(LeftStaging().empty());
 
   const Burst stored = ReadBurst(store.BurstDir(job.id));
   EXPECT_EQ(stored.reference(), 2);
@@ -67,21 +92,41 @@ TEST_F(BurstPersisterTest, StoresTheBurstInItsJobLosslessly) {
 
 TEST_F(BurstPersisterTest, ABurstNoLongerNeededIsNotWritten) {
   JobStore store(dir_);
-  // Hold the writer on a first burst so the second is still queued when
-  // settled: settling the first waits for it, the second is dropped.
+  // The writer is held on the first burst, so the last is still queued when
+  // dropped; the others are written.
   std::vector<std::string> ids;
   for (int i = 0; i < 3; ++i) ids.push_back(store.Create("capture", {}, {}, {}).id);
   BurstPersister persister(&store);
   for (const std::string& id : ids) persister.Enqueue(id, Frames());
-  EXPECT_EQ(persister.Settle(ids[2], false), "");
-  EXPECT_EQ(persister.Settle(ids[0], true), "");
-  EXPECT_EQ(persister.Settle(ids[1], true), "");
+  persister.Drop(ids[2]);
+  WaitUntilWritten(persister);
   EXPECT_TRUE(store.Get(ids[0])->has_burst);
   EXPECT_TRUE(store.Get(ids[1])->has_burst);
   // ids[2] was dropped unless the writer had already begun it.
   EXPECT_EQ(store.Get(ids[2])->has_burst, fs::exists(store.BurstDir(ids[2])));
-  // Settling a job that was never queued returns at once.
-  EXPECT_EQ(persister.Settle("j0000000000000-0000", true), "");
+  EXPECT_TRUE(LeftStaging().empty());
+  // Dropping a job that was never queued returns at once.
+  persister.Drop("j0000000000000-0000");
+}
+
+// Drop() leaves nothing of the job's burst in flight: a queued one is gone
+// and one being written has been attached (or not) before it returns.
+TEST_F(BurstPersisterTest, AfterDropNothingOfTheBurstIsPending) {
+  JobStore store(dir_);
+  std::vector<std::string> ids;
+  for (int i = 0; i < 3; ++i) ids.push_back(store.Create("capture", {}, {}, {}).id);
+  BurstPersister persister(&store);
+  for (const std::string& id : ids) persister.Enqueue(id, Frames());
+  for (const std::string& id : ids) persister.Drop(id);
+  EXPECT_EQ(persister.Pending(), 0);
+  for (const std::string& id : ids) {
+    const bool attached = store.Get(id)->has_burst;
+    EXPECT_EQ(attached, fs::exists(store.BurstDir(id))) << id;
+    if (attached) {
+      EXPECT_EQ(ReadBurst(store.BurstDir(id)).size(), 5) << id;
+    }
+  }
+  EXPECT_TRUE(LeftStaging().empty());
 }
 
 TEST_F(BurstPersisterTest, QueuedBurstsAreWrittenBeforeItStops) {
@@ -91,7 +136,7 @@ TEST_F(BurstPersisterTest, QueuedBurstsAreWrittenBeforeItStops) {
     for (int i = 0; i < 4; ++i) ids.push_back(store.Create("capture", {}, {}, {}).id);
     BurstPersister persister(&store);
     for (const std::string& id : ids) persister.Enqueue(id, Frames());
-  }  // no Settle: the destructor writes them
+  }  // not waited for: the destructor writes them
   JobStore reopened(dir_);
   for (const std::string& id : ids) {
     EXPECT_TRUE(reopened.Get(id)->has_burst) << id;
@@ -105,25 +150,36 @@ TEST_F(BurstPersisterTest, AJobDeletedWhileItsBurstIsWrittenLeavesNothing) {
   BurstPersister persister(&store);
   ASSERT_TRUE(store.Remove(id));
   persister.Enqueue(id, Frames());
-  EXPECT_EQ(persister.Settle(id, true), "");
+  WaitUntilWritten(persister);
   EXPECT_FALSE(fs::exists(dir_ / "jobs" / id));
+  EXPECT_TRUE(LeftStaging().empty());
   // Only the store's own staging remains, and it is emptied at the next start.
   JobStore reopened(dir_);
   EXPECT_TRUE(fs::is_empty(dir_ / "tmp"));
 }
 
-TEST_F(BurstPersisterTest, AFailedWriteIsReportedOnce) {
+// A write that fails is logged, naming the job and the cause; the job keeps
+// no burst and the half-written one is removed with its staging directory.
+TEST_F(BurstPersisterTest, AFailedWriteIsLoggedAndLeavesTheJobWithoutABurst) {
   JobStore store(dir_);
   const std::string id = store.Create("capture", {}, {}, {}).id;
-  BurstPersister persister(&store);
   CameraBurst broken = Frames();
   broken.frames[3] = cv::Mat(10, 10, CV_8UC3);  // not the size of the others
-  persister.Enqueue(id, broken);
-  const std::string error = persister.Settle(id, true);
-  EXPECT_NE(error.find("cannot store the burst"), std::string::npos) << error;
-  EXPECT_NE(error.find("frame 3 differs in size"), std::string::npos) << error;
-  EXPECT_FALSE(store.Get(id)->has_burst);
-  EXPECT_EQ(persister.Settle(id, true), "");
+  ::testing::internal::CaptureStderr();
+  {
+    BurstPersister persister(&store);
+    persister.Enqueue(id, broken);
+    WaitUntilWritten(persister);
+  }
+  const std::string log = ::testing::internal::GetCapturedStderr();
+  EXPECT_NE(log.find("job " + id + ": cannot store the burst"), std::string::npos) << log;
+  EXPECT_NE(log.find("frame 3 differs in size"), std::string::npos) << log;
+  EXPECT_EQ(log.find(dir_.string()), std::string::npos) << "the state directory is hidden: " << log;
+  const Job job = *store.Get(id);
+  EXPECT_FALSE(job.has_burst);
+  EXPECT_EQ(job.status, JobStatus::kQueued);  // the job runs on the frames in memory
+  EXPECT_FALSE(fs::exists(store.BurstDir(id)));
+  EXPECT_TRUE(LeftStaging().empty());
 }
 
 }  // namespace

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "core/io/burst.h"
+#include "daemon/service/burst_when.h"
 
 namespace dfsm::service {
 
@@ -23,8 +24,6 @@ class CameraUnavailable : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
 };
-
-enum class BurstWhen { kLast, kNext };
 
 struct CameraHealth {
   bool streaming = false;

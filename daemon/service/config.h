@@ -14,7 +14,7 @@
 
 #include "core/camera/rolling_shutter_options.h"
 #include "core/sparse/init_mode.h"
-#include "daemon/service/camera_port.h"
+#include "daemon/service/burst_when.h"
 
 namespace dfsm::service {
 

@@ -50,10 +50,10 @@ nlohmann::json ToJson(const Job& job) {
       {"stage", job.stage},
       {"options",
        {{"frames", job.options.frames},
-        {"when", job.options.when},
+        {"when", job.options.when ? BurstWhenName(*job.options.when) : ""},
         {"planes", job.options.planes},
         {"grid", job.options.grid},
-        {"init", job.options.init},
+        {"init", InitModeName(job.options.init)},
         {"rolling_shutter", job.options.rolling_shutter},
         {"dense", job.options.dense},
         {"keep_burst", job.options.keep_burst},
@@ -73,6 +73,35 @@ nlohmann::json ToJson(const Job& job) {
   return json;
 }
 
+namespace {
+
+// Stored choice option `name` ("when", "init") parsed by `parse` (which
+// throws std::invalid_argument for an unknown name); `fallback`, when not
+// null, is the text of a record stored before the option existed. Whatever is
+// wrong names the option and the value.
+template <typename Parse>
+auto ParseStoredChoice(const nlohmann::json& options, const char* name, const char* fallback,
+                       Parse parse) {
+  const std::string field = std::string("options.") + name;
+  const auto it = options.find(name);
+  if (it == options.end() && !fallback) throw std::invalid_argument(field + " is missing");
+  if (it != options.end() && !it->is_string())
+    throw std::invalid_argument(field + " must be a string, got " + it->dump());
+  const std::string text = it == options.end() ? fallback : it->get<std::string>();
+  try {
+    return parse(text);
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(field + ": " + e.what());  // names the value
+  }
+}
+
+std::optional<BurstWhen> ParseStoredWhen(const std::string& text) {
+  if (text.empty()) return std::nullopt;  // an upload's
+  return ParseBurstWhen(text);
+}
+
+}  // namespace
+
 Job JobFromJson(const nlohmann::json& json) {
   Job job;
   job.id = json.at("id").get<std::string>();
@@ -83,10 +112,11 @@ Job JobFromJson(const nlohmann::json& json) {
   job.error = json.value("error", "");
   const nlohmann::json& options = json.at("options");
   job.options.frames = options.at("frames").get<int>();
-  job.options.when = options.value("when", "last");
+  // Records from before the option were captures of the last frames.
+  job.options.when = ParseStoredChoice(options, "when", "last", ParseStoredWhen);
   job.options.planes = options.at("planes").get<int>();
   job.options.grid = options.value("grid", 0);
-  job.options.init = options.at("init").get<std::string>();
+  job.options.init = ParseStoredChoice(options, "init", nullptr, ParseInitMode);
   // Jobs stored before the option existed ran with a global shutter.
   job.options.rolling_shutter = options.value("rolling_shutter", "global");
   job.options.dense = options.value("dense", true);

@@ -9,6 +9,8 @@
 #include <vector>
 
 #include "core/camera/rolling_shutter_options.h"
+#include "core/sparse/init_mode.h"
+#include "daemon/service/burst_when.h"
 
 namespace dfsm::service {
 
@@ -22,13 +24,16 @@ inline bool IsFinished(JobStatus status) {
 }
 
 // How to process one burst: the daemon's [pipeline] defaults with the
-// request's overrides applied (already validated).
+// request's overrides applied (already validated). The enums are named in
+// text only at the edges: the request (api/job_request.cc) and the record
+// (ToJson / JobFromJson: "last" | "next", "rank1" | "naive").
 struct JobOptions {
   int frames = 10;
-  std::string when = "last";  // captures only
+  // Captures only; an upload has none (stored and reported as "").
+  std::optional<BurstWhen> when = BurstWhen::kLast;
   int planes = 128;
   int grid = 0;
-  std::string init = "rank1";
+  InitMode init = InitMode::kRankOne;
   std::string rolling_shutter = kDefaultRollingShutter;  // ParseRollingShutter's forms
   bool dense = true;
   bool keep_burst = true;
@@ -65,7 +70,8 @@ nlohmann::json ToJson(const Job& job);
 // writing) at the share of a typical job's time that precedes them, 1
 // finished. A stage the table does not know keeps the last known share.
 double JobProgress(const Job& job);
-// Throws std::invalid_argument / nlohmann::json::exception for a damaged record.
+// Throws std::invalid_argument / nlohmann::json::exception for a damaged record;
+// an option of unknown value (options.when, options.init) is named with it.
 Job JobFromJson(const nlohmann::json& json);
 
 // Job ids are 'j' + 13 digits of creation time in ms + '-' + 4 hex digits:

@@ -4,6 +4,8 @@
 #include <system_error>
 #include <utility>
 
+#include "daemon/service/staging_guard.h"
+
 namespace dfsm::service {
 namespace fs = std::filesystem;
 namespace {
@@ -14,15 +16,6 @@ nlohmann::json InputSummary(const Burst& burst) {
           {"frames", burst.size()},
           {"pixel_format", burst.manifest.pixel_format}};
 }
-
-// RAII removal of a staging directory that did not become part of a job.
-struct StagingGuard {
-  fs::path dir;
-  ~StagingGuard() {
-    std::error_code error;
-    if (!dir.empty()) fs::remove_all(dir, error);
-  }
-};
 
 }  // namespace
 
@@ -46,8 +39,8 @@ Job JobIntake::FromCapture(const JobOptions& options, std::chrono::milliseconds 
     throw QueueFull("the bursts of " + std::to_string(persister_->Pending()) +
                     " captures are still being stored");
   }
-  const BurstWhen when = options.when == "next" ? BurstWhen::kNext : BurstWhen::kLast;
-  CameraBurst grabbed = camera_->GrabBurst(options.frames, when, timeout);
+  CameraBurst grabbed =
+      camera_->GrabBurst(options.frames, options.when.value_or(BurstWhen::kLast), timeout);
 
   auto burst = std::make_shared<Burst>();
   try {
@@ -77,8 +70,7 @@ PendingUpload::PendingUpload(JobScheduler::Reservation reservation, fs::path dir
   try {
     extraction_ = std::make_unique<StreamingExtraction>(dir_ / "upload", limits);
   } catch (const std::system_error& e) {
-    StagingGuard remove{dir_};
-    dir_.clear();
+    StagingGuard remove(std::exchange(dir_, {}));
     throw JobStoreError(std::string("cannot store the upload: ") + e.what());
   }
 }
@@ -91,7 +83,7 @@ PendingUpload::PendingUpload(PendingUpload&& other) noexcept
 
 PendingUpload::~PendingUpload() {
   extraction_.reset();  // its thread writes into dir_
-  StagingGuard remove{dir_};
+  StagingGuard remove(std::move(dir_));
 }
 
 void PendingUpload::Append(const char* data, size_t size) {

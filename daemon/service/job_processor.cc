@@ -10,7 +10,7 @@ namespace {
 
 PipelineOptions ToPipelineOptions(const JobOptions& options) {
   PipelineOptions pipeline;
-  pipeline.sparse.init = ParseInitMode(options.init);
+  pipeline.sparse.init = options.init;
   pipeline.sparse.rolling_shutter = ParseRollingShutter(options.rolling_shutter);
   pipeline.sparse.features.cell_px = options.grid;
   pipeline.dense.planes = options.planes;
@@ -23,7 +23,7 @@ PipelineOptions ToPipelineOptions(const JobOptions& options) {
 void JobProcessor::Process(const std::string& id, std::shared_ptr<const Burst> preloaded) {
   std::optional<Job> found = store_->Get(id);
   if (!found) {  // deleted while queued
-    if (persister_) persister_->Settle(id, false);
+    if (persister_) persister_->Drop(id);
     return;
   }
   Job job = *found;
@@ -100,7 +100,7 @@ void JobProcessor::Finish(Job* job, bool ok, const std::string& error) {
   try {
     if (ok && !job->options.keep_burst) {
       // A capture's burst still queued for storing is not written at all.
-      if (persister_) persister_->Settle(job->id, false);
+      if (persister_) persister_->Drop(job->id);
       store_->DropBurst(job->id);
     }
     job->status = ok ? JobStatus::kSucceeded : JobStatus::kFailed;

@@ -84,6 +84,35 @@ TEST_F(JobStoreTest, StartUpEmptiesStagingAndMovesDamagedJobsAside) {
   EXPECT_TRUE(fs::exists(dir_ / "damaged" / "j0000000000001-abcd" / "job.json"));
 }
 
+// A record whose option has a value this daemon does not know (written by
+// hand, or by another version) is damaged: moved aside, naming the option and
+// its value in the log, while the other jobs load.
+TEST_F(JobStoreTest, AStoredJobWithAnUnknownOptionValueIsMovedAside) {
+  std::string good, bad;
+  {
+    JobStore store(dir_);
+    JobOptions options;
+    options.when = BurstWhen::kNext;
+    options.init = InitMode::kNaive;
+    good = store.Create("capture", options, StagedBurst(&store), {}).id;
+    bad = store.Create("capture", options, StagedBurst(&store), {}).id;
+  }
+  const fs::path record = dir_ / "jobs" / bad / "job.json";
+  std::string text = ReadFileToString(record);
+  const size_t at = text.find("\"naive\"");
+  ASSERT_NE(at, std::string::npos) << text;
+  text.replace(at, 7, "\"rank2\"");
+  WriteFileAtomically(record, text);
+
+  JobStore reopened(dir_);
+  const std::optional<Job> job = reopened.Get(good);
+  ASSERT_TRUE(job);
+  EXPECT_EQ(job->options.when, BurstWhen::kNext);
+  EXPECT_EQ(job->options.init, InitMode::kNaive);
+  EXPECT_FALSE(reopened.Get(bad));
+  EXPECT_TRUE(fs::exists(dir_ / "damaged" / bad / "job.json"));
+}
+
 TEST_F(JobStoreTest, OutputsReplaceAtomicallyAndRemovalDeletes) {
   JobStore store(dir_);
   const std::string id = store.Create("upload", {}, StagedBurst(&store), {}).id;
