@@ -15,7 +15,8 @@ namespace {
 
 // The first `frames` frames of `scene` (reference 0 included), with the
 // truth standing in for the sparse stage's inverse depths.
-void RunDense(benchmark::State& state, const RenderedBurst& scene, int frames, int planes) {
+void RunDense(benchmark::State& state, const RenderedBurst& scene, int frames, int planes,
+              bool regularize = DenseOptions().regularize) {
   Burst burst = scene.burst;
   const std::vector<double> sparse_inverse_depths = SparseInverseDepthsFromTruth(scene.truth);
   burst.gray.resize(frames);
@@ -23,6 +24,7 @@ void RunDense(benchmark::State& state, const RenderedBurst& scene, int frames, i
   const std::vector<Pose> poses(scene.truth.poses.begin(), scene.truth.poses.begin() + frames);
   DenseOptions options;
   options.planes = planes;
+  options.regularize = regularize;
   DenseDepth dense;
   for (auto _ : state)
     dense = ComputeDenseDepth(burst, scene.truth.camera, poses, sparse_inverse_depths, options);
@@ -56,6 +58,23 @@ BENCHMARK(BM_DenseResolution)
     ->ArgNames({"width", "height"})
     ->Args({640, 480})
     ->Args({960, 540})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->MinTime(2.0);
+
+// The semi-global aggregation of the coarse volume (DenseOptions::regularize)
+// against winner-take-all, at 1080p and 640x480 (10 frames, 128 planes): its
+// cost is the ratio of the two in one run.
+void BM_DenseRegularization(benchmark::State& state) {
+  const int width = static_cast<int>(state.range(0)), height = static_cast<int>(state.range(1));
+  RunDense(state, Rendered(width, height, 10), 10, 128, state.range(2) != 0);
+}
+BENCHMARK(BM_DenseRegularization)
+    ->ArgNames({"width", "height", "regularize"})
+    ->Args({1920, 1080, 0})
+    ->Args({1920, 1080, 1})
+    ->Args({640, 480, 0})
+    ->Args({640, 480, 1})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime()
     ->MinTime(2.0);

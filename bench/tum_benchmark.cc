@@ -8,6 +8,7 @@
 // self-calibrated below) as DIR/window-FIRST-LAST.jpg.
 //   tum_benchmark [--dataset DIR] [--frames N] [--step S] [--calibration FILE]
 //                 [--rolling-shutter global|estimate|R] [--pictures DIR]
+//                 [--semi-global off|P1:P2]
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -59,6 +60,20 @@ cv::Mat KinectDepth(const std::string& dataset, const std::vector<Stamped>& dept
   return metres;
 }
 
+// --semi-global off (winner-take-all coarse seeds) or P1:P2 (the penalties).
+void ParseSemiGlobal(const std::string& text, DenseOptions* dense) {
+  if (text == "off") {
+    dense->regularize = false;
+    return;
+  }
+  const size_t colon = text.find(':');
+  if (colon == std::string::npos)
+    throw std::invalid_argument("--semi-global takes off or P1:P2, got " + text);
+  dense->semi_global.small_step_penalty = std::stof(text.substr(0, colon));
+  dense->semi_global.large_step_penalty = std::stof(text.substr(colon + 1));
+  dense->semi_global.Check();
+}
+
 Burst Window(const std::string& dataset, const std::vector<Stamped>& rgb, int first, int frames) {
   Burst burst;
   burst.manifest.width = 640;
@@ -86,6 +101,7 @@ int main(int argc, char** argv) {
   std::string pictures;
   int frames = 10, step = 3;
   RollingShutterOptions rolling_shutter;
+  DenseOptions dense;
   for (int i = 1; i + 1 < argc; i += 2) {
     if (!std::strcmp(argv[i], "--dataset"))
       dataset = argv[i + 1];
@@ -99,6 +115,8 @@ int main(int argc, char** argv) {
       pictures = argv[i + 1];
     else if (!std::strcmp(argv[i], "--rolling-shutter"))
       rolling_shutter = ParseRollingShutter(argv[i + 1]);
+    else if (!std::strcmp(argv[i], "--semi-global"))
+      ParseSemiGlobal(argv[i + 1], &dense);
   }
   const std::vector<Stamped> rgb = ReadList(dataset + "/rgb.txt");
   const std::vector<Stamped> depths = ReadList(dataset + "/depth.txt");
@@ -129,6 +147,7 @@ int main(int argc, char** argv) {
     for (const std::string mode : {"known", "self"}) {
       PipelineOptions options;
       options.sparse.rolling_shutter = rolling_shutter;
+      options.dense = dense;
       if (mode == "known") {
         KnownCalibration fixed;
         fixed.camera = known.camera;

@@ -15,6 +15,7 @@
 #include "core/dense/plane_selection.h"
 #include "core/dense/plane_sweep.h"
 #include "core/dense/radial_inverse.h"
+#include "core/dense/semi_global.h"
 #include "core/dense/sweep_level.h"
 #include "core/dense/weak_texture.h"
 #include "core/io/stage_timer.h"
@@ -57,6 +58,7 @@ void ValidateInputs(const Burst& burst, const CameraModel& camera, const std::ve
   Require(burst.width() / scale >= 8 && burst.height() / scale >= 8,
           "image " + std::to_string(burst.width()) + "x" + std::to_string(burst.height()) +
               " too small for coarse_scale " + std::to_string(scale));
+  if (options.regularize) options.semi_global.Check();
   Require(options.refine_radius >= 1, "refine_radius must be >= 1");
   Require(options.oversample_max_pixels >= 0, "oversample_max_pixels must be >= 0 (0: never)");
   Require(options.edge_guard_parallax >= 0.0 && options.discontinuity_parallax >= 0.0 &&
@@ -176,11 +178,31 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
       plane_parallax * (lattice.planes - 1) / std::max(1, coarse_lattice.planes - 1) / scale;
   cost.projected_every =
       std::max(1, static_cast<int>(std::floor(kProjectedSpan / coarse_plane_parallax)));
-  PlaneSelection coarse_selection = SweepAllPlanes(coarse, coarse_lattice, cost);
-  timer.Lap("coarse_sweep");
-  // Coarse plane indices onto the full lattice.
+  // The full-resolution window around each coarse seed: `window` planes,
+  // `stride` lattice planes apart, reaching `reach` lattice planes each way.
+  const int stride =
+      options.refine_stride > 0
+          ? options.refine_stride
+          : std::max(1, static_cast<int>(std::lround(kFinePlaneParallax / plane_parallax)));
+  const int window = std::min(2 * options.refine_radius + 1, (lattice.planes - 1) / stride + 1);
+  const int reach = (window - 1) / 2 * stride;
   const double lattice_ratio =
       static_cast<double>(lattice.planes - 1) / (coarse_lattice.planes - 1);
+  PlaneSelection coarse_selection;
+  if (options.regularize) {
+    const std::vector<cv::Mat> costs = SweepAllPlaneCosts(coarse, coarse_lattice, cost);
+    SemiGlobalOptions semi_global = options.semi_global;
+    semi_global.missing_cost = options.truncation;
+    coarse_selection = SelectSemiGlobal(costs, coarse.reference, semi_global);
+    // Measured where the pixel's own curve has its minimum within the fine
+    // window's reach of the regularized seed (scale 1: no window, the same plane).
+    const int coarse_reach = scale > 1 ? static_cast<int>(reach / lattice_ratio) : 0;
+    coarse_selection.confidence = ConfidenceOfPlanes(costs, coarse_selection.plane, coarse_reach);
+  } else {
+    coarse_selection = SweepAllPlanes(coarse, coarse_lattice, cost);
+  }
+  timer.Lap("coarse_sweep");
+  // Coarse plane indices onto the full lattice.
   if (coarse_lattice.planes != lattice.planes) {
     cv::Mat& p = coarse_selection.plane;
     p.setTo(cv::Scalar(-1.0f / lattice_ratio), p < 0.0f);  // keeps "none" at -1
@@ -202,12 +224,6 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
     // to the integer downsampling repeat their neighbours.
     const UpsampleAxis rows(coarse_plane.rows, coarse_plane.rows * scale, full.height);
     const UpsampleAxis columns(coarse_plane.cols, coarse_plane.cols * scale, full.width);
-    const int stride =
-        options.refine_stride > 0
-            ? options.refine_stride
-            : std::max(1, static_cast<int>(std::lround(kFinePlaneParallax / plane_parallax)));
-    const int window = std::min(2 * options.refine_radius + 1, (lattice.planes - 1) / stride + 1);
-    const int reach = (window - 1) / 2 * stride;
     result.fine_planes = window;
     result.fine_stride = stride;
     cv::Mat first(full, CV_32SC1), coarse_confidence(full, CV_32FC1);

@@ -9,6 +9,7 @@
 #include "core/camera/camera_model.h"
 #include "core/camera/pose.h"
 #include "core/dense/depth_completion.h"
+#include "core/dense/semi_global.h"
 #include "core/io/burst.h"
 
 namespace dfsm {
@@ -37,6 +38,15 @@ struct DenseOptions {
   // 1/4 resolution the planes of a 128-lattice are often only a few
   // hundredths of a coarse pixel apart, and a denser coarse lattice gains nothing.
   int coarse_planes = 0;
+  // Semi-global aggregation of the coarse cost volume (semi_global.h) before
+  // its winners seed the full-resolution window: a pixel whose own curve is
+  // flat or ambiguous (no texture, repetitive texture) is seeded with the
+  // depth its surroundings support instead of a random plane, and its
+  // confidence stays what its own curve gives that depth. false: each coarse
+  // pixel's own winner (winner-take-all). The volume is materialized (at
+  // most coarse width x height x coarse planes floats, twice: costs and sums).
+  bool regularize = true;
+  SemiGlobalOptions semi_global;
   // The full-resolution window: 2 * refine_radius + 1 planes, refine_stride
   // lattice planes apart (0: the stride that puts ~0.35 pixel of parallax
   // between them), so the window spans a similar parallax at every lattice density.

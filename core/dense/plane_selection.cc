@@ -1,10 +1,56 @@
 #include "core/dense/plane_selection.h"
 
 #include <algorithm>
+#include <cmath>
 
 #include "core/dense/plane_sweep.h"
 
 namespace dfsm {
+namespace {
+
+// 1 - c_best / c_rival for the plane `best` of a cost curve, c_rival the
+// lowest cost outside the valley that descends to `best` (walking out while
+// the cost keeps rising), or its largest cost when there is no other valley.
+// At most 1; at or below 0 where `best` is not a minimum of the curve.
+float Distinctiveness(const float* curve, int n, int best) {
+  const float c_best = curve[best];
+  int left = best, right = best;
+  while (left > 0 && curve[left - 1] >= curve[left] && curve[left - 1] < kNoCost) --left;
+  while (right < n - 1 && curve[right + 1] >= curve[right] && curve[right + 1] < kNoCost) ++right;
+  float rival = kNoCost, highest = c_best;
+  for (int k = 0; k < n; ++k) {
+    if (curve[k] >= kNoCost) continue;
+    highest = std::max(highest, curve[k]);
+    if (k < left || k > right) rival = std::min(rival, curve[k]);
+  }
+  if (rival >= kNoCost) rival = highest;
+  return rival > 0.0f ? 1.0f - c_best / rival : 0.0f;
+}
+
+}  // namespace
+
+void SelectCurve(const float* curve, int n, int first, int stride, float* plane, float* confidence,
+                 uchar* at_edge) {
+  int best = 0;
+  for (int k = 1; k < n; ++k)
+    if (curve[k] < curve[best]) best = k;
+  const float c_best = curve[best];
+  if (c_best >= kNoCost) {
+    *plane = -1.0f;
+    *confidence = 0.0f;
+    *at_edge = 0;
+    return;
+  }
+  *confidence = Distinctiveness(curve, n, best);
+  float offset = 0.0f;
+  if (best > 0 && best < n - 1 && curve[best - 1] < kNoCost && curve[best + 1] < kNoCost) {
+    const float curvature = curve[best - 1] - 2.0f * c_best + curve[best + 1];
+    if (curvature > 0.0f)
+      offset = std::clamp(0.5f * (curve[best - 1] - curve[best + 1]) / curvature, -0.5f, 0.5f);
+  }
+  *plane = static_cast<float>(first + (best + offset) * stride);
+  *at_edge = (best == 0 || best == n - 1) ? 255 : 0;
+}
 
 PlaneSelection SelectPlanes(const std::vector<cv::Mat>& costs, const cv::Mat& first_plane,
                             int stride) {
@@ -38,44 +84,50 @@ void SelectPlanesInto(const std::vector<cv::Mat>& costs, const cv::Mat& first_pl
       float* confidence = selection.confidence.ptr<float>(y);
       uchar* at_edge = selection.at_edge.ptr<uchar>(y);
       for (int x = 0; x < size.width; ++x) {
-        int best = 0;
-        for (int k = 0; k < n; ++k) {
-          curve[k] = slice[k][x];
-          if (curve[k] < curve[best]) best = k;
-        }
-        const float c_best = curve[best];
-        if (c_best >= kNoCost) {
-          plane[x] = -1.0f;
-          confidence[x] = 0.0f;
-          at_edge[x] = 0;
-          continue;
-        }
-        // The valley of the winner: walk out while the cost keeps rising.
-        int left = best, right = best;
-        while (left > 0 && curve[left - 1] >= curve[left] && curve[left - 1] < kNoCost) --left;
-        while (right < n - 1 && curve[right + 1] >= curve[right] && curve[right + 1] < kNoCost)
-          ++right;
-        float rival = kNoCost, highest = c_best;
-        for (int k = 0; k < n; ++k) {
-          if (curve[k] >= kNoCost) continue;
-          highest = std::max(highest, curve[k]);
-          if (k < left || k > right) rival = std::min(rival, curve[k]);
-        }
-        if (rival >= kNoCost) rival = highest;
-        confidence[x] = rival > 0.0f ? 1.0f - c_best / rival : 0.0f;
-
-        float offset = 0.0f;
-        if (best > 0 && best < n - 1 && curve[best - 1] < kNoCost && curve[best + 1] < kNoCost) {
-          const float curvature = curve[best - 1] - 2.0f * c_best + curve[best + 1];
-          if (curvature > 0.0f)
-            offset =
-                std::clamp(0.5f * (curve[best - 1] - curve[best + 1]) / curvature, -0.5f, 0.5f);
-        }
-        plane[x] = static_cast<float>((first ? first[x] : 0) + (best + offset) * stride);
-        at_edge[x] = (best == 0 || best == n - 1) ? 255 : 0;
+        for (int k = 0; k < n; ++k) curve[k] = slice[k][x];
+        SelectCurve(curve.data(), n, first ? first[x] : 0, stride, &plane[x], &confidence[x],
+                    &at_edge[x]);
       }
     }
   });
+}
+
+cv::Mat ConfidenceOfPlanes(const std::vector<cv::Mat>& costs, const cv::Mat& plane, int reach) {
+  CV_Assert(reach >= 0);
+  CV_Assert(!costs.empty() && plane.type() == CV_32FC1 && plane.size() == costs[0].size());
+  const int n = static_cast<int>(costs.size());
+  cv::Mat confidence(plane.size(), CV_32FC1);
+  cv::parallel_for_(cv::Range(0, plane.rows), [&](const cv::Range& rows) {
+    std::vector<float> curve(n);
+    for (int y = rows.start; y < rows.end; ++y) {
+      const float* p = plane.ptr<float>(y);
+      float* c = confidence.ptr<float>(y);
+      for (int x = 0; x < plane.cols; ++x) {
+        const int best = static_cast<int>(std::lround(p[x]));
+        if (p[x] < 0.0f || best >= n) {
+          c[x] = 0.0f;
+          continue;
+        }
+        for (int k = 0; k < n; ++k) curve[k] = costs[k].ptr<float>(y)[x];
+        // Down the curve to the minimum whose valley holds the winner.
+        int minimum = best;
+        while (true) {
+          const float here = curve[minimum];
+          if (minimum > 0 && curve[minimum - 1] < here &&
+              (minimum == n - 1 || curve[minimum - 1] <= curve[minimum + 1]))
+            --minimum;
+          else if (minimum < n - 1 && curve[minimum + 1] < here)
+            ++minimum;
+          else
+            break;
+        }
+        c[x] = curve[minimum] >= kNoCost || std::abs(minimum - best) > reach
+                   ? 0.0f
+                   : std::max(0.0f, Distinctiveness(curve.data(), n, minimum));
+      }
+    }
+  });
+  return confidence;
 }
 
 }  // namespace dfsm

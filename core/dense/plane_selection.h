@@ -22,10 +22,27 @@ struct PlaneSelection {
 PlaneSelection SelectPlanes(const std::vector<cv::Mat>& costs, const cv::Mat& first_plane = {},
                             int stride = 1);
 
+// The winner of one cost curve of n planes, as SelectPlanes selects it at
+// each pixel: plane = first + (best + sub-plane offset) * stride (-1 when no
+// plane has a cost), its confidence and edge flag (255 or 0).
+void SelectCurve(const float* curve, int n, int first, int stride, float* plane, float* confidence,
+                 uchar* at_edge);
+
 // The same into `selection`, whose three Mats already have the slices' size
 // and types (views into larger images are fine): the plane sweep selects band
 // by band into the full-size result, so no band needs a copy.
 void SelectPlanesInto(const std::vector<cv::Mat>& costs, const cv::Mat& first_plane, int stride,
                       PlaneSelection* selection);
+
+// The confidence of given winners (plane: CV_32FC1 index into `costs`,
+// rounded; -1 for none) on the curves of `costs`: the confidence SelectPlanes
+// gives the minimum of the valley that holds the winner (found by walking
+// down the curve), where that minimum lies within `reach` planes of the
+// winner, and 0 where it does not. Semi-global aggregation picks a pixel's
+// winner by its neighbours where its own curve is flat or ambiguous; this
+// says how much the photo-consistency alone supports that choice, allowing
+// for the step the neighbours move it by within reach of the search that
+// refines it.
+cv::Mat ConfidenceOfPlanes(const std::vector<cv::Mat>& costs, const cv::Mat& plane, int reach);
 
 }  // namespace dfsm

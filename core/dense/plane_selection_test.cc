@@ -52,5 +52,32 @@ TEST(PlaneSelectionTest, MinimumOnTheFirstSliceIsFlaggedAndNoCostGivesNoPlane) {
   EXPECT_EQ(none.confidence.at<float>(0, 0), 0.0f);
 }
 
+TEST(PlaneSelectionTest, ConfidenceOfAGivenWinnerIsThatOfItsValleysMinimum) {
+  const std::vector<float> curve = {9, 8, 7, 5, 2.0f, 5, 7, 8, 9};  // minimum at 4
+  const float own = SelectPlanes(Volume(curve)).confidence.at<float>(0, 0);
+  ASSERT_GT(own, 0.5f);
+  const auto at = [&](float plane, int reach) {
+    return ConfidenceOfPlanes(Volume(curve), cv::Mat(1, 1, CV_32FC1, cv::Scalar(plane)), reach)
+        .at<float>(0, 0);
+  };
+  EXPECT_FLOAT_EQ(at(4.0f, 0), own);
+  EXPECT_FLOAT_EQ(at(4.3f, 0), own);  // rounded to its plane
+  // On the valley's slope: the minimum it descends to, if within reach.
+  EXPECT_FLOAT_EQ(at(6.0f, 2), own);
+  EXPECT_FLOAT_EQ(at(6.0f, 1), 0.0f);
+  EXPECT_FLOAT_EQ(at(-1.0f, 8), 0.0f);  // no winner
+}
+
+TEST(PlaneSelectionTest, AWinnerInAnotherValleyGetsThatValleysConfidence) {
+  // The winner sits in the shallower of two valleys: its own minimum (6) is
+  // beaten by the other (2), so the photo-consistency does not support it.
+  const std::vector<float> curve = {9, 5, 2.0f, 5, 9, 5, 4.0f, 5, 9};
+  const cv::Mat plane(1, 1, CV_32FC1, cv::Scalar(6.0f));
+  EXPECT_FLOAT_EQ(ConfidenceOfPlanes(Volume(curve), plane, 1).at<float>(0, 0), 0.0f);
+  const cv::Mat best(1, 1, CV_32FC1, cv::Scalar(2.0f));
+  EXPECT_NEAR(ConfidenceOfPlanes(Volume(curve), best, 1).at<float>(0, 0), 1.0f - 2.0f / 4.0f,
+              1e-6f);
+}
+
 }  // namespace
 }  // namespace dfsm

@@ -240,10 +240,8 @@ struct BandSlices {
     }
   }
 
-  // Turns every slice into its mean cost and selects the band's inner rows
-  // into `selection` (first_plane: the level's, or empty; see SelectPlanes).
-  void Select(const Band& band, int frames, const PhotoCostOptions& options,
-              const cv::Mat& first_plane, int stride, PlaneSelection& selection) {
+  // Turns every slice into its mean cost over the band's inner rows.
+  void Aggregate(const Band& band, int frames, const PhotoCostOptions& options) {
     cv::Mat wide_mask;
     if (options.wide_window_radius > 0 && !options.wide_window_mask.empty()) {
       wide_mask.create(band.rows(), options.wide_window_mask.cols, CV_8UC1);
@@ -253,6 +251,13 @@ struct BandSlices {
     }
     for (size_t k = 0; k < sums.size(); ++k)
       sums[k] = band.Inner(AggregateSlice(sums[k], counts[k], frames, options, wide_mask));
+  }
+
+  // Aggregates, then selects the band's inner rows into `selection`
+  // (first_plane: the level's, or empty; see SelectPlanes).
+  void Select(const Band& band, int frames, const PhotoCostOptions& options,
+              const cv::Mat& first_plane, int stride, PlaneSelection& selection) {
+    Aggregate(band, frames, options);
     PlaneSelection rows = SelectionRows(selection, band);
     SelectPlanesInto(sums,
                      first_plane.empty() ? cv::Mat() : first_plane.rowRange(band.first, band.last),
@@ -260,10 +265,11 @@ struct BandSlices {
   }
 };
 
-}  // namespace
-
-PlaneSelection SweepAllPlanes(const SweepLevel& level, const InverseDepthLattice& lattice,
-                              const PhotoCostOptions& options) {
+// Sweeps every plane of the lattice band by band; each band's slices, once
+// gathered, go to finish_band(band, slices).
+template <typename FinishBand>
+void SweepEveryPlane(const SweepLevel& level, const InverseDepthLattice& lattice,
+                     const PhotoCostOptions& options, const FinishBand& finish_band) {
   CV_Assert(options.projected_every >= 1);
   CheckWideWindowMask(level, options);
   const int frames = static_cast<int>(level.frames.size());
@@ -283,7 +289,6 @@ PlaneSelection SweepAllPlanes(const SweepLevel& level, const InverseDepthLattice
     along[p] = static_cast<float>(p - projected[k]) / span;
   }
   if (projected.size() == 1) projected.push_back(projected[0]);  // one plane: no segment
-  PlaneSelection selection = MakeSelection(size);
   ForEachBand(size.height, Halo(options), [&](const Band& band) {
     const cv::Size band_size(size.width, band.rows());
     std::vector<std::vector<float>> w(projected.size(), std::vector<float>(size.width));
@@ -305,9 +310,33 @@ PlaneSelection SweepAllPlanes(const SweepLevel& level, const InverseDepthLattice
         }
       }
     }
+    finish_band(band, slices);
+  });
+}
+
+}  // namespace
+
+PlaneSelection SweepAllPlanes(const SweepLevel& level, const InverseDepthLattice& lattice,
+                              const PhotoCostOptions& options) {
+  const int frames = static_cast<int>(level.frames.size());
+  PlaneSelection selection = MakeSelection(level.reference.size());
+  SweepEveryPlane(level, lattice, options, [&](const Band& band, BandSlices& slices) {
     slices.Select(band, frames, options, {}, 1, selection);
   });
   return selection;
+}
+
+std::vector<cv::Mat> SweepAllPlaneCosts(const SweepLevel& level, const InverseDepthLattice& lattice,
+                                        const PhotoCostOptions& options) {
+  const int frames = static_cast<int>(level.frames.size());
+  std::vector<cv::Mat> costs(lattice.planes);
+  for (cv::Mat& slice : costs) slice.create(level.reference.size(), CV_32FC1);
+  SweepEveryPlane(level, lattice, options, [&](const Band& band, BandSlices& slices) {
+    slices.Aggregate(band, frames, options);
+    for (int p = 0; p < lattice.planes; ++p)
+      slices.sums[p].copyTo(costs[p].rowRange(band.first, band.last));
+  });
+  return costs;
 }
 
 PlaneSelection SweepPlaneWindow(const SweepLevel& level, const InverseDepthLattice& lattice,

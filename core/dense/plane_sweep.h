@@ -57,6 +57,14 @@ struct PhotoCostOptions {
 PlaneSelection SweepAllPlanes(const SweepLevel& level, const InverseDepthLattice& lattice,
                               const PhotoCostOptions& options);
 
+// The same sweep, returning the aggregated cost volume itself: slice p is the
+// cost of lattice plane p at every level pixel (kNoCost where too few samples
+// saw it), for a regularization that needs every pixel's whole curve at once
+// (semi_global.h). The coarse level only: 1080p's coarse volume (480 x 270 x
+// 30 planes) is 16 MB, a 640x480 one at most 320 x 240 x 128 x 4 B = 39 MB.
+std::vector<cv::Mat> SweepAllPlaneCosts(const SweepLevel& level, const InverseDepthLattice& lattice,
+                                        const PhotoCostOptions& options);
+
 // Sweeps `count` planes per pixel: slice k holds, at each pixel, the cost of
 // lattice plane first_plane(pixel) + k * stride (first_plane: CV_32SC1, level
 // size, every window inside the lattice). Neighbours in a window are
