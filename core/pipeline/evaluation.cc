@@ -40,7 +40,7 @@ cv::Mat TexturedMask(const cv::Mat& reference_gray, double min_texture_std) {
 }
 
 DepthEvaluation EvaluateDepth(const cv::Mat& depth, const cv::Mat& truth_depth,
-                              const cv::Mat& textured_mask) {
+                              const cv::Mat& textured_mask, double scale) {
   CV_Assert(depth.type() == CV_32FC1 && truth_depth.type() == CV_32FC1 &&
             depth.size() == truth_depth.size());
   DepthEvaluation evaluation;
@@ -60,9 +60,13 @@ DepthEvaluation EvaluateDepth(const cv::Mat& depth, const cv::Mat& truth_depth,
   }
   evaluation.coverage = textured > 0 ? static_cast<double>(covered) / textured : 0.0;
   if (ratios.empty()) return evaluation;
-  std::vector<float> sorted = ratios;
-  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
-  evaluation.scale = sorted[sorted.size() / 2];
+  if (scale > 0.0) {
+    evaluation.scale = scale;
+  } else {
+    std::vector<float> sorted = ratios;
+    std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+    evaluation.scale = sorted[sorted.size() / 2];
+  }
   double abs_rel = 0.0;
   int within = 0, within_25 = 0;
   for (const float ratio : ratios) {

@@ -35,8 +35,11 @@ struct DepthEvaluation {
 // to recover from photo-consistency).
 cv::Mat TexturedMask(const cv::Mat& reference_gray, double min_texture_std = 2.0);
 
+// `scale` > 0 scores with that scale instead of the median ratio of these
+// pixels: a subset (a moving object's pixels) scored with the scale of the
+// whole map, so that its error is not hidden by a scale of its own.
 DepthEvaluation EvaluateDepth(const cv::Mat& depth, const cv::Mat& truth_depth,
-                              const cv::Mat& textured_mask);
+                              const cv::Mat& textured_mask, double scale = 0.0);
 
 nlohmann::json ToJson(const SparseEvaluation& evaluation);
 nlohmann::json ToJson(const DepthEvaluation& evaluation);

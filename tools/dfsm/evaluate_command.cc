@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <iostream>
 #include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "core/io/burst.h"
 #include "core/io/depth_tiff.h"
@@ -12,6 +13,39 @@
 #include "tools/dfsm/command_line.h"
 
 namespace dfsm::tools {
+
+namespace {
+
+// The depth of a burst with a moving object (dfsm synth --moving-object),
+// scored with the whole map's scale on three sets of textured pixels: where
+// the object is in the reference (`object`: the truth shows it there), where
+// it passes in another frame only (`swept`: the background there is hidden
+// from some frames), and everywhere else (`elsewhere`).
+nlohmann::json EvaluateAroundMovingObject(const std::filesystem::path& burst_dir,
+                                          const Burst& burst, const cv::Mat& depth,
+                                          const GroundTruth& truth, const cv::Mat& textured,
+                                          double scale) {
+  cv::Mat reference_mask, any_mask = cv::Mat::zeros(depth.size(), CV_8UC1);
+  for (int i = 0; i < burst.size(); ++i) {
+    char name[64];
+    std::snprintf(name, sizeof(name), "object_masks/%06d.png", i);
+    const cv::Mat mask = cv::imread((burst_dir / name).string(), cv::IMREAD_GRAYSCALE);
+    if (mask.empty() || mask.size() != depth.size())
+      throw std::runtime_error((burst_dir / name).string() +
+                               ": missing or not a mask of the burst's size");
+    any_mask |= mask;
+    if (i == burst.reference()) reference_mask = mask;
+  }
+  const cv::Mat swept = any_mask & ~reference_mask;
+  const cv::Mat elsewhere = ~any_mask;
+  return {{"object", ToJson(EvaluateDepth(depth, truth.depth, textured & reference_mask, scale))},
+          {"swept", ToJson(EvaluateDepth(depth, truth.depth, textured & swept, scale))},
+          {"elsewhere", ToJson(EvaluateDepth(depth, truth.depth, textured & elsewhere, scale))},
+          {"object_pixels", cv::countNonZero(reference_mask)},
+          {"swept_pixels", cv::countNonZero(swept)}};
+}
+
+}  // namespace
 
 int RunEvaluateCommand(const Args& args) {
   CLI::App app("Compares a result against a synthetic burst's ground truth; prints JSON.",
@@ -35,8 +69,12 @@ int RunEvaluateCommand(const Args& args) {
   if (result.contains("depth")) {
     const Burst burst = ReadBurst(burst_dir);
     const cv::Mat depth = ReadDepthTiff(result_dir / result["depth"].value("file", "depth.tiff"));
-    report["depth"] =
-        ToJson(EvaluateDepth(depth, truth.depth, TexturedMask(burst.gray[burst.reference()])));
+    const cv::Mat textured = TexturedMask(burst.gray[burst.reference()]);
+    const DepthEvaluation whole = EvaluateDepth(depth, truth.depth, textured);
+    report["depth"] = ToJson(whole);
+    if (std::filesystem::is_directory(burst_dir / "object_masks"))
+      report["moving_object"] =
+          EvaluateAroundMovingObject(burst_dir, burst, depth, truth, textured, whole.scale);
   }
   std::cout << report.dump(2) << std::endl;
   return 0;
