@@ -170,6 +170,11 @@ void WritePipelineOutputs(const std::filesystem::path& out_dir, const Burst& bur
     // The files are written without an fsync each and flushed together
     // below, before result.json: ten fsyncs cost ~50 ms on our disks.
     nlohmann::json& extra = output->result.extra;
+    // Every pixel: the holes of depth.tiff filled from their measured
+    // surroundings (core/dense/depth_completion.h); confidence.png tells
+    // measured from filled. Null when the dense stage made none.
+    const DenseDepth* filled =
+        output->dense && !output->dense->depth_filled.empty() ? &*output->dense : nullptr;
     const std::vector<std::function<void()>> writers = {
         [&] {
           WritePly(out_dir / "sparse_points.ply", SparsePointCloud(sparse, burst.reference_color),
@@ -178,12 +183,8 @@ void WritePipelineOutputs(const std::filesystem::path& out_dir, const Burst& bur
               WriteCalibrationFiles(out_dir, sparse.state.camera, Flush::kBatched);
         },
         [&] {
-          if (!output->dense || output->dense->depth_filled.empty()) return;
-          // Every pixel: the holes of depth.tiff filled from their measured
-          // surroundings (core/dense/depth_completion.h); confidence.png tells
-          // measured from filled.
-          const DenseDepth& dense = *output->dense;
-          WriteDepthTiff(out_dir / "depth_filled.tiff", dense.depth_filled, Flush::kBatched);
+          if (filled)
+            WriteDepthTiff(out_dir / "depth_filled.tiff", filled->depth_filled, Flush::kBatched);
         }};
     // WriteDepthOutputs spreads its own five files over the cores; these
     // two tasks follow (a parallel region inside another would run serially).
@@ -196,14 +197,14 @@ void WritePipelineOutputs(const std::filesystem::path& out_dir, const Burst& bur
                             sparse.state.camera, options);
     }
     RunInParallel(writers);
-    if (output->dense && !output->dense->depth_filled.empty()) {
-      const DenseDepth& dense = *output->dense;
+    // Recorded after the writers: they run in parallel and `extra` is not
+    // safe to modify from two of them.
+    if (filled)
       extra["depth_filled"] = {
           {"file", "depth_filled.tiff"},
-          {"measured_fraction", dense.valid_fraction},
-          {"valid_fraction", static_cast<double>(cv::countNonZero(dense.depth_filled > 0.0f)) /
-                                 static_cast<double>(dense.depth_filled.total())}};
-    }
+          {"measured_fraction", filled->valid_fraction},
+          {"valid_fraction", static_cast<double>(cv::countNonZero(filled->depth_filled > 0.0f)) /
+                                 static_cast<double>(filled->depth_filled.total())}};
     SyncFileSystem(out_dir);
     extra["write_ms"] = MillisecondsSince(start);
   }

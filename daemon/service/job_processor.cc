@@ -107,9 +107,7 @@ void JobProcessor::Finish(Job* job, bool ok, const std::string& error) {
     job->error = ok ? "" : error;
     job->finished_ms = NowUnixMs();
     job->stage = "done";
-    job->bytes = JobStore::DirectoryBytes(store_->BurstDir(job->id)) +
-                 JobStore::DirectoryBytes(store_->OutputDir(job->id));
-    store_->Update(*job);
+    store_->Update(*job);  // counts the finished job's bytes
     if (ok) {
       log::Info("job " + job->id + " succeeded");
     } else {

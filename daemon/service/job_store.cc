@@ -190,6 +190,12 @@ void JobStore::Update(const Job& job) {
   if (it == jobs_.end()) throw JobStoreError("unknown job " + job.id);
   Job stored = job;
   stored.has_burst = it->second.has_burst;
+  // A finished job's bytes are counted here, under the lock AttachBurst
+  // takes: counted by the caller, a burst attached between the count and
+  // this update would be missed by both (AttachBurst adds it only to a job
+  // already finished), and retention would under-count it.
+  if (IsFinished(stored.status))
+    stored.bytes = DirectoryBytes(BurstDir(job.id)) + DirectoryBytes(OutputDir(job.id));
   try {
     WriteRecord(JobDir(job.id), stored);
   } catch (const JobStoreError&) {

@@ -71,7 +71,8 @@ class JobStore {
   std::optional<Job> LatestSucceeded() const;
 
   // Replaces the stored record (same id). has_burst is the store's own (set
-  // by Create, AttachBurst and DropBurst), whatever `job` says. Throws
+  // by Create, AttachBurst and DropBurst), whatever `job` says; so are the
+  // bytes of a finished job (its burst and output, counted here). Throws
   // JobStoreError for an unknown id, or when the record cannot be written
   // (then the job is updated in memory only).
   void Update(const Job& job);

@@ -34,6 +34,28 @@ class JobStoreTest : public ::testing::Test {
   fs::path dir_;
 };
 
+TEST_F(JobStoreTest, AFinishedJobCountsABurstAttachedWhileItFinished) {
+  JobStore store(dir_);
+  // A capture's job is created without its burst, which the persister
+  // attaches while (or after) the pipeline runs.
+  Job job = store.Create("capture", JobOptions{}, fs::path(), {});
+  ASSERT_FALSE(job.has_burst);
+  // The burst lands after the processor looked at the disk but before its
+  // update: the stale count it carries must not stick.
+  ASSERT_TRUE(store.AttachBurst(job.id, StagedBurst(&store)));
+  job.status = JobStatus::kSucceeded;
+  job.bytes = 0;
+  store.Update(job);
+  EXPECT_GE(store.Get(job.id)->bytes, 102);  // manifest + frame
+  // A burst attached after the update is added to the finished job.
+  Job other = store.Create("capture", JobOptions{}, fs::path(), {});
+  other.status = JobStatus::kSucceeded;
+  store.Update(other);
+  const int64_t before = store.Get(other.id)->bytes;
+  ASSERT_TRUE(store.AttachBurst(other.id, StagedBurst(&store)));
+  EXPECT_EQ(store.Get(other.id)->bytes, before + 102);
+}
+
 TEST_F(JobStoreTest, CreatesListsNewestFirstAndSurvivesReopening) {
   std::string first, second;
   {
