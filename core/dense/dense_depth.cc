@@ -191,9 +191,8 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
   PlaneSelection coarse_selection;
   if (options.regularize) {
     const std::vector<cv::Mat> costs = SweepAllPlaneCosts(coarse, coarse_lattice, cost);
-    SemiGlobalOptions semi_global = options.semi_global;
-    semi_global.missing_cost = options.truncation;
-    coarse_selection = SelectSemiGlobal(costs, coarse.reference, semi_global);
+    coarse_selection =
+        SelectSemiGlobal(costs, coarse.reference, options.truncation, options.semi_global);
     // Measured where the pixel's own curve has its minimum within the fine
     // window's reach of the regularized seed (scale 1: no window, the same plane).
     const int coarse_reach = scale > 1 ? static_cast<int>(reach / lattice_ratio) : 0;

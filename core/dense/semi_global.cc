@@ -20,7 +20,6 @@ void SemiGlobalOptions::Check() const {
   require(std::isfinite(large_step_penalty) && large_step_penalty >= small_step_penalty,
           "large_step_penalty must be >= small_step_penalty");
   require(std::isfinite(edge_gradient) && edge_gradient > 0.0f, "edge_gradient must be > 0");
-  require(std::isfinite(missing_cost) && missing_cost > 0.0f, "missing_cost must be > 0");
 }
 
 namespace {
@@ -79,6 +78,7 @@ struct Volume {
   const std::vector<cv::Mat>& costs;
   const cv::Mat& guide;
   const SemiGlobalOptions& options;
+  float missing_cost;  // along a path, for a plane without a cost
   int rows, cols, depth;
   std::vector<float> sums;  // pixel-major: (y * cols + x) * depth + d
 
@@ -90,7 +90,7 @@ struct Volume {
     for (int d = 0; d < depth; ++d) {
       const float* slice = costs[d].ptr<float>(y);
       for (int x = begin; x < end; ++x)
-        row[static_cast<size_t>(x) * depth + d] = std::min(slice[x], options.missing_cost);
+        row[static_cast<size_t>(x) * depth + d] = std::min(slice[x], missing_cost);
     }
   }
 
@@ -177,14 +177,16 @@ void ColumnPaths(Volume& volume, int first_row, int step) {
 }  // namespace
 
 PlaneSelection SelectSemiGlobal(const std::vector<cv::Mat>& costs, const cv::Mat& guide,
-                                const SemiGlobalOptions& options) {
+                                float missing_cost, const SemiGlobalOptions& options) {
   options.Check();
+  if (!(std::isfinite(missing_cost) && missing_cost > 0.0f))
+    throw std::invalid_argument("semi-global aggregation: missing_cost must be > 0");
   const int depth = static_cast<int>(costs.size());
   CV_Assert(depth >= 1 && guide.type() == CV_32FC1);
   for (const cv::Mat& slice : costs)
     CV_Assert(slice.type() == CV_32FC1 && slice.size() == guide.size());
   if (depth < 2) return SelectPlanes(costs);  // one plane: nothing to choose between
-  Volume volume{costs, guide, options, guide.rows, guide.cols, depth, {}};
+  Volume volume{costs, guide, options, missing_cost, guide.rows, guide.cols, depth, {}};
   volume.sums.resize(static_cast<size_t>(volume.rows) * volume.cols * depth);
   RowPaths(volume);
   ColumnPaths(volume, 0, 1);

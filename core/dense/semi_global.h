@@ -30,10 +30,6 @@ struct SemiGlobalOptions {
   float small_step_penalty = 8.0f;
   float large_step_penalty = 64.0f;
   float edge_gradient = 8.0f;
-  // The cost a path assumes for a plane the pixel has no cost for (kNoCost:
-  // too few frames saw it): the worst a seen plane can cost. ComputeDenseDepth
-  // sets it to its truncation.
-  float missing_cost = 10.0f;
 
   // Throws std::invalid_argument naming the first option out of range.
   void Check() const;
@@ -44,10 +40,12 @@ struct SemiGlobalOptions {
 // aggregation, selected as SelectPlanes selects them from the eight path costs
 // summed (the confidence is that of the aggregated curve; ConfidenceOfPlanes
 // gives the pixel's own). A plane that had no cost is never selected, so no
-// pixel is given a depth its frames never saw. `guide` (CV_32FC1) is the
-// reference image on the same grid. Memory: one more volume (the pixel-major
-// sums, the winners selected from it) and a few rows per worker.
+// pixel is given a depth its frames never saw; along a path such a plane
+// costs `missing_cost`, the worst a seen plane can cost (the sweep's
+// truncation). `guide` (CV_32FC1) is the reference image on the same grid.
+// Memory: one more volume (the pixel-major sums, the winners selected from
+// it) and a few rows per worker.
 PlaneSelection SelectSemiGlobal(const std::vector<cv::Mat>& costs, const cv::Mat& guide,
-                                const SemiGlobalOptions& options);
+                                float missing_cost, const SemiGlobalOptions& options);
 
 }  // namespace dfsm

@@ -11,6 +11,8 @@ namespace dfsm {
 namespace {
 
 constexpr int kPlanes = 16;
+// What an unseen plane costs along a path: the sweep's default truncation.
+constexpr float kMissingCost = 10.0f;
 
 // A cost volume of `size` whose every pixel has the curve |k - best(x, y)|
 // (a clear V), except where `flat` is set: there every plane costs the same
@@ -35,7 +37,7 @@ TEST(SemiGlobalTest, AFlatRegionTakesTheDepthOfItsSurroundings) {
   const cv::Mat guide(best.size(), CV_32FC1, cv::Scalar(100.0f));
   // Alone, the flat pixels have no minimum: the first plane wins the tie.
   EXPECT_FLOAT_EQ(SelectPlanes(costs).plane.at<float>(20, 20), 0.0f);
-  const PlaneSelection selection = SelectSemiGlobal(costs, guide, {});
+  const PlaneSelection selection = SelectSemiGlobal(costs, guide, kMissingCost, {});
   for (int y = 0; y < best.rows; ++y)
     for (int x = 0; x < best.cols; ++x)
       ASSERT_NEAR(selection.plane.at<float>(y, x), 9.0f, 0.5f) << "at " << x << ", " << y;
@@ -51,7 +53,7 @@ TEST(SemiGlobalTest, ADepthEdgeAtAnImageEdgeStays) {
   cv::Mat guide(best.size(), CV_32FC1, cv::Scalar(60.0f));
   guide.colRange(20, 40).setTo(180.0f);
   const std::vector<cv::Mat> costs = Volume(best, cv::Mat::zeros(best.size(), CV_8UC1));
-  const PlaneSelection selection = SelectSemiGlobal(costs, guide, {});
+  const PlaneSelection selection = SelectSemiGlobal(costs, guide, kMissingCost, {});
   for (int y = 0; y < best.rows; ++y) {
     EXPECT_NEAR(selection.plane.at<float>(y, 19), 3.0f, 0.5f);
     EXPECT_NEAR(selection.plane.at<float>(y, 20), 12.0f, 0.5f);
@@ -65,7 +67,7 @@ TEST(SemiGlobalTest, AnIsolatedOutlierFollowsItsNeighbours) {
   for (int k = 0; k < kPlanes; ++k) costs[k].at<float>(10, 10) = k == 14 ? 1.0f : 1.5f;
   const cv::Mat guide(best.size(), CV_32FC1, cv::Scalar(100.0f));
   EXPECT_FLOAT_EQ(SelectPlanes(costs).plane.at<float>(10, 10), 14.0f);
-  EXPECT_NEAR(SelectSemiGlobal(costs, guide, {}).plane.at<float>(10, 10), 5.0f, 0.5f);
+  EXPECT_NEAR(SelectSemiGlobal(costs, guide, kMissingCost, {}).plane.at<float>(10, 10), 5.0f, 0.5f);
 }
 
 TEST(SemiGlobalTest, UnseenPlanesStayUnseen) {
@@ -74,7 +76,7 @@ TEST(SemiGlobalTest, UnseenPlanesStayUnseen) {
   for (int k = 0; k < kPlanes; ++k) costs[k].at<float>(6, 6) = kNoCost;  // no frame saw it
   costs[4].at<float>(2, 2) = kNoCost;                                    // one plane unseen
   const cv::Mat guide(best.size(), CV_32FC1, cv::Scalar(100.0f));
-  const PlaneSelection selection = SelectSemiGlobal(costs, guide, {});
+  const PlaneSelection selection = SelectSemiGlobal(costs, guide, kMissingCost, {});
   EXPECT_FLOAT_EQ(selection.plane.at<float>(6, 6), -1.0f);
   EXPECT_NE(selection.plane.at<float>(2, 2), 4.0f);
   EXPECT_NEAR(selection.plane.at<float>(5, 5), 4.0f, 0.5f);

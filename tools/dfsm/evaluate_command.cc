@@ -20,19 +20,21 @@ namespace {
 // scored with the whole map's scale on three sets of textured pixels: where
 // the object is in the reference (`object`: the truth shows it there), where
 // it passes in another frame only (`swept`: the background there is hidden
-// from some frames), and everywhere else (`elsewhere`).
+// from some frames), and everywhere else (`elsewhere`). The masks are the
+// files ground_truth.json's moving_object.frames name, one per frame.
 nlohmann::json EvaluateAroundMovingObject(const std::filesystem::path& burst_dir,
-                                          const Burst& burst, const cv::Mat& depth,
-                                          const GroundTruth& truth, const cv::Mat& textured,
-                                          double scale) {
+                                          const nlohmann::json& frames, const Burst& burst,
+                                          const cv::Mat& depth, const GroundTruth& truth,
+                                          const cv::Mat& textured, double scale) {
+  if (!frames.is_array() || static_cast<int>(frames.size()) != burst.size())
+    throw std::runtime_error((burst_dir / "ground_truth.json").string() +
+                             ": moving_object.frames must list one mask per frame");
   cv::Mat reference_mask, any_mask = cv::Mat::zeros(depth.size(), CV_8UC1);
   for (int i = 0; i < burst.size(); ++i) {
-    char name[64];
-    std::snprintf(name, sizeof(name), "object_masks/%06d.png", i);
-    const cv::Mat mask = cv::imread((burst_dir / name).string(), cv::IMREAD_GRAYSCALE);
+    const std::filesystem::path file = burst_dir / frames[i].at("mask").get<std::string>();
+    const cv::Mat mask = cv::imread(file.string(), cv::IMREAD_GRAYSCALE);
     if (mask.empty() || mask.size() != depth.size())
-      throw std::runtime_error((burst_dir / name).string() +
-                               ": missing or not a mask of the burst's size");
+      throw std::runtime_error(file.string() + ": missing or not a mask of the burst's size");
     any_mask |= mask;
     if (i == burst.reference()) reference_mask = mask;
   }
@@ -72,9 +74,12 @@ int RunEvaluateCommand(const Args& args) {
     const cv::Mat textured = TexturedMask(burst.gray[burst.reference()]);
     const DepthEvaluation whole = EvaluateDepth(depth, truth.depth, textured);
     report["depth"] = ToJson(whole);
-    if (std::filesystem::is_directory(burst_dir / "object_masks"))
+    const nlohmann::json truth_json =
+        nlohmann::json::parse(ReadFileToString(burst_dir / "ground_truth.json"));
+    if (truth_json.contains("moving_object"))
       report["moving_object"] =
-          EvaluateAroundMovingObject(burst_dir, burst, depth, truth, textured, whole.scale);
+          EvaluateAroundMovingObject(burst_dir, truth_json["moving_object"].at("frames"), burst,
+                                     depth, truth, textured, whole.scale);
   }
   std::cout << report.dump(2) << std::endl;
   return 0;
