@@ -15,6 +15,14 @@ using std::chrono::milliseconds;
 
 const fs::path kFlower = fs::path(DFSM_SHARED_DIR) / "data" / "flower";
 
+// Skips the test where the shared flower clip is absent (a checkout without
+// ../shared): every replay test here reads it.
+#define SKIP_WITHOUT_FLOWER()                                                              \
+  if (!fs::is_directory(kFlower))                                                          \
+  GTEST_SKIP() << kFlower.string()                                                         \
+               << " is absent (the shared data lives in ../shared beside the repository; " \
+                  "see its README)"
+
 fs::path TempDir(const std::string& name) {
   const fs::path dir =
       fs::temp_directory_path() / ("dfsm_capture_" + std::to_string(::getpid()) + "_" + name);
@@ -49,10 +57,7 @@ TEST(CaptureServiceCreate, RejectsConfigurationsThatCanNeverWork) {
   EXPECT_NE(ConfigError(config).find("unknown scheme \"gopro\""), std::string::npos);
   config.source = "replay:/nonexistent/dfsm";
   EXPECT_NE(ConfigError(config).find("/nonexistent/dfsm"), std::string::npos);
-  if (!fs::is_directory(kFlower))
-    GTEST_SKIP() << kFlower.string()
-                 << " is absent (the shared data lives in ../shared beside the "
-                    "repository; see its README)";
+  SKIP_WITHOUT_FLOWER();
   config.source = "replay:" + kFlower.string();
   config.ring_frames = 1;
   EXPECT_NE(ConfigError(config).find("ring_frames"), std::string::npos);
@@ -77,10 +82,7 @@ CaptureConfig FlowerReplay(double fps) {
 }
 
 TEST(CaptureServiceReplay, RecordedBurstIsBitExactWithTheOriginal) {
-  if (!fs::is_directory(kFlower))
-    GTEST_SKIP() << kFlower.string()
-                 << " is absent (the shared data lives in ../shared beside the "
-                    "repository; see its README)";
+  SKIP_WITHOUT_FLOWER();
   // A camera's rate: at 100 fps a reader slowed down by ThreadSanitizer on a
   // loaded 2-core host was lapped in the 40-frame ring (149 gaps in 10 s).
   auto service = CaptureService::Create(FlowerReplay(30.0));
@@ -118,10 +120,7 @@ TEST(CaptureServiceReplay, RecordedBurstIsBitExactWithTheOriginal) {
 }
 
 TEST(CaptureServiceReplay, LastBurstStatusAndIncreasingSequences) {
-  if (!fs::is_directory(kFlower))
-    GTEST_SKIP() << kFlower.string()
-                 << " is absent (the shared data lives in ../shared beside the "
-                    "repository; see its README)";
+  SKIP_WITHOUT_FLOWER();
   auto service = CaptureService::Create(FlowerReplay(500.0));
   service->Start();
   ASSERT_TRUE(WaitFor([&] { return service->Status().frames_captured >= 70; }));
@@ -154,10 +153,7 @@ TEST(CaptureServiceReplay, LastBurstStatusAndIncreasingSequences) {
 }
 
 TEST(CaptureServiceReplay, TimeoutAndOversizedBurstsAreUnavailable) {
-  if (!fs::is_directory(kFlower))
-    GTEST_SKIP() << kFlower.string()
-                 << " is absent (the shared data lives in ../shared beside the "
-                    "repository; see its README)";
+  SKIP_WITHOUT_FLOWER();
   auto service = CaptureService::Create(FlowerReplay(20.0));
   EXPECT_THROW(service->GrabBurst(5, BurstWhen::kNext, milliseconds(10)), CaptureUnavailable);
   service->Start();
@@ -227,6 +223,7 @@ TEST(CaptureServiceReplay, UnpacedReplayWaitsForTheBurstReader) {
   // A recording loses nothing by waiting: unpaced into a ring exactly the
   // burst's size, the writer would lap any reader, so it must wait for it.
   // Before it did, the VM suite timed out here after 1078 restarts.
+  SKIP_WITHOUT_FLOWER();
   CaptureConfig config = FlowerReplay(-1.0);
   config.ring_frames = 31;
   auto service = CaptureService::Create(config);
