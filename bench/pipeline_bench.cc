@@ -10,8 +10,11 @@
 // renderer's own memory is not counted).
 // Run: build/bench/pipeline_bench --benchmark_format=json
 #include <benchmark/benchmark.h>
+#include <unistd.h>
 
+#include <filesystem>
 #include <fstream>
+#include <opencv2/core/utility.hpp>
 #include <string>
 
 #include "bench/rendered_burst.h"
@@ -73,6 +76,41 @@ void BM_PipelineVga(benchmark::State& state) { RunWholePipeline(state, 640, 480)
 BENCHMARK(BM_PipelineVga)
     ->ArgNames({"frames", "planes"})
     ->Args({10, 128})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->MinTime(2.0);
+
+// What the user waits for after the pipeline: WritePipelineOutputs on one
+// 1080p result (every file encoded, written and flushed, result.json last).
+// Counter: the serial encode time (one thread), to compare with the wall time
+// of the parallel writers in the same run.
+void BM_WritePipelineOutputs(benchmark::State& state) {
+  const Burst& burst = Rendered(1920, 1080, 10).burst;
+  PipelineOptions options;
+  options.dense.planes = 64;
+  const PipelineOutput computed = RunPipeline(burst, options);
+  if (!computed.result.ok) {
+    state.SkipWithError(("pipeline failed: " + computed.result.error).c_str());
+    return;
+  }
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("dfsm-write-bench-" + std::to_string(::getpid()));
+  const int threads = static_cast<int>(state.range(0));
+  const int before = cv::getNumThreads();
+  if (threads > 0) cv::setNumThreads(threads);
+  for (auto _ : state) {
+    std::filesystem::remove_all(dir);
+    PipelineOutput output = computed;
+    WritePipelineOutputs(dir, burst, &output);
+    state.counters["write_ms"] = output.result.extra.value("write_ms", 0.0);
+  }
+  cv::setNumThreads(before);
+  std::filesystem::remove_all(dir);
+}
+BENCHMARK(BM_WritePipelineOutputs)
+    ->ArgNames({"threads"})
+    ->Arg(0)
+    ->Arg(1)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime()
     ->MinTime(2.0);

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <filesystem>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <vector>
@@ -30,6 +31,32 @@ struct DepthExportOptions {
 nlohmann::json WriteDepthOutputs(const std::filesystem::path& out_dir, const cv::Mat& depth,
                                  const cv::Mat& confidence, const cv::Mat& reference_color,
                                  const CameraModel& camera, const DepthExportOptions& options = {});
+
+// The files of WriteDepthOutputs as tasks, for a caller that writes files of
+// its own in the same parallel region: a second region would begin only when
+// the first one's slowest file is done. The constructor's arguments must
+// outlive the tasks; Summary() is valid once they have all run.
+class DepthOutputWriter {
+ public:
+  DepthOutputWriter(std::filesystem::path out_dir, const cv::Mat& depth, const cv::Mat& confidence,
+                    const cv::Mat& reference_color, const CameraModel& camera,
+                    const DepthExportOptions& options);
+  // One task per file, slowest first; each writes its file atomically.
+  std::vector<std::function<void()>> Tasks();
+  // What WriteDepthOutputs returns.
+  nlohmann::json Summary() const;
+
+ private:
+  std::filesystem::path out_dir_;
+  const cv::Mat& depth_;
+  const cv::Mat& confidence_;
+  const cv::Mat& reference_color_;
+  const CameraModel& camera_;
+  DepthExportOptions options_;
+  double scale_ = 1.0;
+  int stride_ = 1;
+  size_t point_count_ = 0;
+};
 
 // The preview image: the reference frame beside its inverse depth in the turbo
 // colour map (near = red, far = blue, black = no estimate).

@@ -68,6 +68,24 @@ TEST_F(BurstTest, RoundTripIsBitExact) {
     EXPECT_EQ(cv::norm(burst.gray[i], ToGray8(frames_[i]), cv::NORM_INF), 0.0);
 }
 
+TEST_F(BurstTest, StoredFramesReadBackBitExactAndServeThePipelineTheSame) {
+  // dfsmd's captures are written stored (WriteBurstOptions::compression):
+  // the same burst as the compact one, frame for frame.
+  const fs::path stored = dir_ / "stored";
+  WriteBurstOptions options;
+  options.in_parallel = false;
+  options.compression = PngCompression::kStored;
+  BurstManifest manifest;
+  manifest.reference = 1;
+  WriteBurst(stored, manifest, frames_, options);
+  const Burst compact = ReadBurst(dir_), read = ReadBurst(stored);
+  ASSERT_EQ(read.size(), compact.size());
+  EXPECT_EQ(cv::norm(read.reference_color, compact.reference_color, cv::NORM_INF), 0.0);
+  for (int i = 0; i < read.size(); ++i)
+    EXPECT_EQ(cv::norm(read.gray[i], compact.gray[i], cv::NORM_INF), 0.0);
+  EXPECT_GE(fs::file_size(stored / "frames/000000.png"), 24u * (32 * 3 + 1));
+}
+
 TEST_F(BurstTest, MaxFramesKeepsAWindowWithTheReference) {
   ReadBurstOptions options;
   options.max_frames = 3;

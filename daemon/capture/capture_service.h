@@ -78,7 +78,7 @@ enum class BurstWhen { kLast, kNext };
 struct CapturedFrame {
   int64_t sequence = 0;
   int64_t timestamp_ns = 0;     // CLOCK_MONOTONIC
-  cv::Mat gray;                 // CV_8UC1
+  cv::Mat gray;                 // CV_8UC1 (a burst copy of a colour frame leaves it empty)
   cv::Mat color;                // CV_8UC3 BGR where the source has colour, else empty
   int64_t source_sequence = 0;  // the driver's own sequence (replay: index in its burst)
 };

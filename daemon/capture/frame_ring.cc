@@ -131,7 +131,8 @@ std::optional<int64_t> FrameRing::NewestRunStart() const {
 }
 
 std::optional<CapturedFrame> FrameRing::CopyPinned(Buffer* buffer,
-                                                   std::unique_lock<std::mutex>& lock) {
+                                                   std::unique_lock<std::mutex>& lock,
+                                                   Planes planes) {
   ++buffer->pins;
   const int64_t sequence = buffer->sequence;
   lock.unlock();
@@ -140,8 +141,9 @@ std::optional<CapturedFrame> FrameRing::CopyPinned(Buffer* buffer,
   frame.sequence = sequence;
   frame.timestamp_ns = buffer->slot.timestamp_ns;
   frame.source_sequence = buffer->slot.source_sequence;
-  frame.gray = buffer->slot.gray.clone();
-  if (!buffer->slot.color.empty()) frame.color = buffer->slot.color.clone();
+  const bool color = !buffer->slot.color.empty();
+  if (color) frame.color = buffer->slot.color.clone();
+  if (!color || planes == Planes::kBoth) frame.gray = buffer->slot.gray.clone();
   lock.lock();
   --buffer->pins;
   return frame;
@@ -156,13 +158,13 @@ std::optional<CapturedFrame> FrameRing::CopyAtOrAfter(
     // Entries are in increasing sequence order from oldest to newest.
     for (int age = count_ - 1; age >= 0; --age) {
       Buffer* buffer = AtLocked(age);
-      if (buffer->sequence >= sequence) return CopyPinned(buffer, lock);
+      if (buffer->sequence >= sequence) return CopyPinned(buffer, lock, Planes::kBurst);
     }
     if (published_.wait_until(lock, deadline) == std::cv_status::timeout) {
       // One last look: the frame may have arrived together with the deadline.
       for (int age = count_ - 1; age >= 0; --age) {
         Buffer* buffer = AtLocked(age);
-        if (buffer->sequence >= sequence) return CopyPinned(buffer, lock);
+        if (buffer->sequence >= sequence) return CopyPinned(buffer, lock, Planes::kBurst);
       }
       return std::nullopt;
     }
@@ -172,7 +174,7 @@ std::optional<CapturedFrame> FrameRing::CopyAtOrAfter(
 std::optional<CapturedFrame> FrameRing::CopyNewest() {
   std::unique_lock<std::mutex> lock(mutex_);
   if (count_ == 0) return std::nullopt;
-  return CopyPinned(AtLocked(0), lock);
+  return CopyPinned(AtLocked(0), lock, Planes::kBoth);
 }
 
 }  // namespace dfsm::capture

@@ -72,6 +72,24 @@ TEST(FrameRing, ReaderWaitsForTheNextFrame) {
   EXPECT_EQ(frame->gray.at<uint8_t>(0, 0), 7);
 }
 
+TEST(FrameRing, ABurstCopyTakesTheColourImageAloneTheNewestFrameBoth) {
+  FrameRing ring(2);
+  FrameSlot* slot = ring.Staging();
+  slot->gray.create(4, 6, CV_8UC1);
+  slot->gray.setTo(9);
+  slot->color.create(4, 6, CV_8UC3);
+  slot->color.setTo(cv::Scalar(1, 2, 3));
+  ring.Publish(0);
+  const auto burst_frame = ring.CopyAtOrAfter(0, Clock::now(), nullptr);
+  ASSERT_TRUE(burst_frame);
+  EXPECT_TRUE(burst_frame->gray.empty());
+  EXPECT_EQ(burst_frame->color.at<cv::Vec3b>(3, 5), cv::Vec3b(1, 2, 3));
+  const auto newest = ring.CopyNewest();
+  ASSERT_TRUE(newest);
+  EXPECT_EQ(newest->gray.at<uint8_t>(3, 5), 9);
+  EXPECT_EQ(newest->color.at<cv::Vec3b>(3, 5), cv::Vec3b(1, 2, 3));
+}
+
 TEST(FrameRing, ReaderTimesOutAndAborts) {
   FrameRing ring(4);
   EXPECT_FALSE(ring.CopyAtOrAfter(0, Clock::now() + std::chrono::milliseconds(10), nullptr));

@@ -339,8 +339,8 @@ CaptureService::Burst StreamingCaptureService::GrabBurst(int count, BurstWhen wh
     dropped_total = status_.frames_dropped;
   }
   const bool color = !got[0].color.empty();
-  burst.manifest.width = got[0].gray.cols;
-  burst.manifest.height = got[0].gray.rows;
+  burst.manifest.width = color ? got[0].color.cols : got[0].gray.cols;
+  burst.manifest.height = color ? got[0].color.rows : got[0].gray.rows;
   burst.manifest.pixel_format = color ? "bgr8" : "gray8";
   burst.manifest.reference = 0;
   for (CapturedFrame& frame : got) {
