@@ -43,12 +43,14 @@ void PrintTo(const DepthCase& c, std::ostream* os) {
 class PipelineDepth : public ::testing::TestWithParam<DepthCase> {};
 
 // Scale-aligned depth of the whole pipeline (estimated camera and poses)
-// against the ground truth, over textured pixels. The bounds are the
-// acceptance targets (AbsRel <= 2 %, >= 95 % within 5 %), except at VGA with
-// JPEG: measured 1.75 % / 95.9 % on this burst, but 1.8-3.1 % over seeds 1, 2
-// and 6 (docs/dense.md), so 2.5 % / 92 %. Without JPEG: 1.14 % / 98.8 %
-// (1.1-1.8 % over seeds 1-6); 1080p 0.75 % / 99.3 %, JPEG 0.95 % / 99.0 %.
-// Coverage measured 0.95-0.97 everywhere.
+// against the ground truth, over textured pixels. The bounds were the
+// acceptance targets (AbsRel <= 2 %, >= 95 % within 5 %) everywhere until the
+// dense stage compared high-passed frames (DenseOptions::high_pass_sigma_px,
+// docs/dense.md "High-passed frames"): that gave real footage (TUM fr1/xyz)
+// and the realistic generated bursts most of their accuracy back and cost
+// these ideal bursts, which have no brightness change to remove, up to 1.6
+// points. At VGA they now measure 2.76 % / 92.5 % (JPEG 90: 3.37 % / 89.9 %),
+// so 3 % / 90 % (4 % / 87 %); 1080p still meets 2 % / 95 %.
 TEST_P(PipelineDepth, MatchesTheGroundTruth) {
   const DepthCase c = GetParam();
   const SynthBurst generated = GenerateBurst(c.width, c.height, c.frames, c.jpeg_quality);
@@ -67,8 +69,8 @@ TEST_P(PipelineDepth, MatchesTheGroundTruth) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Bursts, PipelineDepth,
-                         ::testing::Values(DepthCase{640, 480, 10, 0, 0.02, 0.95, 0.90},
-                                           DepthCase{640, 480, 10, 90, 0.025, 0.92, 0.90},
+                         ::testing::Values(DepthCase{640, 480, 10, 0, 0.03, 0.90, 0.90},
+                                           DepthCase{640, 480, 10, 90, 0.04, 0.87, 0.90},
                                            DepthCase{1920, 1080, 10, 0, 0.02, 0.95, 0.90},
                                            DepthCase{1920, 1080, 15, 90, 0.02, 0.95, 0.90}));
 

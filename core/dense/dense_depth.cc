@@ -10,6 +10,7 @@
 #include "core/dense/bilinear_upsample.h"
 #include "core/dense/depth_discontinuity.h"
 #include "core/dense/guided_filter.h"
+#include "core/dense/high_pass.h"
 #include "core/dense/inverse_depth_lattice.h"
 #include "core/dense/parallel_rows.h"
 #include "core/dense/plane_selection.h"
@@ -116,11 +117,11 @@ cv::Mat Prefiltered(const cv::Mat& gray, double sigma) {
 
 }  // namespace
 
-DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
+DenseDepth ComputeDenseDepth(const Burst& input, const CameraModel& camera,
                              const std::vector<Pose>& poses,
                              const std::vector<double>& sparse_inverse_depths,
                              const DenseOptions& options) {
-  ValidateInputs(burst, camera, poses, options);
+  ValidateInputs(input, camera, poses, options);
   const InverseDepthLattice lattice = InverseDepthLattice::FromSparse(
       sparse_inverse_depths, options.inverse_depth_margin, options.planes);
   DenseDepth result;
@@ -128,6 +129,17 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
   result.max_inverse_depth = lattice.max_inverse_depth;
   result.planes = lattice.planes;
   StageTimer timer(&result.timings_ms);
+
+  // Everything below sees the high-passed frames; the caller's stay as they are.
+  Burst burst = input;
+  const double high_pass_sigma =
+      HighPassSigma(options.high_pass_sigma_px, input.width(), input.height());
+  if (high_pass_sigma > 0.0) {
+    cv::parallel_for_(cv::Range(0, burst.size()), [&](const cv::Range& range) {
+      for (int i = range.start; i < range.end; ++i)
+        burst.gray[i] = HighPass(input.gray[i], high_pass_sigma);
+    });
+  }
 
   const RadialInverse radial(camera);
   const cv::Mat reference = Prefiltered(burst.gray[burst.reference()], options.prefilter_sigma);

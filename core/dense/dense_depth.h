@@ -72,6 +72,13 @@ struct DenseOptions {
   // wash out the fine texture that low-contrast regions match on: 0.8 gave
   // 2.5-3.1 % AbsRel at 640x480 where 0.5 gives 1.4-1.9 % (docs/dense.md).
   double prefilter_sigma = 0.5;
+  // Every frame is high-passed before anything else (high_pass.h): the sweep,
+  // the weak-texture mask and the guided filter's guide all see the frames
+  // less their Gaussian blur of this sigma. 0: 1/80 of the longer side;
+  // negative: the frames as they are. It costs the ideal generated bursts
+  // 0.6-1.6 points of AbsRel (no brightness change to remove, and the low
+  // frequencies go too) and gives real footage most of its accuracy back.
+  double high_pass_sigma_px = 0.0;
   // Frames of a sweep level with at most this many pixels are sampled on a
   // grid twice as fine, interpolated once with a cubic (frame_oversampling.h):
   // bilinear samples alone pull the winners towards whole pixels of parallax.
