@@ -7,8 +7,14 @@
 // binary serves exactly the committed file; CMake passes its path.
 __asm__(".section .rodata\n.balign 16\ndfsm_openapi_json:\n.incbin \"" DFSM_OPENAPI_JSON
         "\"\ndfsm_openapi_json_end:\n.byte 0\n.previous\n");
-extern "C" const char dfsm_openapi_json[] __asm__("dfsm_openapi_json");
-extern "C" const char dfsm_openapi_json_end[] __asm__("dfsm_openapi_json_end");
+// Hidden: the labels are local to this object, so they must be addressed
+// PC-relative. With default visibility the compiler goes through the GOT, and
+// on arm64 both GOT entries resolved to the start of .rodata (the document
+// read back empty and openapi.json answered 500; found under qemu-user).
+extern "C" __attribute__((visibility("hidden")))
+const char dfsm_openapi_json[] __asm__("dfsm_openapi_json");
+extern "C" __attribute__((visibility("hidden")))
+const char dfsm_openapi_json_end[] __asm__("dfsm_openapi_json_end");
 
 namespace dfsm::api {
 

@@ -39,8 +39,10 @@ chroot "$rootfs" /usr/bin/dfsmd --config /etc/dfsmd/dfsmd.toml --check-config
 echo dfsm-install >"$rootfs/etc/hostname"
 printf '127.0.0.1\tlocalhost\n127.0.1.1\tdfsm-install\n' >"$rootfs/etc/hosts"
 printf '/dev/vda\t/\text4\trw,noatime\t0\t0\n' >"$rootfs/etc/fstab"
-# Nothing else may take the dpkg lock or the console during the test.
-for unit in apt-daily.timer apt-daily-upgrade.timer serial-getty@ttyS0.service getty@tty1.service; do
+# Nothing else may take the dpkg lock or the console (ttyS0 on amd64, ttyAMA0 on
+# arm64) during the test.
+for unit in apt-daily.timer apt-daily-upgrade.timer serial-getty@ttyS0.service serial-getty@ttyAMA0.service \
+  getty@tty1.service; do
   ln -sf /dev/null "$rootfs/etc/systemd/system/$unit"
 done
 

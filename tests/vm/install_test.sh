@@ -3,6 +3,7 @@
 # "Install test on a booted image"). As root:
 #
 #   tests/vm/install_test.sh [OUT_DIR]        # default OUT_DIR: /tmp/dfsm-install-test
+#   DFSM_INSTALL_ARCH=arm64 tests/vm/install_test.sh [OUT_DIR]   # the arm64 image
 #
 # 1. builds a minimal Debian 12 image with mmdebstrap (minbase + systemd-sysv,
 #    udev, curl, kmod, v4l-utils) from the Debian sources apt uses on this
@@ -14,6 +15,11 @@
 #    kernel the VM harness uses (vm_run.sh: linux-image-amd64's dependency,
 #    cached in DFSM_VM_CACHE), its modules copied into the image, and a busybox
 #    initramfs that mounts the ext4 image and hands over to systemd;
+#    with DFSM_INSTALL_ARCH=arm64: an arm64 image (mmdebstrap runs its
+#    maintainer scripts under qemu-user through binfmt_misc), the arm64 .deb,
+#    linux-image-arm64's dependency and busybox-static:arm64 (downloaded with a
+#    private arm64 apt state, vm_kernel.sh), booted under qemu-system-aarch64
+#    -M virt -cpu max (TCG);
 # 3. a oneshot unit inside (install_check.sh) checks, after dfsmd:
 #    `systemctl is-active dfsmd`; POST /api/v1/captures answers 202 and the job
 #    succeeds with a depth map; `systemctl restart dfsmd` keeps the finished job;
@@ -21,10 +27,12 @@
 #    its results on the serial console and powers the VM off.
 # Every stage prints its duration. Exit status: 0 pass, 1 fail, 77 skipped
 # (ctest) when root, mmdebstrap, qemu, a static busybox, the .deb or the kernel
-# package are missing, 124 when the VM ran past DFSM_VM_TIMEOUT.
+# package are missing (arm64: also qemu-user's binfmt_misc entry), 124 when the
+# VM ran past DFSM_VM_TIMEOUT.
 #
-#   DFSM_INSTALL_DEB      the dfsmd .deb (default: the newest out/deb/amd64/dfsmd_*_amd64.deb,
-#                         which scripts/build-deb.sh writes)
+#   DFSM_INSTALL_ARCH     amd64 (default) or arm64
+#   DFSM_INSTALL_DEB      the dfsmd .deb (default: the newest out/deb/<arch>/dfsmd_*_<arch>.deb,
+#                         which scripts/build-deb.sh [arm64] writes)
 #   DFSM_INSTALL_SOURCES  an apt sources file (.sources or .list) for the image
 #                         (default: the host's files naming bookworm, bookworm-updates
 #                         or bookworm-security)
@@ -34,12 +42,18 @@
 #   DFSM_INSTALL_KEEP=1   keep the image and the root tree in OUT_DIR
 #   DFSM_TEST_INSTALL=1   needed under ctest (label install-image), which sets
 #                         DFSM_INSTALL_CTEST=1: without it the test skips
+#   DFSM_TEST_INSTALL_ARM64=1  the same for the arm64 image (label install-image-arm64)
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 root="$(cd "$here/../.." && pwd)"
 out="$(realpath -m "${1:-/tmp/dfsm-install-test}")"
 cache="${DFSM_VM_CACHE:-${XDG_CACHE_HOME:-$HOME/.cache}/dfsm-vm}"
 timeout_s="${DFSM_VM_TIMEOUT:-1500}"
+arch="${DFSM_INSTALL_ARCH:-amd64}"
+case "$arch" in
+  amd64 | arm64) ;;
+  *) echo "install_test: DFSM_INSTALL_ARCH must be amd64 or arm64, not $arch" >&2; exit 2 ;;
+esac
 
 skip() {
   echo "install_test: SKIP: $*" >&2
@@ -57,25 +71,46 @@ stage_end() {  # NAME
 }
 
 # --- what the test needs
-if [ "${DFSM_INSTALL_CTEST:-0}" = 1 ] && [ "${DFSM_TEST_INSTALL:-0}" != 1 ]; then
-  skip "the install test builds and boots a Debian image (~3 min); set DFSM_TEST_INSTALL=1 to run it" \
-    "(ctest -L install-image)"
+if [ "${DFSM_INSTALL_CTEST:-0}" = 1 ]; then
+  if [ "$arch" = amd64 ] && [ "${DFSM_TEST_INSTALL:-0}" != 1 ]; then
+    skip "the install test builds and boots a Debian image (~3 min); set DFSM_TEST_INSTALL=1 to run it" \
+      "(ctest -L install-image)"
+  fi
+  if [ "$arch" = arm64 ] && [ "${DFSM_TEST_INSTALL_ARM64:-0}" != 1 ]; then
+    skip "the arm64 install test builds an arm64 image under qemu-user and boots it under" \
+      "qemu-system-aarch64 (TCG, ~6 min); set DFSM_TEST_INSTALL_ARM64=1 to run it (ctest -L install-image-arm64)"
+  fi
 fi
 [ "$(id -u)" -eq 0 ] || skip "needs root (mmdebstrap in root mode, chroot, mke2fs of the image)"
-[ "$(dpkg --print-architecture 2>/dev/null)" = amd64 ] || skip "the image is amd64 and boots an amd64 kernel"
+[ "$(dpkg --print-architecture 2>/dev/null)" = amd64 ] ||
+  skip "written for an amd64 host (the amd64 image natively, the arm64 one under qemu)"
 command -v mmdebstrap >/dev/null || skip "mmdebstrap missing (apt-get install mmdebstrap)"
-command -v qemu-system-x86_64 >/dev/null || skip "qemu-system-x86_64 missing (apt-get install qemu-system-x86)"
+if [ "$arch" = amd64 ]; then
+  qemu_system=qemu-system-x86_64
+  command -v $qemu_system >/dev/null || skip "$qemu_system missing (apt-get install qemu-system-x86)"
+else
+  qemu_system=qemu-system-aarch64
+  command -v $qemu_system >/dev/null || skip "$qemu_system missing (apt-get install qemu-system-arm)"
+  command -v arch-test >/dev/null || skip "arch-test missing (apt-get install arch-test: mmdebstrap needs it for arm64)"
+  # mmdebstrap runs the arm64 image's maintainer scripts (and install_image_setup.sh
+  # runs its dfsmd --check-config) under qemu-user, through binfmt_misc.
+  grep -qx enabled /proc/sys/fs/binfmt_misc/qemu-aarch64 2>/dev/null ||
+    skip "no binfmt_misc entry qemu-aarch64 (apt-get install qemu-user-static binfmt-support;" \
+      "mount -t binfmt_misc binfmt_misc /proc/sys/fs/binfmt_misc; update-binfmts --enable qemu-aarch64)"
+fi
 command -v mke2fs >/dev/null || skip "mke2fs missing (apt-get install e2fsprogs)"
 command -v depmod >/dev/null || skip "depmod missing (apt-get install kmod)"
 command -v cpio >/dev/null || skip "cpio missing (apt-get install cpio)"
 busybox=""
-for candidate in /bin/busybox /usr/bin/busybox; do
-  if [ -x "$candidate" ] && ! ldd "$candidate" >/dev/null 2>&1; then busybox="$candidate"; fi
-done
-[ -n "$busybox" ] || skip "no static busybox (apt-get install busybox-static)"
-deb="${DFSM_INSTALL_DEB:-$(ls -t "$root"/out/deb/amd64/dfsmd_*_amd64.deb 2>/dev/null | head -1)}"
+if [ "$arch" = amd64 ]; then
+  for candidate in /bin/busybox /usr/bin/busybox; do
+    if [ -x "$candidate" ] && ! ldd "$candidate" >/dev/null 2>&1; then busybox="$candidate"; fi
+  done
+  [ -n "$busybox" ] || skip "no static busybox (apt-get install busybox-static)"
+fi
+deb="${DFSM_INSTALL_DEB:-$(ls -t "$root"/out/deb/"$arch"/dfsmd_*_"$arch".deb 2>/dev/null | head -1)}"
 [ -n "$deb" ] && [ -f "$deb" ] ||
-  skip "no dfsmd .deb: run scripts/build-deb.sh (out/deb/amd64/) or set DFSM_INSTALL_DEB"
+  skip "no dfsmd .deb: run scripts/build-deb.sh $arch (out/deb/$arch/) or set DFSM_INSTALL_DEB"
 deb="$(realpath "$deb")"
 if [ -n "${DFSM_INSTALL_SOURCES:-}" ]; then
   sources=("$DFSM_INSTALL_SOURCES")
@@ -89,13 +124,28 @@ else
   done
   [ ${#sources[@]} -gt 0 ] || skip "no apt sources naming bookworm on this machine (set DFSM_INSTALL_SOURCES)"
 fi
-log "package: $deb"
+[ "$(dpkg-deb -f "$deb" Architecture)" = "$arch" ] || skip "$deb is not an $arch package"
+log "architecture: $arch; package: $deb"
 log "apt sources: ${sources[*]}"
 
-# --- the kernel: the one vm_run.sh boots (linux-image-amd64's dependency), same cache
+# --- the kernel: the one vm_run.sh boots (linux-image-amd64's dependency), same
+# cache; for arm64 linux-image-arm64's dependency and busybox-static, from the
+# same Debian sources through a private arm64 apt state (vm_kernel.sh)
 # shellcheck source=tests/vm/vm_kernel.sh
 source "$(dirname "${BASH_SOURCE[0]}")/vm_kernel.sh"
-fetch_vm_kernel
+if [ "$arch" = amd64 ]; then
+  fetch_vm_kernel
+else
+  fetch_vm_kernel "$arch" "${sources[@]}"
+  bb_package="$(vm_foreign_apt apt-cache show busybox-static 2>/dev/null | awk '/^Version:/ {print $2; exit}')"
+  [ -n "$bb_package" ] || skip "apt-cache cannot resolve busybox-static for $arch"
+  bb_root="$cache/busybox-static_${bb_package//:/_}_$arch"
+  if [ ! -x "$bb_root/bin/busybox" ]; then
+    rm -rf "$bb_root"
+    vm_fetch_package "$arch" busybox-static "$bb_root"
+  fi
+  busybox="$bb_root/bin/busybox"
+fi
 
 rm -rf "$out"
 mkdir -p "$out"
@@ -121,13 +171,14 @@ image_modules="$(modules_of virtio_pci virtio_blk crc32c_generic ext4 vivid virt
 # --- stage 1: the image
 log "building the image with mmdebstrap"
 pkg_cache="$cache/install-debs"
+[ "$arch" = amd64 ] || pkg_cache="$cache/install-debs-$arch"
 mkdir -p "$pkg_cache"
 printf '%s\n' "$image_modules" >"$work/image-modules"
 # The downloaded packages are kept in $pkg_cache between runs (sync-in before,
 # sync-out after), so a rerun downloads only what changed. The .deb goes in
 # with its Recommends, as `apt install ./dfsmd_*.deb` on a board (mmdebstrap's
 # apt configuration leaves them out).
-nice -n 10 mmdebstrap --variant=minbase --mode=root \
+nice -n 10 mmdebstrap --variant=minbase --mode=root --architectures="$arch" \
   --include=systemd-sysv,udev,kmod,curl,v4l-utils \
   --dpkgopt='path-exclude=/usr/share/man/*' --dpkgopt='path-exclude=/usr/share/locale/*' \
   --dpkgopt='path-exclude=/usr/share/doc/*' --dpkgopt='path-include=/usr/share/doc/*/copyright' \
@@ -179,12 +230,23 @@ chmod +x "$staging/init"
 stage_end "image file system and initramfs"
 
 # --- stage 2: boot and run the checks
-log "booting (TCG, ${DFSM_VM_CPUS:-1} vCPU, ${DFSM_VM_MEMORY:-2048} MiB); serial console in $out/serial.log"
+if [ "$arch" = amd64 ]; then
+  machine=(-cpu max)
+  console=ttyS0
+else
+  # virt: PCI virtio devices, the PL011 UART ttyAMA0. pauth-impdef: QEMU's
+  # own pointer-authentication hash instead of the architected QARMA, which
+  # QEMU's documentation names costly under TCG (the kernel and Debian's
+  # arm64 userland sign return addresses).
+  machine=(-M virt -cpu "max,pauth-impdef=on")
+  console=ttyAMA0
+fi
+log "booting $qemu_system (TCG, ${DFSM_VM_CPUS:-1} vCPU, ${DFSM_VM_MEMORY:-2048} MiB); serial console in $out/serial.log"
 set +e
-timeout "$timeout_s" nice -n 5 qemu-system-x86_64 -nodefaults -no-user-config -nographic -no-reboot \
-  -accel tcg,thread=multi -cpu max -smp "${DFSM_VM_CPUS:-1}" -m "${DFSM_VM_MEMORY:-2048}" \
+timeout "$timeout_s" nice -n 5 "$qemu_system" -nodefaults -no-user-config -nographic -no-reboot \
+  "${machine[@]}" -accel tcg,thread=multi -smp "${DFSM_VM_CPUS:-1}" -m "${DFSM_VM_MEMORY:-2048}" \
   -kernel "$vmlinuz" -initrd "$work/initramfs.cpio.gz" \
-  -append "console=ttyS0 rdinit=/init panic=-1 quiet systemd.show_status=1 net.ifnames=0" \
+  -append "console=$console rdinit=/init panic=-1 quiet systemd.show_status=1 net.ifnames=0" \
   -drive file="$image",format=raw,if=virtio,cache=unsafe \
   -device virtio-rng-pci \
   -serial stdio -monitor none >"$out/serial.log" 2>&1
