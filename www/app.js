@@ -577,9 +577,11 @@ function renderResultCalibration(res) {
   box.replaceChildren(calibrationTable(res.calibration, {rows}));
 }
 
-async function loadBitmap(path, crop) {
+async function loadBitmap(path, crop, size) {
   const blob = await (await api(path)).blob();
-  return crop ? createImageBitmap(blob, crop.x, crop.y, crop.w, crop.h) : createImageBitmap(blob);
+  const resize = size ? {resizeWidth: size.w, resizeHeight: size.h, resizeQuality: 'high'} : {};
+  return crop ? createImageBitmap(blob, crop.x, crop.y, crop.w, crop.h, resize)
+              : createImageBitmap(blob, resize);
 }
 
 function drawBitmap(canvas, bitmap) {
@@ -590,11 +592,14 @@ function drawBitmap(canvas, bitmap) {
 }
 
 async function loadReference(job, res, stale) {
-  // preview.png is the reference frame beside the inverse depth: its left half.
+  // preview.png is the reference frame beside the inverse depth: its left
+  // half, scaled by depth_outputs.preview_scale; drawn back at the depth's size.
   const path = fileUrl(job, 'preview.png');
   if (!path) return;
   const w = res.input && res.input.width, h = res.input && res.input.height;
-  const bitmap = await loadBitmap(path, w && h ? {x: 0, y: 0, w, h} : null);
+  const scale = (res.depth_outputs && res.depth_outputs.preview_scale) || 1;
+  const crop = {x: 0, y: 0, w: Math.max(1, Math.round(w * scale)), h: Math.max(1, Math.round(h * scale))};
+  const bitmap = await loadBitmap(path, w && h ? crop : null, w && h ? {w, h} : null);
   if (!stale()) drawBitmap($('reference-canvas'), bitmap);
 }
 

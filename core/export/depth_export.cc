@@ -32,14 +32,33 @@ cv::Mat ToBgr(const cv::Mat& image) {
 
 }  // namespace
 
-cv::Mat DepthPreview(const cv::Mat& depth, const cv::Mat& reference_color) {
+double PreviewScale(int width, int max_width) {
+  return std::min(1.0, static_cast<double>(std::max(2, max_width)) / (2.0 * width));
+}
+
+cv::Mat DepthPreview(const cv::Mat& full_depth, const cv::Mat& reference_color, int max_width) {
+  // The colour range is the full map's, whatever the preview's size.
+  double nearest = 0.0, farthest = 0.0;
+  const cv::Mat full_valid = full_depth > 0.0f;
+  if (cv::countNonZero(full_valid) > 0)
+    cv::minMaxLoc(full_depth, &nearest, &farthest, nullptr, nullptr, full_valid);
+  const double lowest = farthest > 0.0 ? 1.0 / farthest : 0.0;
+  const double highest = nearest > 0.0 ? 1.0 / nearest : 0.0;
+
+  const double scale = PreviewScale(full_depth.cols, max_width);
+  cv::Mat depth = full_depth, reference = ToBgr(reference_color);
+  if (scale < 1.0) {
+    const cv::Size size(std::max(1, static_cast<int>(std::lround(full_depth.cols * scale))),
+                        std::max(1, static_cast<int>(std::lround(full_depth.rows * scale))));
+    // Nearest for the depth: an average would blend estimates with the
+    // zeros of "no estimate" into depths that were never measured.
+    cv::resize(full_depth, depth, size, 0, 0, cv::INTER_NEAREST);
+    cv::resize(reference, reference, size, 0, 0, cv::INTER_AREA);
+  }
   const cv::Mat valid = depth > 0.0f;
   cv::Mat inverse_depth(depth.size(), CV_32FC1, cv::Scalar(0.0f));
   cv::divide(1.0, depth, inverse_depth);
   inverse_depth.setTo(0.0f, ~valid);
-  double lowest = 0.0, highest = 0.0;
-  if (cv::countNonZero(valid) > 0)
-    cv::minMaxLoc(inverse_depth, &lowest, &highest, nullptr, nullptr, valid);
   cv::Mat normalized;
   const double span = highest > lowest ? highest - lowest : 1.0;
   inverse_depth.convertTo(normalized, CV_8UC1, 255.0 / span, -255.0 * lowest / span);
@@ -47,7 +66,7 @@ cv::Mat DepthPreview(const cv::Mat& depth, const cv::Mat& reference_color) {
   cv::applyColorMap(normalized, coloured, cv::COLORMAP_TURBO);
   coloured.setTo(cv::Scalar::all(0), ~valid);
   cv::Mat preview;
-  cv::hconcat(ToBgr(reference_color), coloured, preview);
+  cv::hconcat(reference, coloured, preview);
   return preview;
 }
 
@@ -86,35 +105,37 @@ DepthOutputWriter::DepthOutputWriter(std::filesystem::path out_dir, const cv::Ma
   cv::minMaxLoc(depth, nullptr, &highest);
   scale_ = highest > 0.0 ? highest / 65535.0 : 1.0;
   const int valid = cv::countNonZero(depth > 0.0f);
+  preview_scale_ = PreviewScale(depth.cols, options.preview_max_width);
   stride_ = std::max(
       1, static_cast<int>(std::ceil(std::sqrt(static_cast<double>(valid) / options.max_points))));
 }
 
 std::vector<std::function<void()>> DepthOutputWriter::Tasks() {
-  // Slowest first (measured at 1080p: preview.png ~110 ms, depth.png ~40,
-  // points.ply ~30, confidence.png ~25, depth.tiff ~15), so that the cores
-  // run out of work together.
+  // Slowest first (measured in dfsmd at 1080p: depth.png ~55-65 ms,
+  // confidence.png ~30, preview.png ~30 at 1920x540, depth.tiff ~15-30,
+  // points.ply ~5), so that the cores run out of work together.
   const Flush flush = options_.flush;
   return {[this, flush] {
-            WritePng(out_dir_ / "preview.png", DepthPreview(depth_, reference_color_), flush);
-          },
-          [this, flush] {
             cv::Mat depth16;
             depth_.convertTo(depth16, CV_16UC1, 1.0 / scale_);
             depth16.setTo(0, depth_ <= 0.0f);
             WritePng(out_dir_ / "depth.png", depth16, flush);
           },
           [this, flush] {
-            const std::vector<ColoredPoint> points =
-                DepthPointCloud(depth_, reference_color_, camera_, stride_);
-            point_count_ = points.size();
-            WritePly(out_dir_ / "points.ply", points, flush);
-          },
-          [this, flush] {
             if (confidence_.empty()) return;
             cv::Mat confidence8;
             confidence_.convertTo(confidence8, CV_8UC1, 255.0);
             WritePng(out_dir_ / "confidence.png", confidence8, flush);
+          },
+          [this, flush] {
+            WritePng(out_dir_ / "preview.png",
+                     DepthPreview(depth_, reference_color_, options_.preview_max_width), flush);
+          },
+          [this, flush] {
+            const std::vector<ColoredPoint> points =
+                DepthPointCloud(depth_, reference_color_, camera_, stride_);
+            point_count_ = points.size();
+            WritePly(out_dir_ / "points.ply", points, flush);
           },
           [this, flush] { WriteDepthTiff(out_dir_ / "depth.tiff", depth_, flush); }};
 }
@@ -123,11 +144,14 @@ nlohmann::json DepthOutputWriter::Summary() const {
   nlohmann::json files = {
       {"depth.tiff", "float32 depth (Z in the reference camera), 0 = no estimate"},
       {"depth.png", "uint16, depth = value * depth_png_scale, 0 = no estimate"},
-      {"preview.png", "reference frame beside inverse depth (turbo: near red, far blue)"},
+      {"preview.png",
+       "reference frame beside inverse depth (turbo: near red, far blue), each half scaled by "
+       "preview_scale"},
       {"points.ply", "coloured point cloud, subsampled"}};
   if (!confidence_.empty()) files["confidence.png"] = "uint8, confidence * 255";
   return {{"files", files},
           {"depth_png_scale", scale_},
+          {"preview_scale", preview_scale_},
           {"points", point_count_},
           {"points_stride", stride_}};
 }
