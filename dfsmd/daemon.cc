@@ -7,6 +7,7 @@
 #include <thread>
 
 #include "api/routes.h"
+#include "daemon/capture/replay_source.h"
 #include "daemon/log/log.h"
 #include "daemon/service/systemd_notifier.h"
 
@@ -27,6 +28,8 @@ capture::CaptureConfig ToCaptureConfig(const service::CaptureSection& section) {
   config.height = section.height;
   config.fps = section.fps;
   config.pixel_format = section.pixel_format;
+  // One of the key's choices (config_keys.cc), validated before this.
+  config.replay_loop = capture::ParseReplayLoop(section.replay_loop);
   config.ring_frames = section.ring_frames;
   config.device_buffers = section.device_buffers;
   config.frame_timeout = std::chrono::milliseconds(section.frame_timeout_ms);

@@ -56,7 +56,8 @@ std::unique_ptr<CaptureService> CaptureService::Create(const CaptureConfig& conf
     } catch (const SourceError& e) {
       throw CaptureConfigError(std::string("source: ") + e.what());
     }
-    source = std::make_unique<ReplaySource>(uri.path, config.fps, config.keep_color);
+    source =
+        std::make_unique<ReplaySource>(uri.path, config.fps, config.keep_color, config.replay_loop);
   } else if (config.fps < 0) {
     throw CaptureConfigError("fps " + std::to_string(config.fps) +
                              " is negative: only a replay can run unpaced");

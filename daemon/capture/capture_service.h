@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "core/io/burst.h"
+#include "daemon/capture/replay_source.h"
 
 namespace dfsm::capture {
 
@@ -48,8 +49,9 @@ struct CaptureConfig {
   std::string pixel_format;   // V4L2 fourcc preference ("YUYV", "MJPG", ...); empty: automatic
   bool keep_color = true;     // BGR frames where the source has colour; false: gray only
                               // (cheaper: no chroma conversion, a third of the memory)
-  int ring_frames = 64;       // ring capacity, frames
-  int device_buffers = 4;     // V4L2 mmap buffers / libcamera requests in flight (>= 4)
+  ReplayLoop replay_loop = ReplayLoop::kRestart;  // how a replay: source loops
+  int ring_frames = 64;                           // ring capacity, frames
+  int device_buffers = 4;  // V4L2 mmap buffers / libcamera requests in flight (>= 4)
   std::chrono::milliseconds frame_timeout{2000};  // no frame for this long: reopen
   std::chrono::milliseconds reconnect_backoff{1000};
 };

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <stdexcept>
 #include <thread>
 
 #include "core/io/burst.h"
@@ -21,8 +22,19 @@ int64_t MonotonicNs(std::chrono::steady_clock::time_point t) {
 
 }  // namespace
 
-ReplaySource::ReplaySource(fs::path root, double fps, bool keep_color)
-    : root_(std::move(root)), fps_(fps), keep_color_(keep_color) {}
+const char* ReplayLoopName(ReplayLoop loop) {
+  return loop == ReplayLoop::kReverse ? "reverse" : "restart";
+}
+
+ReplayLoop ParseReplayLoop(const std::string& name) {
+  if (name == "restart") return ReplayLoop::kRestart;
+  if (name == "reverse") return ReplayLoop::kReverse;
+  throw std::invalid_argument("replay loop must be \"restart\" or \"reverse\", not \"" + name +
+                              "\"");
+}
+
+ReplaySource::ReplaySource(fs::path root, double fps, bool keep_color, ReplayLoop loop)
+    : root_(std::move(root)), fps_(fps), keep_color_(keep_color), loop_(loop) {}
 
 std::vector<fs::path> ReplaySource::FindBursts(const fs::path& root) {
   std::error_code ec;
@@ -100,6 +112,7 @@ void ReplaySource::Open() {
   LoadBurst(0);
   next_frame_ = 0;
   seam_ = false;
+  forward_ = true;
   open_ = true;
   due_ = std::chrono::steady_clock::now();
 }
@@ -135,16 +148,39 @@ ReadResult ReplaySource::Read(FrameSlot& slot, std::chrono::milliseconds timeout
   // Pace from the schedule, not from the wake-up, so the rate does not drift;
   // after a stall longer than one interval, restart the schedule instead of
   // bursting to catch up.
-  const int64_t interval_ns = fps_ > 0 ? static_cast<int64_t>(1e9 / fps_) : frame.interval_ns;
+  const int64_t recorded_ns = Advance();
+  const int64_t interval_ns = fps_ > 0 ? static_cast<int64_t>(1e9 / fps_) : recorded_ns;
   due_ += std::chrono::nanoseconds(interval_ns);
   if (due_ < shown) due_ = shown;
+  return ReadResult::kFrame;
+}
 
+int64_t ReplaySource::Advance() {
+  const size_t shown = next_frame_;
+  if (loop_ == ReplayLoop::kReverse && frames_.size() > 1) {
+    if (forward_ && shown + 1 == frames_.size()) {
+      forward_ = false;
+    } else if (!forward_ && shown == 0) {
+      forward_ = true;
+      if (bursts_.size() > 1) {
+        const int64_t interval_ns = frames_.back().interval_ns;
+        LoadBurst((burst_index_ + 1) % bursts_.size());
+        next_frame_ = 0;
+        seam_ = true;
+        return interval_ns;
+      }
+    }
+    next_frame_ = forward_ ? shown + 1 : shown - 1;
+    // The recorded interval between the two frames, whichever way.
+    return frames_[std::min(shown, next_frame_)].interval_ns;
+  }
+  const int64_t interval_ns = frames_[shown].interval_ns;
   if (++next_frame_ == frames_.size()) {
     next_frame_ = 0;
     seam_ = true;
     if (bursts_.size() > 1) LoadBurst((burst_index_ + 1) % bursts_.size());
   }
-  return ReadResult::kFrame;
+  return interval_ns;
 }
 
 SourceDescription ReplaySource::Describe() const {

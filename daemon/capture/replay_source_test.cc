@@ -56,6 +56,46 @@ TEST_F(ReplaySourceTest, LoopsWithASeamAndKeepsPixels) {
   EXPECT_EQ(seams, (std::vector<bool>{false, false, false, true, false, false, true}));
 }
 
+TEST_F(ReplaySourceTest, ReverseLoopPlaysBackAndForthWithoutASeam) {
+  MakeBurst(dir_, 3, 10);
+  ReplaySource source(dir_, -1.0, true, ReplayLoop::kReverse);
+  source.Open();
+  FrameSlot slot;
+  std::vector<int> values, sequences;
+  for (int i = 0; i < 9; ++i) {
+    ASSERT_EQ(source.Read(slot, std::chrono::milliseconds(100)), ReadResult::kFrame);
+    values.push_back(slot.gray.at<uint8_t>(0, 0));
+    sequences.push_back(static_cast<int>(slot.source_sequence));
+    EXPECT_FALSE(slot.discontinuity) << "frame " << i;
+  }
+  EXPECT_EQ(values, (std::vector<int>{10, 11, 12, 11, 10, 11, 12, 11, 10}));
+  EXPECT_EQ(sequences, (std::vector<int>{0, 1, 2, 1, 0, 1, 2, 1, 0}));
+}
+
+TEST_F(ReplaySourceTest, ReverseLoopMovesToTheNextBurstWhenBackAtTheFirstFrame) {
+  MakeBurst(dir_ / "a", 3, 50);
+  MakeBurst(dir_ / "b", 3, 100);
+  ReplaySource source(dir_, -1.0, true, ReplayLoop::kReverse);
+  source.Open();
+  FrameSlot slot;
+  std::vector<int> values;
+  std::vector<bool> seams;
+  for (int i = 0; i < 11; ++i) {
+    ASSERT_EQ(source.Read(slot, std::chrono::milliseconds(100)), ReadResult::kFrame);
+    values.push_back(slot.gray.at<uint8_t>(0, 0));
+    seams.push_back(slot.discontinuity);
+  }
+  EXPECT_EQ(values, (std::vector<int>{50, 51, 52, 51, 50, 100, 101, 102, 101, 100, 50}));
+  EXPECT_EQ(seams, (std::vector<bool>{false, false, false, false, false, true, false, false, false,
+                                      false, true}));
+}
+
+TEST(ReplayLoop, NamesParseBack) {
+  for (ReplayLoop loop : {ReplayLoop::kRestart, ReplayLoop::kReverse})
+    EXPECT_EQ(ParseReplayLoop(ReplayLoopName(loop)), loop);
+  EXPECT_THROW(ParseReplayLoop("pingpong"), std::invalid_argument);
+}
+
 TEST_F(ReplaySourceTest, PacesAtTheRecordedRate) {
   MakeBurst(dir_, 4, 0, 20000000);  // 50 fps
   ReplaySource source(dir_, 0.0);

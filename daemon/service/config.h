@@ -60,6 +60,9 @@ struct CaptureSection {
   int width = 0, height = 0;
   double fps = 0.0;
   std::string pixel_format;
+  // A replay: source's loop: "restart" (a seam no burst spans) | "reverse"
+  // (back and forth, a continuous stream like a camera's).
+  std::string replay_loop = "restart";
   int ring_frames = 64;
   int device_buffers = 4;
   int frame_timeout_ms = 2000;

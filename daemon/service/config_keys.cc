@@ -91,6 +91,10 @@ std::vector<ConfigKey> MakeKeys() {
           "requested frame rate (0: default)"),
       Text("capture.pixel_format", KeyType::kString, DFSM_MEMBER(capture.pixel_format),
            "V4L2 fourcc preference, e.g. YUYV; empty: automatic"),
+      Text("capture.replay_loop", KeyType::kString, DFSM_MEMBER(capture.replay_loop),
+           "replay: restart (a seam no burst spans) | reverse (back and forth, continuous like "
+           "a camera)",
+           {"restart", "reverse"}),
       Key("capture.ring_frames", kInt, DFSM_MEMBER(capture.ring_frames), kMinRingFrames,
           kMaxRingFrames, "ring buffer, frames"),
       Key("capture.device_buffers", kInt, DFSM_MEMBER(capture.device_buffers), kMinDeviceBuffers,
