@@ -17,6 +17,7 @@
 
 #include <chrono>
 #include <string>
+#include <vector>
 
 #include "fuzz/fuzz_check.h"
 #include "fuzz/fuzz_daemon.h"
@@ -66,6 +67,24 @@ bool Exchange(int port, const std::string& bytes, std::string* answer,
 }
 
 }  // namespace
+
+// libFuzzer checks for leaks after an input whose mallocs and frees do not
+// balance. The daemon's threads (the gate, the workers) allocate and free beside
+// every input, so they almost never balance here, and each input paid for a
+// whole LeakSanitizer scan: 80 % of the time, 255 executions per second against
+// 1195 without (measured 2026-11-26). Leaks are for the in-process http harness
+// and the ASan stage to find. Inserted first: a -detect_leaks=1 given on the
+// command line still wins.
+extern "C" int LLVMFuzzerInitialize(int* argc, char*** argv) {
+  static char no_leak_check[] = "-detect_leaks=0";
+  static std::vector<char*> args;
+  args.assign(*argv, *argv + *argc);
+  args.insert(args.begin() + (args.empty() ? 0 : 1), no_leak_check);
+  args.push_back(nullptr);
+  *argc = static_cast<int>(args.size()) - 1;
+  *argv = args.data();
+  return 0;
+}
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   static dfsm::fuzz::FuzzDaemon daemon;
