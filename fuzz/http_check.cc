@@ -46,6 +46,11 @@ std::string CheckResponse(const std::string& response) {
   for (char& c : lower) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   const size_t length_at = lower.find("\r\ncontent-length: ");
   if (length_at == std::string::npos) return "";
+  // The answer to HEAD has a Content-Length and no body. No body of this API
+  // (JSON, images, tars) begins with a status line, so one right after the
+  // headers is the next answer.
+  if (response.compare(headers_end + 4, 9, "HTTP/1.1 ") == 0)
+    return response.substr(headers_end + 4);
   const size_t length = std::stoul(lower.substr(length_at + 18));
   const size_t next = headers_end + 4 + length;
   return next < response.size() ? response.substr(next) : "";

@@ -10,12 +10,15 @@
 // client's half-close (nothing hangs); every answer is a well-formed status
 // line, no 500, errors as problem+json; /healthz still answers afterwards.
 #include <arpa/inet.h>
+#include <fcntl.h>
 #include <netinet/in.h>
 #include <poll.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <chrono>
+#include <cstring>
 #include <string>
 #include <vector>
 
@@ -25,14 +28,33 @@
 
 namespace {
 
+// Connects without being cut short by a signal: libFuzzer's timeout alarm
+// fires every second, and a connect() that blocks (a SYN that meets one of
+// the server's TIME_WAIT connections with the same ports waits a second for
+// its retry, which at ~2000 connections a second happens within a minute)
+// failed with EINTR instead of completing.
 int Connect(int port) {
-  const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC | SOCK_NONBLOCK, 0);
+  FUZZ_CHECK(fd >= 0, std::string("socket: ") + std::strerror(errno));
   sockaddr_in address{};
   address.sin_family = AF_INET;
   address.sin_port = htons(static_cast<uint16_t>(port));
   address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  FUZZ_CHECK(::connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof(address)) == 0,
-             "dfsmd does not accept connections");
+  int error = 0;
+  if (::connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof(address)) != 0) {
+    error = errno;
+    const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+    while (error == EINPROGRESS && std::chrono::steady_clock::now() < end) {
+      pollfd p{fd, POLLOUT, 0};
+      if (::poll(&p, 1, 100) <= 0) continue;  // nothing yet, or EINTR: look again
+      socklen_t length = sizeof(error);
+      ::getsockopt(fd, SOL_SOCKET, SO_ERROR, &error, &length);
+    }
+  }
+  FUZZ_CHECK(error == 0, std::string("dfsmd does not accept connections: ") +
+                             std::strerror(error == EINPROGRESS ? ETIMEDOUT : error));
+  // Blocking again for the exchange (send() then waits for buffer space).
+  ::fcntl(fd, F_SETFL, ::fcntl(fd, F_GETFL) & ~O_NONBLOCK);
   return fd;
 }
 
@@ -43,7 +65,8 @@ bool Exchange(int port, const std::string& bytes, std::string* answer,
   const int fd = Connect(port);
   for (size_t sent = 0; sent < bytes.size();) {
     const ssize_t n = ::send(fd, bytes.data() + sent, bytes.size() - sent, MSG_NOSIGNAL);
-    if (n <= 0) break;  // the server refused early and closed: fine
+    if (n < 0 && errno == EINTR) continue;  // libFuzzer's alarm
+    if (n <= 0) break;                      // the server refused early and closed: fine
     sent += static_cast<size_t>(n);
   }
   ::shutdown(fd, SHUT_WR);
@@ -56,6 +79,7 @@ bool Exchange(int port, const std::string& bytes, std::string* answer,
         end - std::chrono::steady_clock::now());
     if (::poll(&p, 1, static_cast<int>(std::max<int64_t>(1, left.count()))) <= 0) continue;
     const ssize_t n = ::recv(fd, buffer, sizeof(buffer), 0);
+    if (n < 0 && errno == EINTR) continue;
     if (n <= 0) {
       closed = true;
       break;
