@@ -16,7 +16,7 @@ root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 seconds="${1:-300}"
 shift || true
 harnesses=("$@")
-[ ${#harnesses[@]} -gt 0 ] || harnesses=(burst_manifest config tar_upload frame_convert http)
+[ ${#harnesses[@]} -gt 0 ] || harnesses=(burst_manifest config tar_upload frame_convert http http_socket)
 jobs="${DFSM_FUZZ_JOBS:-$(nproc)}"
 work="${DFSM_FUZZ_WORK:-/tmp/dfsm-fuzz-campaign}"
 build="$root/build-fuzz"
@@ -35,10 +35,13 @@ for name in "${harnesses[@]}"; do
   corpus="$work/corpus/$name" logs="$work/logs/$name" artifacts="$work/artifacts/$name"
   rm -rf "$logs" "$artifacts"  # this campaign's crashes and logs only
   mkdir -p "$corpus" "$logs" "$artifacts"
-  cp -n "$root/fuzz/corpus/$name/"* "$corpus/"
+  # http_socket shares the seeds and dictionary of http (fuzz/CMakeLists.txt:
+  # CORPUS http).
+  seeds="${name%_socket}"
+  cp -n "$root/fuzz/corpus/$seeds/"* "$corpus/"
   [ -d "$root/fuzz/regressions/$name" ] && cp -n "$root/fuzz/regressions/$name/"* "$corpus/"
   dict=()
-  [ -f "$root/fuzz/$name.dict" ] && dict=(-dict="$root/fuzz/$name.dict")
+  [ -f "$root/fuzz/$seeds.dict" ] && dict=(-dict="$root/fuzz/$seeds.dict")
   start=$(date +%s)
   # -jobs writes one log per process (fuzz-N.log in the current directory);
   # each ends with its own final stats.
