@@ -7,7 +7,6 @@
 #include <chrono>
 #include <cstring>
 #include <map>
-#include <opencv2/imgcodecs.hpp>
 #include <regex>
 #include <thread>
 
@@ -18,6 +17,7 @@
 #include "api/request_body.h"
 #include "api/www_files.h"
 #include "core/io/file_util.h"
+#include "core/io/jpeg_encode.h"
 #include "daemon/service/tar_writer.h"
 
 namespace dfsm::api {
@@ -323,8 +323,7 @@ void GetSnapshot(const ApiContext& context, httplib::Response& response) {
     return SetProblem(response, 503, "no-frame", "No frame yet",
                       "the capture source has not delivered a frame");
   }
-  std::vector<unsigned char> jpeg;
-  cv::imencode(".jpg", frame, jpeg, {cv::IMWRITE_JPEG_QUALITY, 90});
+  const std::vector<unsigned char> jpeg = EncodeJpeg(frame, 90);
   response.set_content(std::string(jpeg.begin(), jpeg.end()), "image/jpeg");
 }
 

@@ -8,12 +8,23 @@
 // sub-stages, and peak_rss_mb, the process's peak resident set while the
 // pipeline ran (the peak is reset after the burst is rendered, so the
 // renderer's own memory is not counted).
+//
+// BM_ProcessCommand: what a user of the command line waits for, the whole
+// `dfsm process` (start-up, reading and decoding the burst, the pipeline,
+// writing every file) on a 1080p x 10 burst written to disk, against the
+// pipeline's own time in result.json. Target: wall <= 1.25 x pipeline.
+// DFSM_BENCH_BINARY=/path/to/dfsm times another build under the same client.
 // Run: build/bench/pipeline_bench --benchmark_format=json
 #include <benchmark/benchmark.h>
+#include <fcntl.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
+#include <chrono>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <opencv2/core/utility.hpp>
 #include <string>
 
@@ -114,6 +125,64 @@ BENCHMARK(BM_WritePipelineOutputs)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime()
     ->MinTime(2.0);
+
+// Runs `argv` with stdout and stderr on /dev/null; its exit status, -1 when it
+// did not run.
+int Run(const std::vector<std::string>& argv) {
+  const pid_t pid = ::fork();
+  if (pid < 0) return -1;
+  if (pid == 0) {
+    std::vector<char*> args;
+    for (const std::string& arg : argv) args.push_back(const_cast<char*>(arg.c_str()));
+    args.push_back(nullptr);
+    const int null = ::open("/dev/null", O_WRONLY);
+    ::dup2(null, 1);
+    ::dup2(null, 2);
+    ::execv(args[0], args.data());
+    ::_exit(127);
+  }
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+void BM_ProcessCommand(benchmark::State& state) {
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("dfsm-process-bench-" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  SynthOptions synth;
+  synth.width = 1920;
+  synth.height = 1080;
+  synth.frames = 10;
+  WriteSynthBurst(dir / "burst", SynthesizeBurst(synth));
+  // DFSM_BENCH_BINARY: another dfsm to compare (an installed package, an
+  // older build) in the same run.
+  const char* other = std::getenv("DFSM_BENCH_BINARY");
+  const std::string binary = other && *other ? other : DFSM_BINARY;
+  double wall_ms = 0, pipeline_ms = 0;
+  for (auto _ : state) {
+    std::filesystem::remove_all(dir / "out");
+    const auto start = std::chrono::steady_clock::now();
+    const int status = Run({binary, "process", (dir / "burst").string(), "--out",
+                            (dir / "out").string(), "--planes", "64"});
+    const double ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    state.SetIterationTime(ms / 1000.0);
+    if (status != 0) {
+      state.SkipWithError(("dfsm process exited with " + std::to_string(status)).c_str());
+      break;
+    }
+    std::ifstream result(dir / "out" / "result.json");
+    wall_ms += ms;
+    pipeline_ms += nlohmann::json::parse(result)["timings_ms"]["total"].get<double>();
+  }
+  std::filesystem::remove_all(dir);
+  const double runs = static_cast<double>(state.iterations());
+  state.counters["wall_ms"] = wall_ms / runs;
+  state.counters["pipeline_ms"] = pipeline_ms / runs;
+  state.counters["wall_over_pipeline"] = wall_ms / pipeline_ms;
+}
+BENCHMARK(BM_ProcessCommand)->UseManualTime()->Iterations(5)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace dfsm

@@ -3,12 +3,12 @@
 #include <algorithm>
 #include <chrono>
 #include <nlohmann/json.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <thread>
 #include <vector>
 
 #include "core/io/burst.h"
 #include "core/io/file_util.h"
+#include "core/io/png_encode.h"
 
 namespace dfsm::fuzz {
 namespace {
@@ -59,8 +59,7 @@ void WriteTinyBurst(const fs::path& dir, int frames) {
 }
 
 std::string Png(const cv::Mat& image) {
-  std::vector<unsigned char> bytes;
-  cv::imencode(".png", image, bytes);
+  const std::vector<unsigned char> bytes = EncodePng(image, PngCompression::kCompact);
   return std::string(bytes.begin(), bytes.end());
 }
 

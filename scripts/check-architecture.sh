@@ -6,7 +6,11 @@
 #  3. no cycle between folders (core/<area>, daemon/<part>, and the top-level
 #     folders), found by tsort. Tests beside the code (*_test.cc, *_test_*)
 #     are leaves that may use a higher layer (core/dense's accuracy test scores
-#     with core/pipeline's evaluation), so they make no edges.
+#     with core/pipeline's evaluation), so they make no edges;
+#  4. only tests and benchmarks include OpenCV's imgcodecs: it loads ~140
+#     shared libraries (~100 ms of start-up) into whatever links it, and the
+#     product reads and writes images through core/io (libpng, TurboJPEG,
+#     libtiff). CMakeLists.txt does not link it either.
 # Prints each violation and exits 1 if there is any.
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -39,6 +43,14 @@ while IFS= read -r source; do
     case "$source" in *_test.cc | *_test_*) continue ;; esac
     [ "$from" != "$to" ] && echo "$from $to" >>"$edges"
   done < <(sed -n 's/^#include "\([^"]*\)".*/\1/p' "$source")
+done < <(git ls-files '*.cc' '*.h')
+
+while IFS= read -r source; do
+  case "$source" in *_test.cc | *_test_* | tests/* | bench/*) continue ;; esac
+  if grep -q '^#include <opencv2/imgcodecs' "$source"; then
+    echo "architecture: $source includes opencv2/imgcodecs (images go through core/io)"
+    status=1
+  fi
 done < <(git ls-files '*.cc' '*.h')
 
 if ! sort -u "$edges" | tsort >/dev/null 2>"$edges.err"; then

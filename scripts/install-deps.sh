@@ -10,7 +10,8 @@ packages=(
   nlohmann-json3-dev libcpp-httplib-dev libsystemd-dev
   libexif-dev   # EXIF focal length of uploaded JPEG bursts (core/io/exif_focal)
   libturbojpeg0-dev   # JPEG frames decoded with their scans bounded (core/io/image_decode)
-  libpng-dev   # stored PNG frames written beside the pipeline (core/io/png_encode)
+  libpng-dev   # every PNG read and written (core/io/png_encode, png_decode)
+  libtiff-dev   # float32 depth maps (core/io/depth_tiff)
   libgtest-dev libgmock-dev libbenchmark-dev
   opencv-doc   # real photographs used as textures of the synthetic bursts
 )

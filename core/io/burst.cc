@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cstdio>
 #include <exception>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <system_error>
 
@@ -149,6 +148,19 @@ nlohmann::json ToJson(const BurstManifest& manifest) {
   return j;
 }
 
+cv::Mat ToBgr8(const cv::Mat& frame) {
+  cv::Mat eight;
+  frame.depth() == CV_16U ? frame.convertTo(eight, CV_8U, 1.0 / 257.0) : void(eight = frame);
+  cv::Mat bgr;
+  if (eight.channels() == 4)
+    cv::cvtColor(eight, bgr, cv::COLOR_BGRA2BGR);
+  else if (eight.channels() == 1)
+    cv::cvtColor(eight, bgr, cv::COLOR_GRAY2BGR);
+  else
+    bgr = eight;
+  return bgr;
+}
+
 cv::Mat ToGray8(const cv::Mat& frame) {
   cv::Mat eight;
   if (frame.depth() == CV_8U) {
@@ -238,10 +250,7 @@ Burst ReadBurst(const fs::path& burst_dir, const ReadBurstOptions& options) {
       if (frame.channels() == 1) {
         burst.reference_color = burst.gray[i];
       } else {
-        cv::Mat eight;
-        frame.depth() == CV_16U ? frame.convertTo(eight, CV_8U, 1.0 / 257.0) : void(eight = frame);
-        if (eight.channels() == 4) cv::cvtColor(eight, eight, cv::COLOR_BGRA2BGR);
-        burst.reference_color = eight;
+        burst.reference_color = ToBgr8(frame);
       }
     }
   };

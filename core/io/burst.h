@@ -77,6 +77,8 @@ Burst ReadBurst(const std::filesystem::path& burst_dir, const ReadBurstOptions& 
 
 // Converts a decoded frame (8/16-bit, 1/3/4 channels) to 8-bit gray.
 cv::Mat ToGray8(const cv::Mat& frame);
+// Converts a decoded frame (8/16-bit, 1/3/4 channels) to 8-bit BGR.
+cv::Mat ToBgr8(const cv::Mat& frame);
 
 // `manifest` completed for `frames` as WriteBurst stores them: size and pixel
 // format from the frames, frames[].file ("frames/NNNNNN.png") and sequence

@@ -6,7 +6,9 @@
 #include <cstring>
 #include <memory>
 #include <new>
-#include <opencv2/imgcodecs.hpp>
+
+#include "core/io/file_util.h"
+#include "core/io/png_decode.h"
 
 namespace dfsm {
 namespace {
@@ -232,12 +234,11 @@ cv::Mat DecodePng(std::string_view bytes, const ImageDecodeLimits& limits) {
   if (bytes.size() > static_cast<size_t>(INT_MAX))
     throw ImageDecodeError(Reason::kTooLarge,
                            "PNG of " + std::to_string(bytes.size()) + " bytes, over 2 GiB");
-  // imdecode only reads its input.
-  const cv::Mat encoded(1, static_cast<int>(bytes.size()), CV_8UC1,
-                        const_cast<char*>(bytes.data()));
-  cv::Mat image = cv::imdecode(encoded, cv::IMREAD_UNCHANGED);
-  if (image.empty()) throw ImageDecodeError(Reason::kCorrupt, "unreadable PNG");
-  return image;
+  try {
+    return DecodePngPixels(bytes);
+  } catch (const std::runtime_error& e) {
+    throw ImageDecodeError(Reason::kCorrupt, std::string("unreadable PNG (") + e.what() + ")");
+  }
 }
 
 }  // namespace
@@ -267,6 +268,16 @@ cv::Mat DecodeImage(std::string_view bytes, const ImageDecodeLimits& limits) {
   if (bytes.substr(0, kPngSignature.size()) == kPngSignature) return DecodePng(bytes, limits);
   if (IsJpeg(bytes)) return DecodeJpeg(bytes, limits);
   throw ImageDecodeError(Reason::kNotAnImage, "not a PNG or JPEG");
+}
+
+cv::Mat ReadImageFile(const std::filesystem::path& path, const ImageDecodeLimits& limits) {
+  std::string bytes;
+  try {
+    bytes = ReadFileToString(path);
+    return DecodeImage(bytes, limits);
+  } catch (const std::exception& e) {
+    throw std::runtime_error(path.string() + ": " + e.what());
+  }
 }
 
 }  // namespace dfsm

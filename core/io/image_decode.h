@@ -13,6 +13,7 @@
 #pragma once
 
 #include <cstdint>
+#include <filesystem>
 #include <opencv2/core.hpp>
 #include <stdexcept>
 #include <string>
@@ -76,5 +77,10 @@ ImageHeader ReadImageHeader(std::string_view bytes);
 // Decodes a whole PNG or JPEG file within `limits` (see the top of this file).
 // Throws ImageDecodeError; std::invalid_argument when `limits` fail Check().
 cv::Mat DecodeImage(std::string_view bytes, const ImageDecodeLimits& limits = {});
+
+// Reads and decodes a PNG or JPEG file (DecodeImage). Throws std::runtime_error
+// whose message starts with the path: the file cannot be read, or
+// ImageDecodeError's reason.
+cv::Mat ReadImageFile(const std::filesystem::path& path, const ImageDecodeLimits& limits = {});
 
 }  // namespace dfsm

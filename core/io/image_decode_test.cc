@@ -1,6 +1,7 @@
 #include "core/io/image_decode.h"
 
 #include <gtest/gtest.h>
+#include <png.h>
 #include <turbojpeg.h>
 
 #include <chrono>
@@ -128,6 +129,96 @@ TEST(ImageDecodeTest, PngDecodesAsCvImdecodeDoes) {
     const cv::Mat image = Noise(19, 23, type);
     const cv::Mat decoded = DecodeImage(Encode(".png", image));
     ExpectSameImage(decoded, image);  // lossless, 16-bit kept
+  }
+}
+
+// A PNG of any colour type and bit depth, written by libpng from raw rows
+// (cv::imencode writes only gray, BGR and BGRA): `row(y)` gives row y's bytes
+// as PNG packs them.
+struct PngSpec {
+  int color_type, bit_depth;
+  bool interlaced = false;
+  bool transparency = false;  // a tRNS chunk (palette alpha, or one transparent colour)
+};
+
+void AppendToString(png_structp png, png_bytep data, png_size_t size) {
+  static_cast<std::string*>(png_get_io_ptr(png))->append(reinterpret_cast<char*>(data), size);
+}
+
+std::string WritePng(const PngSpec& spec, int width, int height) {
+  std::string out;
+  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
+  png_infop info = png_create_info_struct(png);
+  if (setjmp(png_jmpbuf(png))) {
+    ADD_FAILURE() << "libpng failed to write the test image";
+    png_destroy_write_struct(&png, &info);
+    return "";
+  }
+  png_set_write_fn(png, &out, AppendToString, nullptr);
+  png_set_IHDR(png, info, width, height, spec.bit_depth, spec.color_type,
+               spec.interlaced ? PNG_INTERLACE_ADAM7 : PNG_INTERLACE_NONE,
+               PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+  png_color palette[16];
+  png_byte alphas[16];
+  for (int i = 0; i < 16; ++i) {
+    palette[i] = {static_cast<png_byte>(16 * i), static_cast<png_byte>(255 - 9 * i),
+                  static_cast<png_byte>(7 * i)};
+    alphas[i] = static_cast<png_byte>(255 - 15 * i);
+  }
+  png_color_16 transparent{};
+  transparent.red = transparent.green = transparent.blue = transparent.gray = 3;
+  if (spec.color_type == PNG_COLOR_TYPE_PALETTE) {
+    png_set_PLTE(png, info, palette, 16);
+    if (spec.transparency) png_set_tRNS(png, info, alphas, 16, nullptr);
+  } else if (spec.transparency) {
+    png_set_tRNS(png, info, nullptr, 0, &transparent);
+  }
+  png_write_info(png, info);
+  const int channels = png_get_channels(png, info);
+  const size_t row_bytes = (static_cast<size_t>(width) * channels * spec.bit_depth + 7) / 8;
+  std::vector<std::vector<png_byte>> rows(height, std::vector<png_byte>(row_bytes));
+  std::vector<png_bytep> pointers;
+  cv::RNG rng(5);
+  for (auto& row : rows) {
+    // Palette indices must name an entry: 4-bit samples below 16 everywhere.
+    for (png_byte& b : row)
+      b = static_cast<png_byte>(spec.color_type == PNG_COLOR_TYPE_PALETTE && spec.bit_depth == 8
+                                    ? rng.uniform(0, 16)
+                                    : rng.uniform(0, 256));
+    pointers.push_back(row.data());
+  }
+  png_write_image(png, pointers.data());
+  png_write_end(png, info);
+  png_destroy_write_struct(&png, &info);
+  return out;
+}
+
+TEST(ImageDecodeTest, EveryKindOfPngDecodesAsCvImdecodeDoes) {
+  const PngSpec specs[] = {
+      {PNG_COLOR_TYPE_GRAY, 1},
+      {PNG_COLOR_TYPE_GRAY, 2},
+      {PNG_COLOR_TYPE_GRAY, 4},
+      {PNG_COLOR_TYPE_GRAY, 8, false, true},
+      {PNG_COLOR_TYPE_GRAY, 16, true},
+      {PNG_COLOR_TYPE_GRAY_ALPHA, 8},
+      {PNG_COLOR_TYPE_GRAY_ALPHA, 16},
+      {PNG_COLOR_TYPE_PALETTE, 4},
+      {PNG_COLOR_TYPE_PALETTE, 8, true},
+      {PNG_COLOR_TYPE_PALETTE, 8, false, true},
+      {PNG_COLOR_TYPE_RGB, 8, true},
+      {PNG_COLOR_TYPE_RGB, 8, false, true},
+      {PNG_COLOR_TYPE_RGB, 16},
+      {PNG_COLOR_TYPE_RGB_ALPHA, 8},
+      {PNG_COLOR_TYPE_RGB_ALPHA, 16, true},
+  };
+  for (const PngSpec& spec : specs) {
+    SCOPED_TRACE("colour type " + std::to_string(spec.color_type) + ", " +
+                 std::to_string(spec.bit_depth) + " bits" + (spec.interlaced ? ", Adam7" : "") +
+                 (spec.transparency ? ", tRNS" : ""));
+    const std::string png = WritePng(spec, 13, 11);
+    const cv::Mat reference = Reference(png);
+    ASSERT_FALSE(reference.empty());
+    ExpectSameImage(DecodeImage(png), reference);
   }
 }
 
@@ -264,7 +355,8 @@ TEST(ImageDecodeTest, RefusesOtherAndDamagedData) {
   EXPECT_EQ(DecodeError("garbage", Reason::kNotAnImage), "not a PNG or JPEG");
   DecodeError(Encode(".bmp", Noise(8, 8, CV_8UC3)), Reason::kNotAnImage);
   const std::string png = Encode(".png", Noise(32, 32, CV_8UC3));
-  EXPECT_EQ(DecodeError(png.substr(0, png.size() / 2), Reason::kCorrupt), "unreadable PNG");
+  EXPECT_EQ(DecodeError(png.substr(0, png.size() / 2), Reason::kCorrupt),
+            "unreadable PNG (file truncated)");
   EXPECT_NE(DecodeError(png.substr(0, 20), Reason::kCorrupt).find("PNG header cut short"),
             std::string::npos);
   std::string flipped = png;

@@ -4,13 +4,15 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 #include <opencv2/core/utility.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <optional>
 #include <stdexcept>
 #include <string>
 
 #include "core/io/file_util.h"
+#include "core/io/image_decode.h"
+#include "core/io/jpeg_encode.h"
+#include "core/io/png_encode.h"
 #include "core/synth/camera_path.h"
 #include "core/synth/moving_object.h"
 #include "core/synth/textured_scene.h"
@@ -205,9 +207,9 @@ cv::Mat Capture(const cv::Mat& radiance, const SynthOptions& options, int frame_
   cv::Mat captured;
   image.convertTo(captured, options.color ? CV_8UC3 : CV_8UC1);  // rounds and saturates
   if (options.jpeg_quality > 0) {
-    std::vector<unsigned char> jpeg;
-    cv::imencode(".jpg", captured, jpeg, {cv::IMWRITE_JPEG_QUALITY, options.jpeg_quality});
-    captured = cv::imdecode(jpeg, options.color ? cv::IMREAD_COLOR : cv::IMREAD_GRAYSCALE);
+    const std::vector<unsigned char> jpeg = EncodeJpeg(captured, options.jpeg_quality);
+    captured =
+        DecodeImage(std::string_view(reinterpret_cast<const char*>(jpeg.data()), jpeg.size()));
   }
   return captured;
 }
@@ -336,10 +338,8 @@ void WriteSynthBurst(const std::filesystem::path& burst_dir, const SynthBurst& b
     for (size_t i = 0; i < burst.object_masks.size(); ++i) {
       char name[40];
       std::snprintf(name, sizeof(name), "object_masks/%06zu.png", i);
-      std::vector<unsigned char> png;
-      if (!cv::imencode(".png", burst.object_masks[i], png))
-        throw std::runtime_error("cannot encode the moving object's mask " + std::to_string(i));
-      WriteFileAtomically(burst_dir / name, png);
+      WriteFileAtomically(burst_dir / name,
+                          EncodePng(burst.object_masks[i], PngCompression::kCompact));
       const cv::Rect& box = burst.object_boxes[i];
       frames.push_back({{"mask", name}, {"box", {box.x, box.y, box.width, box.height}}});
     }

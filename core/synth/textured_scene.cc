@@ -5,9 +5,11 @@
 #include <cmath>
 #include <filesystem>
 #include <limits>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <random>
+
+#include "core/io/burst.h"
+#include "core/io/image_decode.h"
 
 namespace dfsm {
 namespace {
@@ -95,8 +97,12 @@ TexturedScene::TexturedScene(const SceneOptions& options) {
   for (const std::string& name : names) {
     const std::filesystem::path path = std::filesystem::path(options.texture_dir) / name;
     if (options.texture_dir.empty() || !std::filesystem::exists(path)) continue;
-    cv::Mat image = cv::imread(path.string(), cv::IMREAD_COLOR);
-    if (image.empty()) continue;
+    cv::Mat image;
+    try {
+      image = ToBgr8(ReadImageFile(path));
+    } catch (const std::runtime_error&) {
+      continue;  // not a photograph this reader takes: the procedural textures stand in
+    }
     image.convertTo(image, CV_32FC3);
     photographs.push_back(image);
     photograph_names.push_back(name);

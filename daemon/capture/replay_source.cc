@@ -1,12 +1,12 @@
 #include "daemon/capture/replay_source.h"
 
 #include <algorithm>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
 #include <thread>
 
 #include "core/io/burst.h"
+#include "core/io/image_decode.h"
 
 namespace dfsm::capture {
 namespace fs = std::filesystem;
@@ -73,9 +73,13 @@ void ReplaySource::LoadBurst(size_t index) {
   std::vector<Frame> frames(manifest.frames.size());
   for (size_t i = 0; i < frames.size(); ++i) {
     const fs::path file = dir / manifest.frames[i].file;
-    cv::Mat image = cv::imread(file.string(), cv::IMREAD_UNCHANGED);
-    if (image.empty())
-      throw SourceError(SourceError::Kind::kConfig, "replay: cannot decode " + file.string());
+    cv::Mat image;
+    try {
+      image = ReadImageFile(file);
+    } catch (const std::runtime_error& e) {
+      throw SourceError(SourceError::Kind::kConfig,
+                        std::string("replay: cannot decode ") + e.what());
+    }
     if (image.cols != manifest.width || image.rows != manifest.height)
       throw SourceError(SourceError::Kind::kConfig, "replay: " + file.string() + " is not " +
                                                         std::to_string(manifest.width) + "x" +

@@ -3,11 +3,11 @@
 #include <cstdio>
 #include <iostream>
 #include <nlohmann/json.hpp>
-#include <opencv2/imgcodecs.hpp>
 
 #include "core/io/burst.h"
 #include "core/io/depth_tiff.h"
 #include "core/io/file_util.h"
+#include "core/io/image_decode.h"
 #include "core/pipeline/evaluation.h"
 #include "tools/dfsm/command.h"
 #include "tools/dfsm/command_line.h"
@@ -32,9 +32,14 @@ nlohmann::json EvaluateAroundMovingObject(const std::filesystem::path& burst_dir
   cv::Mat reference_mask, any_mask = cv::Mat::zeros(depth.size(), CV_8UC1);
   for (int i = 0; i < burst.size(); ++i) {
     const std::filesystem::path file = burst_dir / frames[i].at("mask").get<std::string>();
-    const cv::Mat mask = cv::imread(file.string(), cv::IMREAD_GRAYSCALE);
-    if (mask.empty() || mask.size() != depth.size())
-      throw std::runtime_error(file.string() + ": missing or not a mask of the burst's size");
+    cv::Mat mask;
+    try {
+      mask = ToGray8(ReadImageFile(file));
+    } catch (const std::runtime_error& e) {
+      throw std::runtime_error(std::string(e.what()) + " (a moving-object mask)");
+    }
+    if (mask.size() != depth.size())
+      throw std::runtime_error(file.string() + ": not a mask of the burst's size");
     any_mask |= mask;
     if (i == burst.reference()) reference_mask = mask;
   }
