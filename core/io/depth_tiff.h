@@ -1,5 +1,6 @@
-// float32 depth maps as TIFF (CONTRACT.md: depth.tiff, depth_gt.tiff). TIFF,
-// not EXR: OpenCV 4.6 disables its EXR codec at run time by default.
+// float32 depth maps as TIFF (CONTRACT.md: depth.tiff, depth_gt.tiff), through
+// libtiff: written uncompressed in strips; read from strips or tiles, with any
+// compression libtiff knows (files written by OpenCV use deflate).
 #pragma once
 
 #include <filesystem>
