@@ -5,6 +5,7 @@
 #include <functional>
 #include <opencv2/imgproc.hpp>
 
+#include "core/io/burst.h"
 #include "core/io/depth_tiff.h"
 #include "core/io/file_util.h"
 #include "core/io/parallel_tasks.h"
@@ -23,13 +24,6 @@ void WritePng(const std::filesystem::path& path, const cv::Mat& image, Flush flu
   WriteFileAtomically(path, bytes, flush);
 }
 
-cv::Mat ToBgr(const cv::Mat& image) {
-  if (image.channels() == 3) return image;
-  cv::Mat bgr;
-  cv::cvtColor(image, bgr, cv::COLOR_GRAY2BGR);
-  return bgr;
-}
-
 }  // namespace
 
 double PreviewScale(int width, int max_width) {
@@ -46,7 +40,7 @@ cv::Mat DepthPreview(const cv::Mat& full_depth, const cv::Mat& reference_color, 
   const double highest = nearest > 0.0 ? 1.0 / nearest : 0.0;
 
   const double scale = PreviewScale(full_depth.cols, max_width);
-  cv::Mat depth = full_depth, reference = ToBgr(reference_color);
+  cv::Mat depth = full_depth, reference = ToBgr8(reference_color);
   if (scale < 1.0) {
     const cv::Size size(std::max(1, static_cast<int>(std::lround(full_depth.cols * scale))),
                         std::max(1, static_cast<int>(std::lround(full_depth.rows * scale))));
@@ -73,7 +67,7 @@ cv::Mat DepthPreview(const cv::Mat& full_depth, const cv::Mat& reference_color, 
 std::vector<ColoredPoint> DepthPointCloud(const cv::Mat& depth, const cv::Mat& reference_color,
                                           const CameraModel& camera, int stride) {
   std::vector<ColoredPoint> points;
-  const cv::Mat colour = ToBgr(reference_color);
+  const cv::Mat colour = ToBgr8(reference_color);
   for (int v = 0; v < depth.rows; v += stride) {
     const float* row = depth.ptr<float>(v);
     for (int u = 0; u < depth.cols; u += stride) {

@@ -6,10 +6,10 @@
 #include <string>
 #include <vector>
 
+#include "core/io/libpng_callbacks.h"
+
 namespace dfsm {
 namespace {
-
-constexpr bool IsBigEndianHost() { return __BYTE_ORDER__ == __ORDER_BIG_ENDIAN__; }
 
 struct Reader {
   std::string_view bytes;
@@ -23,15 +23,6 @@ void ReadBytes(png_structp png, png_bytep data, png_size_t size) {
   std::memcpy(data, reader->bytes.data() + reader->at, size);
   reader->at += size;
 }
-
-// libpng reports errors by longjmp; the message is kept for the exception
-// thrown once control is back in C++ (unwinding through libpng is not safe).
-void KeepErrorMessage(png_structp png, png_const_charp message) {
-  static_cast<Reader*>(png_get_error_ptr(png))->error = message;
-  png_longjmp(png, 1);
-}
-
-void IgnoreWarning(png_structp, png_const_charp) {}
 
 // cv::imdecode(IMREAD_UNCHANGED)'s choice of channels (OpenCV 4.6,
 // PngDecoder::readHeader): 4 with alpha or a tRNS chunk on colour, 3 for other
@@ -54,8 +45,8 @@ int ChannelsOf(png_structp png, png_infop info) {
 // `image` and the pointers are touched after setjmp, and `image` is a member
 // of an object that outlives the call, so a longjmp leaves nothing undefined.
 bool Decode(Reader* reader, cv::Mat* image, std::vector<png_bytep>* rows) {
-  png_structp png =
-      png_create_read_struct(PNG_LIBPNG_VER_STRING, reader, KeepErrorMessage, IgnoreWarning);
+  png_structp png = png_create_read_struct(PNG_LIBPNG_VER_STRING, &reader->error,
+                                           libpng::KeepErrorMessage, libpng::IgnoreWarning);
   if (!png) {
     reader->error = "out of memory";
     return false;
@@ -74,7 +65,7 @@ bool Decode(Reader* reader, cv::Mat* image, std::vector<png_bytep>* rows) {
   const int channels = ChannelsOf(png, info);
   const int bit_depth = png_get_bit_depth(png, info);
   const int color_type = png_get_color_type(png, info);
-  if (bit_depth == 16 && !IsBigEndianHost()) png_set_swap(png);
+  if (bit_depth == 16 && !libpng::IsBigEndianHost()) png_set_swap(png);
   if (channels < 4)
     png_set_strip_alpha(png);
   else

@@ -6,10 +6,10 @@
 #include <stdexcept>
 #include <string>
 
+#include "core/io/libpng_callbacks.h"
+
 namespace dfsm {
 namespace {
-
-constexpr bool IsBigEndianHost() { return __BYTE_ORDER__ == __ORDER_BIG_ENDIAN__; }
 
 void AppendBytes(png_structp png, png_bytep data, png_size_t size) {
   auto* out = static_cast<std::vector<unsigned char>*>(png_get_io_ptr(png));
@@ -17,16 +17,6 @@ void AppendBytes(png_structp png, png_bytep data, png_size_t size) {
 }
 
 void NoFlush(png_structp) {}
-
-// libpng reports errors by longjmp; the message is kept for the exception
-// thrown once control is back in C++ (unwinding through libpng is not safe).
-void KeepErrorMessage(png_structp png, png_const_charp message) {
-  auto* error = static_cast<std::string*>(png_get_error_ptr(png));
-  *error = message;
-  png_longjmp(png, 1);
-}
-
-void IgnoreWarning(png_structp, png_const_charp) {}
 
 struct PngSettings {
   int level;     // zlib level
@@ -38,8 +28,8 @@ struct PngSettings {
 // only locals touched after setjmp are the pointers it restores.
 bool Write(const cv::Mat& image, const PngSettings& settings, std::vector<unsigned char>* out,
            std::string* error) {
-  png_structp png =
-      png_create_write_struct(PNG_LIBPNG_VER_STRING, error, KeepErrorMessage, IgnoreWarning);
+  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, error, libpng::KeepErrorMessage,
+                                            libpng::IgnoreWarning);
   if (!png) {
     *error = "out of memory";
     return false;
@@ -64,7 +54,7 @@ bool Write(const cv::Mat& image, const PngSettings& settings, std::vector<unsign
   png_write_info(png, info);
   if (image.channels() == 3) png_set_bgr(png);
   // PNG samples are big-endian; cv::Mat holds them in the host's order.
-  if (bit_depth == 16 && !IsBigEndianHost()) png_set_swap(png);
+  if (bit_depth == 16 && !libpng::IsBigEndianHost()) png_set_swap(png);
   for (int row = 0; row < image.rows; ++row)
     png_write_row(png, const_cast<png_bytep>(image.ptr<png_byte>(row)));
   png_write_end(png, info);

@@ -1,7 +1,6 @@
 #include "daemon/capture/replay_source.h"
 
 #include <algorithm>
-#include <opencv2/imgproc.hpp>
 #include <stdexcept>
 #include <thread>
 
@@ -84,14 +83,12 @@ void ReplaySource::LoadBurst(size_t index) {
       throw SourceError(SourceError::Kind::kConfig, "replay: " + file.string() + " is not " +
                                                         std::to_string(manifest.width) + "x" +
                                                         std::to_string(manifest.height));
-    if (image.depth() == CV_16U) image.convertTo(image, CV_8U, 1.0 / 257.0);
-    if (image.channels() == 4) cv::cvtColor(image, image, cv::COLOR_BGRA2BGR);
-    if (image.channels() == 3) {
-      if (keep_color_) frames[i].color = image;
-      cv::cvtColor(image, frames[i].gray, cv::COLOR_BGR2GRAY);
-    } else {
-      frames[i].gray = image;
+    try {
+      frames[i].gray = ToGray8(image);
+    } catch (const BurstError& e) {
+      throw SourceError(SourceError::Kind::kConfig, "replay: " + file.string() + ": " + e.what());
     }
+    if (keep_color_ && image.channels() > 1) frames[i].color = ToBgr8(image);
     if (i + 1 < frames.size()) {
       const int64_t delta = manifest.frames[i + 1].timestamp_ns - manifest.frames[i].timestamp_ns;
       frames[i].interval_ns = delta > 0 ? delta : kDefaultIntervalNs;
