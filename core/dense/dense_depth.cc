@@ -73,8 +73,10 @@ void ValidateInputs(const Burst& burst, const CameraModel& camera, const std::ve
           "window and shiftable radii and weak_texture_gradient must be >= 0");
   Require(
       options.prefilter_sigma >= 0.0 && options.truncation > 0.0f &&
-          options.min_confidence >= 0.0 && options.guided_radius >= 0 && options.guided_eps > 0.0,
-      "prefilter_sigma, min_confidence, guided_radius must be >= 0; truncation, guided_eps > 0");
+          options.min_confidence >= 0.0 && options.guided_radius >= 0 && options.guided_eps > 0.0 &&
+          options.max_cost_ratio >= 0.0,
+      "prefilter_sigma, min_confidence, guided_radius, max_cost_ratio must be >= 0; truncation, "
+      "guided_eps > 0");
 }
 
 // Coarse planes are spaced this far apart in coarse pixels of parallax, fine
@@ -208,7 +210,14 @@ DenseDepth ComputeDenseDepth(const Burst& input, const CameraModel& camera,
     // Measured where the pixel's own curve has its minimum within the fine
     // window's reach of the regularized seed (scale 1: no window, the same plane).
     const int coarse_reach = scale > 1 ? static_cast<int>(reach / lattice_ratio) : 0;
-    coarse_selection.confidence = ConfidenceOfPlanes(costs, coarse_selection.plane, coarse_reach);
+    cv::Mat valley_cost;
+    coarse_selection.confidence =
+        ConfidenceOfPlanes(costs, coarse_selection.plane, coarse_reach, &valley_cost);
+    if (options.max_cost_ratio > 0.0)
+      result.outlier_fraction = static_cast<double>(RejectCostOutliers(
+                                    valley_cost, coarse.reference, options.coarse_window_radius,
+                                    options.max_cost_ratio, &coarse_selection.confidence)) /
+                                valley_cost.total();
   } else {
     coarse_selection = SweepAllPlanes(coarse, coarse_lattice, cost);
   }

@@ -47,6 +47,12 @@ struct DenseOptions {
   // most coarse width x height x coarse planes floats, twice: costs and sums).
   bool regularize = true;
   SemiGlobalOptions semi_global;
+  // Photo-consistency outliers (with `regularize`): a coarse pixel whose own
+  // cost at its regularized depth exceeds this many times the image's median
+  // of that cost is not measured (RejectCostOutliers). No depth of a static
+  // scene explains its frames: something that moved, an occlusion, a
+  // reflection. 0: off.
+  double max_cost_ratio = 3.0;
   // The full-resolution window: 2 * refine_radius + 1 planes, refine_stride
   // lattice planes apart (0: the stride that puts ~0.35 pixel of parallax
   // between them), so the window spans a similar parallax at every lattice density.
@@ -125,6 +131,9 @@ struct DenseDepth {
   int fine_planes = 0;          // planes per pixel at full resolution ...
   int fine_stride = 0;          // ... this many lattice planes apart
   double valid_fraction = 0.0;  // share of pixels with depth > 0
+  // Share of the coarse pixels left unmeasured as photo-consistency outliers
+  // (DenseOptions::max_cost_ratio).
+  double outlier_fraction = 0.0;
   std::vector<std::pair<std::string, double>> timings_ms;  // sub-stages, in order
 };
 

@@ -2,11 +2,16 @@
 
 #include <algorithm>
 #include <cmath>
+#include <opencv2/imgproc.hpp>
 
 #include "core/dense/plane_sweep.h"
 
 namespace dfsm {
 namespace {
+
+// RejectCostOutliers compares a pixel with the pixels of like texture: this
+// many classes of equal size.
+constexpr size_t kTextureClasses = 16;
 
 // 1 - c_best / c_rival for the plane `best` of a cost curve, c_rival the
 // lowest cost outside the valley that descends to `best` (walking out while
@@ -92,18 +97,22 @@ void SelectPlanesInto(const std::vector<cv::Mat>& costs, const cv::Mat& first_pl
   });
 }
 
-cv::Mat ConfidenceOfPlanes(const std::vector<cv::Mat>& costs, const cv::Mat& plane, int reach) {
+cv::Mat ConfidenceOfPlanes(const std::vector<cv::Mat>& costs, const cv::Mat& plane, int reach,
+                           cv::Mat* valley_cost) {
   CV_Assert(reach >= 0);
   CV_Assert(!costs.empty() && plane.type() == CV_32FC1 && plane.size() == costs[0].size());
   const int n = static_cast<int>(costs.size());
   cv::Mat confidence(plane.size(), CV_32FC1);
+  if (valley_cost) valley_cost->create(plane.size(), CV_32FC1);
   cv::parallel_for_(cv::Range(0, plane.rows), [&](const cv::Range& rows) {
     std::vector<float> curve(n);
     for (int y = rows.start; y < rows.end; ++y) {
       const float* p = plane.ptr<float>(y);
       float* c = confidence.ptr<float>(y);
+      float* v = valley_cost ? valley_cost->ptr<float>(y) : nullptr;
       for (int x = 0; x < plane.cols; ++x) {
         const int best = static_cast<int>(std::lround(p[x]));
+        if (v) v[x] = kNoCost;
         if (p[x] < 0.0f || best >= n) {
           c[x] = 0.0f;
           continue;
@@ -121,13 +130,57 @@ cv::Mat ConfidenceOfPlanes(const std::vector<cv::Mat>& costs, const cv::Mat& pla
           else
             break;
         }
-        c[x] = curve[minimum] >= kNoCost || std::abs(minimum - best) > reach
-                   ? 0.0f
-                   : std::max(0.0f, Distinctiveness(curve.data(), n, minimum));
+        const bool found = curve[minimum] < kNoCost && std::abs(minimum - best) <= reach;
+        c[x] = found ? std::max(0.0f, Distinctiveness(curve.data(), n, minimum)) : 0.0f;
+        if (v && found) v[x] = curve[minimum];
       }
     }
   });
   return confidence;
+}
+
+int RejectCostOutliers(const cv::Mat& cost, const cv::Mat& reference, int window_radius,
+                       double max_ratio, cv::Mat* confidence) {
+  CV_Assert(cost.type() == CV_32FC1 && confidence->type() == CV_32FC1 &&
+            reference.type() == CV_32FC1 && cost.size() == confidence->size() &&
+            cost.size() == reference.size() && max_ratio > 0.0 && window_radius >= 0);
+  // Texture: the mean gradient magnitude over the cost's window.
+  cv::Mat gx, gy, texture;
+  cv::Sobel(reference, gx, CV_32F, 1, 0, 3, 1.0, 0.0, cv::BORDER_REPLICATE);
+  cv::Sobel(reference, gy, CV_32F, 0, 1, 3, 1.0, 0.0, cv::BORDER_REPLICATE);
+  texture = cv::abs(gx) + cv::abs(gy);
+  const int side = 2 * window_radius + 1;
+  cv::boxFilter(texture, texture, -1, cv::Size(side, side), cv::Point(-1, -1), true,
+                cv::BORDER_REPLICATE);
+  // Pixels with a cost, ordered by texture, in classes of equal size.
+  std::vector<std::pair<float, int>> order;
+  order.reserve(cost.total());
+  const float* c_all = cost.ptr<float>(0);
+  const float* t_all = texture.ptr<float>(0);
+  CV_Assert(cost.isContinuous() && texture.isContinuous() && confidence->isContinuous());
+  for (int i = 0; i < static_cast<int>(cost.total()); ++i)
+    if (c_all[i] < kNoCost) order.emplace_back(t_all[i], i);
+  if (order.empty()) return 0;
+  std::sort(order.begin(), order.end());
+  float* conf = confidence->ptr<float>(0);
+  const size_t classes = std::min<size_t>(kTextureClasses, order.size());
+  int rejected = 0;
+  std::vector<float> costs;
+  for (size_t k = 0; k < classes; ++k) {
+    const size_t begin = order.size() * k / classes, end = order.size() * (k + 1) / classes;
+    costs.clear();
+    for (size_t j = begin; j < end; ++j) costs.push_back(c_all[order[j].second]);
+    std::nth_element(costs.begin(), costs.begin() + costs.size() / 2, costs.end());
+    const float limit = static_cast<float>(max_ratio) * costs[costs.size() / 2];
+    for (size_t j = begin; j < end; ++j) {
+      const int i = order[j].second;
+      if (c_all[i] > limit && conf[i] > 0.0f) {
+        conf[i] = 0.0f;
+        ++rejected;
+      }
+    }
+  }
+  return rejected;
 }
 
 }  // namespace dfsm

@@ -43,6 +43,21 @@ void SelectPlanesInto(const std::vector<cv::Mat>& costs, const cv::Mat& first_pl
 // says how much the photo-consistency alone supports that choice, allowing
 // for the step the neighbours move it by within reach of the search that
 // refines it.
-cv::Mat ConfidenceOfPlanes(const std::vector<cv::Mat>& costs, const cv::Mat& plane, int reach);
+// `valley_cost`, when given, receives the cost at that minimum (kNoCost where
+// the confidence is 0 for want of one).
+cv::Mat ConfidenceOfPlanes(const std::vector<cv::Mat>& costs, const cv::Mat& plane, int reach,
+                           cv::Mat* valley_cost = nullptr);
+
+// Photo-consistency outliers: sets `confidence` to 0 where `cost` (CV_32FC1,
+// each pixel's own cost at its chosen depth, kNoCost for none) exceeds
+// max_ratio times the median cost of the pixels of like texture (the
+// reference's mean gradient magnitude over the cost's window of
+// window_radius; the pixels in classes of equal size). A correct match costs
+// more where the texture is stronger (interpolation error and signal-dependent
+// noise grow with it), so each pixel is held to what its own kind of texture
+// costs in this burst, and no absolute level is assumed. Returns the number
+// of pixels it zeroed.
+int RejectCostOutliers(const cv::Mat& cost, const cv::Mat& reference, int window_radius,
+                       double max_ratio, cv::Mat* confidence);
 
 }  // namespace dfsm

@@ -79,5 +79,41 @@ TEST(PlaneSelectionTest, AWinnerInAnotherValleyGetsThatValleysConfidence) {
               1e-6f);
 }
 
+TEST(PlaneSelectionTest, ConfidenceOfPlanesGivesTheValleysCost) {
+  const std::vector<float> curve = {9, 5, 2.0f, 5, 9, 5, 4.0f, 5, 9};
+  cv::Mat cost;
+  ConfidenceOfPlanes(Volume(curve), cv::Mat(1, 1, CV_32FC1, cv::Scalar(1.0f)), 1, &cost);
+  EXPECT_FLOAT_EQ(cost.at<float>(0, 0), 2.0f);  // walked down to slice 2
+  ConfidenceOfPlanes(Volume(curve), cv::Mat(1, 1, CV_32FC1, cv::Scalar(-1.0f)), 1, &cost);
+  EXPECT_FLOAT_EQ(cost.at<float>(0, 0), kNoCost);  // no winner
+}
+
+TEST(PlaneSelectionTest, CostOutliersAreJudgedAgainstPixelsOfLikeTexture) {
+  // Left half flat, right half a strong checkerboard. A correct match costs
+  // 1 on the flat half and 4 on the textured one; two patches cost more:
+  // 5 on the flat half (an outlier there, though cheaper than every textured
+  // pixel) and 10 on the textured half (2.5 x its like, within a ratio of 3).
+  const int rows = 64, cols = 64;
+  cv::Mat reference(rows, cols, CV_32FC1, cv::Scalar(0.5f));
+  for (int y = 0; y < rows; ++y)
+    for (int x = cols / 2; x < cols; ++x) reference.at<float>(y, x) = ((x / 2 + y / 2) % 2) ? 1 : 0;
+  cv::Mat cost(rows, cols, CV_32FC1, cv::Scalar(1.0f));
+  cost.colRange(cols / 2, cols).setTo(4.0f);
+  const cv::Rect flat_patch(4, 4, 8, 8), textured_patch(44, 44, 8, 8);
+  cost(flat_patch).setTo(5.0f);
+  cost(textured_patch).setTo(10.0f);
+  cost.at<float>(60, 60) = kNoCost;
+  cv::Mat confidence(rows, cols, CV_32FC1, cv::Scalar(0.5f));
+
+  EXPECT_EQ(RejectCostOutliers(cost, reference, 2, 3.0, &confidence), flat_patch.area());
+  EXPECT_EQ(cv::countNonZero(confidence(flat_patch)), 0);
+  EXPECT_EQ(cv::countNonZero(confidence), rows * cols - flat_patch.area());
+
+  // A lower ratio takes the textured patch too.
+  confidence.setTo(0.5f);
+  EXPECT_EQ(RejectCostOutliers(cost, reference, 2, 2.0, &confidence),
+            flat_patch.area() + textured_patch.area());
+}
+
 }  // namespace
 }  // namespace dfsm

@@ -52,6 +52,11 @@ DepthCheck CheckDepthAgainstTracks(const SparseReconstruction& sparse, const Den
   if (covered < options.min_tracks_covered)
     check.warnings.push_back("depth sparse: the dense map has depth at " + Percent(covered) +
                              " of the tracked points");
+  check.outlier_fraction = dense.outlier_fraction;
+  if (dense.outlier_fraction > options.max_outlier_fraction)
+    check.warnings.push_back("depth outliers: " + Percent(dense.outlier_fraction) +
+                             " of the pixels match no depth of a still scene (something moved, "
+                             "or reflections); they have no depth");
   if (dense.valid_fraction < options.min_valid_fraction)
     check.warnings.push_back("depth sparse: " + Percent(dense.valid_fraction) +
                              " of the pixels have a depth");
@@ -63,6 +68,7 @@ nlohmann::json ToJson(const DepthCheck& check) {
           {"compared", check.compared},
           {"median_disagreement", check.median_disagreement},
           {"within_10_percent", check.within_10_percent},
+          {"outlier_fraction", check.outlier_fraction},
           {"confirmed", check.warnings.empty()}};
 }
 

@@ -26,6 +26,11 @@ struct DepthCheckOptions {
   // of the pixels.
   double min_tracks_covered = 0.5;
   double min_valid_fraction = 0.5;
+  // Warn when more than this share of the pixels are photo-consistency
+  // outliers (DenseDepth::outlier_fraction; docs/dense.md: at most 0.6 % on
+  // generated bursts of a still scene, 0.1-0.5 % on TUM fr1/xyz, 3.5-6 % with a
+  // moving object).
+  double max_outlier_fraction = 0.02;
 };
 
 struct DepthCheck {
@@ -33,6 +38,7 @@ struct DepthCheck {
   int compared = 0;                   // of them, with a dense depth at their pixel
   double median_disagreement = 0.0;   // median |w_dense / w_track - 1|
   double within_10_percent = 0.0;     // share of the compared tracks
+  double outlier_fraction = 0.0;      // DenseDepth::outlier_fraction
   std::vector<std::string> warnings;  // empty: nothing to say
 };
 
