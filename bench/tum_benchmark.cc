@@ -207,29 +207,36 @@ int main(int argc, char** argv) {
   }
   std::printf(
       "\n| window | mode | f (px) | verdict | AbsRel | within 5 %% | within 25 %% | coverage | "
-      "filled: AbsRel | filled: coverage | constant AbsRel | depth check |\n"
-      "|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+      "filled: AbsRel | filled: within 25 %% | filled: coverage | constant AbsRel | depth check "
+      "|\n"
+      "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const Row& r : rows)
     std::printf(
         "| %d-%d | %s | %.0f | %s | %.1f %% | %.1f %% | %.1f %% | %.1f %% | %.1f %% | %.1f %% | "
-        "%.1f %% | %s (%.1f %%) |\n",
+        "%.1f %% | %.1f %% | %s (%.1f %%) |\n",
         r.first, r.first + frames - 1, r.mode.c_str(), r.f, r.quality.c_str(),
         100.0 * r.score.abs_rel, 100.0 * r.score.within_5_percent,
         100.0 * r.score.within_25_percent, 100.0 * r.score.coverage, 100.0 * r.filled.abs_rel,
-        100.0 * r.filled.coverage, 100.0 * r.constant.abs_rel, r.confirmed ? "confirmed" : "warned",
-        100.0 * r.disagreement);
+        100.0 * r.filled.within_25_percent, 100.0 * r.filled.coverage, 100.0 * r.constant.abs_rel,
+        r.confirmed ? "confirmed" : "warned", 100.0 * r.disagreement);
+  // The median of an even count is the mean of the two middle values.
+  const auto median = [](std::vector<double> values) {
+    std::sort(values.begin(), values.end());
+    const size_t n = values.size();
+    return n == 0 ? 0.0 : 0.5 * (values[(n - 1) / 2] + values[n / 2]);
+  };
   for (const std::string mode : {"known", "self"}) {
-    std::vector<double> abs_rel, filled;
+    std::vector<double> abs_rel, filled, filled_within_25;
     for (const Row& r : rows)
       if (r.mode == mode) {
         abs_rel.push_back(r.score.abs_rel);
         filled.push_back(r.filled.abs_rel);
+        filled_within_25.push_back(r.filled.within_25_percent);
       }
-    std::sort(abs_rel.begin(), abs_rel.end());
-    std::sort(filled.begin(), filled.end());
     if (!abs_rel.empty())
-      std::printf("median AbsRel, %s: %.1f %% (filled: %.1f %%)\n", mode.c_str(),
-                  100.0 * abs_rel[abs_rel.size() / 2], 100.0 * filled[filled.size() / 2]);
+      std::printf("median, %s: AbsRel %.1f %%; filled: AbsRel %.1f %%, within 25 %% %.1f %%\n",
+                  mode.c_str(), 100.0 * median(abs_rel), 100.0 * median(filled),
+                  100.0 * median(filled_within_25));
   }
   return 0;
 }

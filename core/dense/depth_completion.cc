@@ -9,6 +9,11 @@
 namespace dfsm {
 namespace {
 
+// A hole whose smoothed weight stays below this (of a measured pixel's
+// confidence, at most 1) lies in a region no measurement reaches: it keeps
+// the push-pull fill.
+constexpr float kMinSpreadWeight = 1e-4f;
+
 // The 2x2 sums of a level (odd sizes: the last row/column sums what exists).
 cv::Mat SumDown(const cv::Mat& level) {
   cv::Mat padded;
@@ -25,6 +30,7 @@ void DepthCompletionOptions::Check() const {
   if (!(guided_eps > 0.0f)) throw std::invalid_argument("guided_eps must be > 0");
   if (!(filled_weight > 0.0f && filled_weight <= 1.0f))
     throw std::invalid_argument("filled_weight must be in (0, 1]");
+  smoother.Check();
 }
 
 cv::Mat CompleteByPushPull(const cv::Mat& values, const cv::Mat& weight, const cv::Mat& guide,
@@ -69,6 +75,13 @@ cv::Mat CompleteByPushPull(const cv::Mat& values, const cv::Mat& weight, const c
         WeightedGuidedFilter(guide, filled, pass_weight, options.guided_radius, options.guided_eps,
                              nullptr, guide.cols > 1000 ? 2 : 1);
     smoothed.copyTo(filled, w0 <= 0.0f);
+  }
+  if (options.smoother.lambda > 0.0) {
+    cv::Mat value = values.mul(w0), weight = w0.clone();
+    SmoothAlongEdges(guide * 255.0f, {&value, &weight}, options.smoother);
+    cv::Mat spread;
+    cv::divide(value, cv::max(weight, kMinSpreadWeight), spread);
+    spread.copyTo(filled, weight >= kMinSpreadWeight);
   }
   values.copyTo(filled, w0 > 0.0f);  // measured pixels exactly as they were
   return filled;

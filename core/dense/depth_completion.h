@@ -8,12 +8,20 @@
 //     is whole and blends in the coarser level where it is not (Gortler et
 //     al., "The Lumigraph", 1996);
 //  2. one confidence-weighted guided filter pass (guided_filter.h), guided by
-//     the reference image, bends the fill along the image's edges.
+//     the reference image, bends the fill along the image's edges;
+//  3. where a hole lies in a region of even brightness that holds
+//     measurements, the fill is instead the edge-aware weighted least-squares
+//     spread of those measurements (global_smoother.h, normalized: smoothed
+//     value x weight over smoothed weight). A region's own outline then bounds
+//     what fills it: TUM's black monitor takes the depth of its bezel, not of
+//     the wall around it.
 // Measured pixels keep their values: the fill only writes the holes, and the
 // confidence map (unchanged) tells measured from filled.
 #pragma once
 
 #include <opencv2/core.hpp>
+
+#include "core/dense/global_smoother.h"
 
 namespace dfsm {
 
@@ -24,6 +32,8 @@ struct DepthCompletionOptions {
   // Weight of a filled pixel in the guided pass, relative to a measured one
   // of confidence 1: small, so the measurements steer and the fill follows.
   float filled_weight = 0.05f;
+  // The edge-aware spread (step 3); lambda 0: push-pull and guided pass only.
+  GlobalSmootherOptions smoother;
 
   // Throws std::invalid_argument naming the option out of range.
   void Check() const;

@@ -36,6 +36,24 @@ TEST(DepthCompletionTest, FillsEveryHoleAndKeepsEveryMeasurement) {
   EXPECT_LE(highest, 30.5);
 }
 
+TEST(DepthCompletionTest, AHoleInARegionTakesTheDepthOfItsOutline) {
+  // TUM's black monitor: a dark square (guide 0.05) in a bright scene (0.8),
+  // measured only along its outline (depth 2) and everywhere outside (depth 8).
+  cv::Mat values(80, 80, CV_32FC1, cv::Scalar(8.0f)), guide(80, 80, CV_32FC1, cv::Scalar(0.8f));
+  const cv::Rect square(20, 20, 40, 40);
+  guide(square).setTo(0.05f);
+  values(square).setTo(2.0f);
+  cv::Mat weight(values.size(), CV_32FC1, cv::Scalar(1.0f));
+  weight(cv::Rect(22, 22, 36, 36)).setTo(0.0f);  // the interior, a hole
+  const cv::Mat filled = CompleteByPushPull(values, weight, guide);
+  EXPECT_NEAR(filled.at<float>(40, 40), 2.0f, 0.05f);
+  EXPECT_NEAR(filled.at<float>(24, 55), 2.0f, 0.05f);
+  // Without the edge-aware spread the surroundings leak in.
+  DepthCompletionOptions push_pull_only;
+  push_pull_only.smoother.lambda = 0.0;
+  EXPECT_GT(CompleteByPushPull(values, weight, guide, push_pull_only).at<float>(40, 40), 2.5f);
+}
+
 TEST(DepthCompletionTest, NothingToFillFrom) {
   const cv::Mat values(8, 8, CV_32FC1, cv::Scalar(1.0f));
   const cv::Mat zero(8, 8, CV_32FC1, cv::Scalar(0.0f));

@@ -1,0 +1,65 @@
+#include "core/dense/global_smoother.h"
+
+#include <gtest/gtest.h>
+
+namespace dfsm {
+namespace {
+
+// Spreads value 5 from column 10 and value 9 from column 50 of a 40 x 60
+// image (normalized: smoothed value x weight over smoothed weight) and
+// returns the result.
+cv::Mat SpreadTwoColumns(const cv::Mat& guide, const GlobalSmootherOptions& options) {
+  cv::Mat value = cv::Mat::zeros(guide.size(), CV_32FC1);
+  cv::Mat weight = cv::Mat::zeros(guide.size(), CV_32FC1);
+  value.col(10).setTo(5.0f);
+  value.col(50).setTo(9.0f);
+  weight.col(10).setTo(1.0f);
+  weight.col(50).setTo(1.0f);
+  value = value.mul(weight);
+  SmoothAlongEdges(guide, {&value, &weight}, options);
+  cv::Mat spread;
+  cv::divide(value, weight, spread);
+  return spread;
+}
+
+TEST(GlobalSmootherTest, KeepsAConstantImage) {
+  cv::Mat guide(30, 40, CV_32FC1);
+  cv::randu(guide, 0.0f, 255.0f);
+  cv::Mat image(guide.size(), CV_32FC1, cv::Scalar(3.0f));
+  SmoothAlongEdges(guide, {&image}, {});
+  double lowest = 0.0, highest = 0.0;
+  cv::minMaxLoc(image, &lowest, &highest);
+  EXPECT_NEAR(lowest, 3.0, 1e-3);  // float elimination over 40-pixel chains
+  EXPECT_NEAR(highest, 3.0, 1e-3);
+}
+
+TEST(GlobalSmootherTest, ASpreadStopsAtAnEdgeOfTheGuide) {
+  // Two regions of even brightness split at x = 30: each takes the value
+  // measured inside it, right up to the edge.
+  cv::Mat guide(40, 60, CV_32FC1, cv::Scalar(40.0f));
+  guide.colRange(30, 60).setTo(200.0f);
+  const cv::Mat spread = SpreadTwoColumns(guide, {});
+  EXPECT_NEAR(spread.at<float>(20, 0), 5.0f, 1e-3f);
+  EXPECT_NEAR(spread.at<float>(20, 29), 5.0f, 1e-3f);
+  EXPECT_NEAR(spread.at<float>(20, 30), 9.0f, 1e-3f);
+  EXPECT_NEAR(spread.at<float>(20, 59), 9.0f, 1e-3f);
+}
+
+TEST(GlobalSmootherTest, WithoutAnEdgeTheValuesBlend) {
+  const cv::Mat guide(40, 60, CV_32FC1, cv::Scalar(100.0f));
+  const cv::Mat spread = SpreadTwoColumns(guide, {});
+  EXPECT_GT(spread.at<float>(20, 30), 5.5f);
+  EXPECT_LT(spread.at<float>(20, 30), 8.5f);
+}
+
+TEST(GlobalSmootherTest, RefusesOptionsOutOfRange) {
+  GlobalSmootherOptions options;
+  options.sigma = 0.0;
+  EXPECT_THROW(options.Check(), std::invalid_argument);
+  options = {};
+  options.iterations = 0;
+  EXPECT_THROW(options.Check(), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace dfsm
