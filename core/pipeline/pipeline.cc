@@ -100,6 +100,9 @@ PipelineOutput RunPipeline(const Burst& burst, const PipelineOptions& options,
     result.calibration_detail["rolling_shutter"] = {
         {"mode", RollingShutterName(sparse_options.rolling_shutter)},
         {"readout", sparse.state.readout}};
+    if (sparse.uncertainty.sigma_readout >= 0.0)
+      result.calibration_detail["rolling_shutter"]["sigma_readout"] =
+          sparse.uncertainty.sigma_readout;
     result.warnings = sparse.warnings;
     const int requested_cell = sparse_options.features.cell_px;
     const int least_cell = MinGridCellSize(burst.width(), burst.height());

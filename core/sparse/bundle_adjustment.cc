@@ -126,11 +126,12 @@ int ScaleAnchor(const std::vector<double>& inverse_depths, const std::vector<boo
 }  // namespace
 
 // The jacobians that MarginalIntrinsicsCovariance needs, at the current values
-// of the problem's parameters: columns ordered intrinsics, poses, inverse
-// depths; the scale anchor and constant intrinsics left out (held constant).
+// of the problem's parameters: columns ordered intrinsics, poses, the readout
+// (when estimated), inverse depths; the scale anchor and constant intrinsics
+// left out (held constant).
 AdjustmentJacobians EvaluateJacobians(ceres::Problem* problem, double* intrinsics,
                                       std::vector<std::array<double, 6>>* poses, int reference,
-                                      std::vector<double>* inverse_depths,
+                                      double* readout, std::vector<double>* inverse_depths,
                                       const std::vector<bool>& use, int anchor,
                                       const std::vector<ceres::ResidualBlockId>& reprojection,
                                       const std::vector<ceres::ResidualBlockId>& prior) {
@@ -147,6 +148,10 @@ AdjustmentJacobians EvaluateJacobians(ceres::Problem* problem, double* intrinsic
     if (static_cast<int>(i) != reference) evaluate.parameter_blocks.push_back((*poses)[i].data());
   jacobians.camera_columns =
       jacobians.intrinsics_columns + 6 * (static_cast<int>(poses->size()) - 1);
+  if (problem->HasParameterBlock(readout) && !problem->IsParameterBlockConstant(readout)) {
+    evaluate.parameter_blocks.push_back(readout);
+    jacobians.readout_column = jacobians.camera_columns++;
+  }
   for (size_t j = 0; j < inverse_depths->size(); ++j)
     if (use[j] && static_cast<int>(j) != anchor)
       evaluate.parameter_blocks.push_back(&(*inverse_depths)[j]);
@@ -246,8 +251,8 @@ BundleAdjustmentSummary RunBundleAdjustment(const FeatureTracks& tracks,
   state->readout = readout;
   if (uncertainty) {
     AdjustmentJacobians jacobians =
-        EvaluateJacobians(&problem, intrinsics, &poses, tracks.reference, &inverse_depths, use,
-                          anchor, reprojection_blocks, prior_blocks);
+        EvaluateJacobians(&problem, intrinsics, &poses, tracks.reference, &readout, &inverse_depths,
+                          use, anchor, reprojection_blocks, prior_blocks);
     // d residual / d reference pixel, by central differences (a tenth of a
     // millipixel: the residual is smooth and this only scales a covariance).
     constexpr double kStep = 1e-4;

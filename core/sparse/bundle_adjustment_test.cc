@@ -115,6 +115,10 @@ TEST(BundleAdjustment, RollingShutterIsModelledKnownOrEstimated) {
     EXPECT_LT(with_estimate.distortion_px, 0.5) << "seed " << seed;
     EXPECT_LT(summary.rms_reprojection_px, 0.05) << "seed " << seed;
     EXPECT_TRUE(uncertainty.available);
+    // The readout's own sigma, and the estimate within a few of it.
+    EXPECT_GT(uncertainty.sigma_readout, 0.0) << "seed " << seed;
+    EXPECT_LT(std::abs(estimated.readout - 0.6), 4.0 * uncertainty.sigma_readout + 0.005)
+        << "seed " << seed << " sigma " << uncertainty.sigma_readout;
     // The per-track errors judge outliers under the same shutter.
     const std::vector<double> errors = TrackReprojectionErrors(sim.tracks, estimated);
     for (size_t j = 0; j < errors.size(); ++j)

@@ -1,6 +1,7 @@
 #include "core/sparse/calibration_uncertainty.h"
 
 #include <Eigen/Cholesky>
+#include <algorithm>
 #include <cmath>
 #include <nlohmann/json.hpp>
 #include <vector>
@@ -18,17 +19,27 @@ double CalibrationUncertainty::correlation(int a, int b) const {
   return scale > 0.0 ? covariance(a, b) / scale : 0.0;
 }
 
+namespace {
+
+// Records why the covariance is not there, unless the intrinsics were held
+// fixed, which is the reason that stands.
+void Unavailable(CalibrationUncertainty* result, const char* reason) {
+  if (result->unavailable_reason.empty()) result->unavailable_reason = reason;
+}
+
+}  // namespace
+
 CalibrationUncertainty MarginalIntrinsicsCovariance(const AdjustmentJacobians& jacobians) {
   CalibrationUncertainty result;
   const ceres::CRSMatrix& J = jacobians.reprojection;
   const int c = jacobians.camera_columns;
   if (jacobians.intrinsics_columns == 0) {
     result.unavailable_reason = "the intrinsics were held fixed";
-    return result;
+    if (jacobians.readout_column < 0) return result;
   }
   result.degrees_of_freedom = J.num_rows - J.num_cols;
   if (result.degrees_of_freedom <= 0) {
-    result.unavailable_reason = "fewer residuals than parameters";
+    Unavailable(&result, "fewer residuals than parameters");
     return result;
   }
   const bool with_reference =
@@ -81,7 +92,7 @@ CalibrationUncertainty MarginalIntrinsicsCovariance(const AdjustmentJacobians& j
         depth = col - c;
         depth_value += J.values[k];
       } else {
-        result.unavailable_reason = "a residual depends on two inverse depths";
+        Unavailable(&result, "a residual depends on two inverse depths");
         return result;
       }
     }
@@ -109,7 +120,7 @@ CalibrationUncertainty MarginalIntrinsicsCovariance(const AdjustmentJacobians& j
   const double variance = sum_sq / (result.degrees_of_freedom * (1.0 + reference_share / rows));
   result.residual_sigma_px = std::sqrt(variance);
   if (!(variance > 0.0)) {
-    result.unavailable_reason = "the residuals are all zero (noise-free tracks)";
+    Unavailable(&result, "the residuals are all zero (noise-free tracks)");
     return result;
   }
   // Whitened: A = S / s^2 + H_p, the score's covariance (S + N) / s^2 + H_p,
@@ -132,7 +143,7 @@ CalibrationUncertainty MarginalIntrinsicsCovariance(const AdjustmentJacobians& j
   Eigen::VectorXd scale = S.diagonal().cwiseSqrt();
   for (int i = 0; i < c; ++i)
     if (!(scale[i] > 0.0)) {
-      result.unavailable_reason = "a parameter is not observed by any residual";
+      Unavailable(&result, "a parameter is not observed by any residual");
       return result;
     }
   const Eigen::MatrixXd normalized =
@@ -140,16 +151,20 @@ CalibrationUncertainty MarginalIntrinsicsCovariance(const AdjustmentJacobians& j
   const Eigen::LDLT<Eigen::MatrixXd> ldlt(normalized);
   if (ldlt.info() != Eigen::Success || !ldlt.isPositive() ||
       ldlt.vectorD().minCoeff() <= 1e-14 * ldlt.vectorD().maxCoeff()) {
-    result.unavailable_reason =
-        "the information matrix is singular: the burst does not observe "
-        "the camera";
+    Unavailable(&result,
+                "the information matrix is singular: the burst does not observe the camera");
     return result;
   }
-  // A^-1 score A^-1, in the equilibrated variables; only the intrinsics rows.
+  // A^-1 score A^-1, in the equilibrated variables; only the rows of the
+  // intrinsics and of the readout.
   const int n = jacobians.intrinsics_columns;
-  Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(c, n);
-  for (int i = 0; i < n; ++i) rhs(i, i) = 1.0;
-  const Eigen::MatrixXd columns = ldlt.solve(rhs);  // c x n of A^-1 (normalized)
+  std::vector<int> wanted;
+  for (int i = 0; i < n; ++i) wanted.push_back(i);
+  if (jacobians.readout_column >= 0) wanted.push_back(jacobians.readout_column);
+  const int k = static_cast<int>(wanted.size());
+  Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(c, k);
+  for (int i = 0; i < k; ++i) rhs(wanted[i], i) = 1.0;
+  const Eigen::MatrixXd columns = ldlt.solve(rhs);  // c x k of A^-1 (normalized)
   const Eigen::MatrixXd normalized_score =
       scale.cwiseInverse().asDiagonal() * score * scale.cwiseInverse().asDiagonal();
   const Eigen::MatrixXd block = columns.transpose() * normalized_score * columns;
@@ -157,7 +172,9 @@ CalibrationUncertainty MarginalIntrinsicsCovariance(const AdjustmentJacobians& j
     for (int b = 0; b < n; ++b)
       result.covariance(jacobians.intrinsics_indices[a], jacobians.intrinsics_indices[b]) =
           block(a, b) / (scale[a] * scale[b]);
-  result.available = true;
+  if (jacobians.readout_column >= 0)
+    result.sigma_readout = std::sqrt(std::max(0.0, block(n, n))) / scale[jacobians.readout_column];
+  result.available = n > 0;
   return result;
 }
 

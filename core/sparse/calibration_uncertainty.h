@@ -40,6 +40,11 @@ struct CalibrationUncertainty {
   // normalized radius, as in the metric).
   double distortion_sigma_px = 0.0;
   double distortion_sigma_max_px = 0.0;
+  // The estimated rolling-shutter readout's standard deviation (frame
+  // intervals), marginal like the intrinsics'; -1 where the readout was not
+  // estimated or the information matrix is singular. Computed with the
+  // intrinsics held fixed as well (`available` then stays false).
+  double sigma_readout = -1.0;
 
   double sigma_f_px() const;
   double sigma_f_percent(double f) const;
@@ -59,6 +64,9 @@ struct AdjustmentJacobians {
   ceres::CRSMatrix prior;  // may have no rows
   int camera_columns = 0;
   int intrinsics_columns = 0;
+  // The readout's column among the camera columns (after the poses) when the
+  // adjustment estimated it; -1 otherwise.
+  int readout_column = -1;
   // Which of (f, k1, k2) each intrinsics column is, in order (a subset manifold
   // that keeps k1, k2 constant leaves {0}).
   std::vector<int> intrinsics_indices;

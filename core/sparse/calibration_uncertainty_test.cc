@@ -143,8 +143,35 @@ TEST(CalibrationUncertainty, HeldIntrinsicsHaveNoUncertainty) {
   RunBundleAdjustment(sim.tracks, init.inliers, &state, fixed, &uncertainty);
   EXPECT_FALSE(uncertainty.available);
   EXPECT_EQ(uncertainty.unavailable_reason, "the intrinsics were held fixed");
+  EXPECT_EQ(uncertainty.sigma_readout, -1.0);  // not estimated
   EXPECT_EQ(state.camera.f, sim.camera.f);
   EXPECT_EQ(state.camera.k1, sim.camera.k1);
+}
+
+// A known calibration held fixed while the readout is estimated: the
+// intrinsics have no covariance, the readout still gets its sigma.
+TEST(CalibrationUncertainty, AnEstimatedReadoutHasASigmaUnderHeldIntrinsics) {
+  TrackSimulatorOptions options;
+  options.noise_px = 0.05;
+  options.rotation_deg = 1.0;
+  options.readout = 0.6;
+  const TrackSimulation sim = SimulateTracks(options);
+  SparseState state;
+  state.camera = sim.camera;
+  const RankOneResult init =
+      RankOneInit(sim.tracks, state.camera, EstimateRotations(sim.tracks, state.camera));
+  state.poses = init.poses;
+  state.inverse_depths = init.inverse_depths;
+  BundleAdjustmentOptions held;
+  held.fix_intrinsics = true;
+  held.estimate_readout = true;
+  CalibrationUncertainty uncertainty;
+  RunBundleAdjustment(sim.tracks, init.inliers, &state, held, &uncertainty);
+  EXPECT_FALSE(uncertainty.available);
+  EXPECT_EQ(uncertainty.unavailable_reason, "the intrinsics were held fixed");
+  EXPECT_GT(uncertainty.sigma_readout, 0.0);
+  EXPECT_LT(uncertainty.sigma_readout, 0.05);
+  EXPECT_LT(std::abs(state.readout - 0.6), 4.0 * uncertainty.sigma_readout + 0.005);
 }
 
 TEST(CalibrationQuality, AFoldingLensIsDegenerateWhateverItsSigma) {
