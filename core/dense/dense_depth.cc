@@ -337,6 +337,11 @@ DenseDepth ComputeDenseDepth(const Burst& input, const CameraModel& camera,
       if (w > 0.0) d[x] = static_cast<float>(1.0 / w);
     }
   });
+  // A pixel left without depth (discontinuity bands, depths behind the
+  // camera) has no confidence either, so that measured is exactly
+  // confidence >= min_confidence: what result.json tells a user.
+  result.confidence.setTo(0.0f, result.depth <= 0.0f);
+  result.min_confidence = options.min_confidence;
   result.valid_fraction = static_cast<double>(cv::countNonZero(result.depth)) / plane.total();
   timer.Lap("refine");
 

@@ -118,8 +118,11 @@ struct DenseOptions {
 };
 
 struct DenseDepth {
-  cv::Mat depth;       // CV_32FC1 on the reference frame's captured (distorted) grid; 0 = none
-  cv::Mat confidence;  // CV_32FC1 in [0, 1] on the same grid
+  cv::Mat depth;  // CV_32FC1 on the reference frame's captured (distorted) grid; 0 = none
+  // CV_32FC1 in [0, 1] on the same grid; depth > 0 exactly where it is
+  // >= min_confidence (0 elsewhere).
+  cv::Mat confidence;
+  double min_confidence = 0.0;  // DenseOptions::min_confidence, as used
   // `depth` with every hole filled (fill_holes); empty when off or when there
   // was no measurement to fill from. Where depth > 0 the two are equal.
   cv::Mat depth_filled;

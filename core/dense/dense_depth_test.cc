@@ -164,6 +164,10 @@ TEST_P(DenseDepthPlaneTest, AccurateAndAlignedWithTheCapturedGrid) {
     EXPECT_EQ(dense.planes, 128);
     EXPECT_GT(dense.valid_fraction, 0.9);
     for (const auto& [stage, ms] : dense.timings_ms) EXPECT_GE(ms, 0.0) << stage;
+    // Measured is exactly confidence >= min_confidence (result.json says so).
+    EXPECT_EQ(dense.min_confidence, DenseOptions().min_confidence);
+    EXPECT_EQ(cv::countNonZero((dense.depth > 0.0f) != (dense.confidence >= dense.min_confidence)),
+              0);
 
     const DepthEvaluation evaluation =
         EvaluateDepth(dense.depth, scene.depth, TexturedMask(scene.burst.gray[0]));

@@ -210,6 +210,8 @@ void WritePipelineOutputs(const std::filesystem::path& out_dir, const Burst& bur
       extra["depth_filled"] = {
           {"file", "depth_filled.tiff"},
           {"measured_fraction", filled->valid_fraction},
+          // depth.tiff's pixels: confidence.png >= this x 255 (the rest are filled).
+          {"measured_min_confidence", filled->min_confidence},
           {"valid_fraction", static_cast<double>(cv::countNonZero(filled->depth_filled > 0.0f)) /
                                  static_cast<double>(filled->depth_filled.total())}};
     SyncFileSystem(out_dir);
