@@ -351,7 +351,7 @@ DenseDepth ComputeDenseDepth(const Burst& input, const CameraModel& camera,
     // Measured pixels are those with a depth (the discontinuity bands too are holes).
     cv::Mat measured = weight.clone();
     measured.setTo(0.0f, result.depth <= 0.0f);
-    const cv::Mat filled = CompleteByPushPull(plane, measured, guide, options.completion);
+    const cv::Mat filled = FillHoles(plane, measured, guide, options.completion);
     if (!filled.empty()) {
       result.depth_filled = result.depth.clone();
       const float last = static_cast<float>(lattice.planes - 1);

@@ -23,25 +23,10 @@ cv::Mat SumDown(const cv::Mat& level) {
   return sum * 4.0f;  // INTER_AREA averages: the pyramid carries sums
 }
 
-}  // namespace
-
-void DepthCompletionOptions::Check() const {
-  if (guided_radius < 0) throw std::invalid_argument("guided_radius must be >= 0");
-  if (!(guided_eps > 0.0f)) throw std::invalid_argument("guided_eps must be > 0");
-  if (!(filled_weight > 0.0f && filled_weight <= 1.0f))
-    throw std::invalid_argument("filled_weight must be in (0, 1]");
-  smoother.Check();
-}
-
-cv::Mat CompleteByPushPull(const cv::Mat& values, const cv::Mat& weight, const cv::Mat& guide,
-                           const DepthCompletionOptions& options) {
-  options.Check();
-  CV_Assert(values.type() == CV_32FC1 && weight.type() == CV_32FC1 && guide.type() == CV_32FC1);
-  CV_Assert(values.size() == weight.size() && values.size() == guide.size());
-  cv::Mat w0;
-  cv::max(weight, 0.0f, w0);
-  if (cv::countNonZero(w0) == 0) return {};
-
+// Every pixel from the measured ones: the push-pull pyramid, then the guided
+// pass over the holes (steps 1-2 of depth_completion.h). w0: the weights, >= 0.
+cv::Mat PushPull(const cv::Mat& values, const cv::Mat& w0, const cv::Mat& guide,
+                 const DepthCompletionOptions& options) {
   // Push: levels of (sum of value x weight, sum of weight) until no hole.
   std::vector<cv::Mat> value_weight{values.mul(w0)}, weights{w0};
   while (weights.back().rows > 1 || weights.back().cols > 1) {
@@ -66,7 +51,6 @@ cv::Mat CompleteByPushPull(const cv::Mat& values, const cv::Mat& weight, const c
     cv::min(w, 1.0f, alpha);
     filled = alpha.mul(mean) + (1.0f - alpha).mul(up);
   }
-
   // The guided pass: measurements steer, the fill follows the image's edges.
   if (options.guided_radius > 0) {
     cv::Mat pass_weight = w0.clone();
@@ -76,12 +60,42 @@ cv::Mat CompleteByPushPull(const cv::Mat& values, const cv::Mat& weight, const c
                              nullptr, guide.cols > 1000 ? 2 : 1);
     smoothed.copyTo(filled, w0 <= 0.0f);
   }
+  return filled;
+}
+
+}  // namespace
+
+void DepthCompletionOptions::Check() const {
+  if (guided_radius < 0) throw std::invalid_argument("guided_radius must be >= 0");
+  if (!(guided_eps > 0.0f)) throw std::invalid_argument("guided_eps must be > 0");
+  if (!(filled_weight > 0.0f && filled_weight <= 1.0f))
+    throw std::invalid_argument("filled_weight must be in (0, 1]");
+  smoother.Check();
+}
+
+cv::Mat FillHoles(const cv::Mat& values, const cv::Mat& weight, const cv::Mat& guide,
+                  const DepthCompletionOptions& options) {
+  options.Check();
+  CV_Assert(values.type() == CV_32FC1 && weight.type() == CV_32FC1 && guide.type() == CV_32FC1);
+  CV_Assert(values.size() == weight.size() && values.size() == guide.size());
+  cv::Mat w0;
+  cv::max(weight, 0.0f, w0);
+  if (cv::countNonZero(w0) == 0) return {};
+
+  // The holes the spread along the image's regions does not reach.
+  cv::Mat filled, unreached = w0 <= 0.0f;
   if (options.smoother.lambda > 0.0) {
-    cv::Mat value = values.mul(w0), weight = w0.clone();
-    SmoothAlongEdges(guide * 255.0f, {&value, &weight}, options.smoother);
-    cv::Mat spread;
-    cv::divide(value, cv::max(weight, kMinSpreadWeight), spread);
-    spread.copyTo(filled, weight >= kMinSpreadWeight);
+    cv::Mat value = values.mul(w0), spread_weight = w0.clone();
+    SmoothAlongEdges(guide * 255.0f, {&value, &spread_weight}, options.smoother);
+    cv::divide(value, cv::max(spread_weight, kMinSpreadWeight), filled);
+    unreached &= spread_weight < kMinSpreadWeight;
+  }
+  if (cv::countNonZero(unreached) > 0) {
+    const cv::Mat pushed = PushPull(values, w0, guide, options);
+    if (filled.empty())
+      filled = pushed;
+    else
+      pushed.copyTo(filled, unreached);
   }
   values.copyTo(filled, w0 > 0.0f);  // measured pixels exactly as they were
   return filled;

@@ -2,19 +2,19 @@
 // without a trustworthy minimum (textureless walls, the black monitor of TUM
 // fr1, occlusions) and a user of a depth map wants every pixel. The holes get
 // the inverse depth of their measured surroundings:
-//  1. push-pull: a confidence-weighted image pyramid (2x2 sums of value x
-//     weight and of weight) carries every measurement up until no level has a
-//     hole; going down, a pixel keeps its own weighted mean where its weight
-//     is whole and blends in the coarser level where it is not (Gortler et
-//     al., "The Lumigraph", 1996);
-//  2. one confidence-weighted guided filter pass (guided_filter.h), guided by
-//     the reference image, bends the fill along the image's edges;
-//  3. where a hole lies in a region of even brightness that holds
-//     measurements, the fill is instead the edge-aware weighted least-squares
-//     spread of those measurements (global_smoother.h, normalized: smoothed
-//     value x weight over smoothed weight). A region's own outline then bounds
-//     what fills it: TUM's black monitor takes the depth of its bezel, not of
-//     the wall around it.
+//  1. the edge-aware weighted least-squares spread of the measurements
+//     (global_smoother.h, normalized: smoothed value x weight over smoothed
+//     weight): a hole in a region of even brightness takes the depth of that
+//     region's measured outline; TUM's black monitor takes the depth of its
+//     bezel, not of the wall around it;
+//  2. a hole no measurement reaches that way (a region whose outline has none)
+//     falls back to push-pull: a confidence-weighted image pyramid (2x2 sums of
+//     value x weight and of weight) carries every measurement up until no
+//     level has a hole; going down, a pixel keeps its own weighted mean where
+//     its weight is whole and blends in the coarser level where it is not
+//     (Gortler et al., "The Lumigraph", 1996); one confidence-weighted guided
+//     filter pass (guided_filter.h), guided by the reference image, bends that
+//     fill along the image's edges.
 // Measured pixels keep their values: the fill only writes the holes, and the
 // confidence map (unchanged) tells measured from filled.
 #pragma once
@@ -26,13 +26,13 @@
 namespace dfsm {
 
 struct DepthCompletionOptions {
-  // Guided pass over the filled image (pixels of the guide); 0: push-pull only.
+  // The fallback's guided pass (pixels of the guide); 0: push-pull only.
   int guided_radius = 8;
   float guided_eps = 1e-3f;  // on a [0, 1] guide
   // Weight of a filled pixel in the guided pass, relative to a measured one
   // of confidence 1: small, so the measurements steer and the fill follows.
   float filled_weight = 0.05f;
-  // The edge-aware spread (step 3); lambda 0: push-pull and guided pass only.
+  // The edge-aware spread (step 1); lambda 0: the fallback everywhere.
   GlobalSmootherOptions smoother;
 
   // Throws std::invalid_argument naming the option out of range.
@@ -43,7 +43,7 @@ struct DepthCompletionOptions {
 // filled from its measured surroundings; pixels of positive weight are
 // returned unchanged. `guide` (CV_32FC1 in [0, 1], same size) is the
 // reference image. All-zero weight: returns an empty Mat (nothing to fill from).
-cv::Mat CompleteByPushPull(const cv::Mat& values, const cv::Mat& weight, const cv::Mat& guide,
-                           const DepthCompletionOptions& options = {});
+cv::Mat FillHoles(const cv::Mat& values, const cv::Mat& weight, const cv::Mat& guide,
+                  const DepthCompletionOptions& options = {});
 
 }  // namespace dfsm

@@ -19,7 +19,7 @@ TEST(DepthCompletionTest, FillsEveryHoleAndKeepsEveryMeasurement) {
   cv::Mat weight(values.size(), CV_32FC1, cv::Scalar(1.0f));
   weight(cv::Rect(30, 20, 20, 10)).setTo(0.0f);  // across the edge
   weight(cv::Rect(50, 5, 25, 45)).setTo(0.0f);   // inside the right surface
-  const cv::Mat filled = CompleteByPushPull(values, weight, guide);
+  const cv::Mat filled = FillHoles(values, weight, guide);
   ASSERT_EQ(filled.size(), values.size());
   cv::Mat measured_diff;
   cv::absdiff(filled, values, measured_diff);
@@ -45,19 +45,33 @@ TEST(DepthCompletionTest, AHoleInARegionTakesTheDepthOfItsOutline) {
   values(square).setTo(2.0f);
   cv::Mat weight(values.size(), CV_32FC1, cv::Scalar(1.0f));
   weight(cv::Rect(22, 22, 36, 36)).setTo(0.0f);  // the interior, a hole
-  const cv::Mat filled = CompleteByPushPull(values, weight, guide);
+  const cv::Mat filled = FillHoles(values, weight, guide);
   EXPECT_NEAR(filled.at<float>(40, 40), 2.0f, 0.05f);
   EXPECT_NEAR(filled.at<float>(24, 55), 2.0f, 0.05f);
   // Without the edge-aware spread the surroundings leak in.
   DepthCompletionOptions push_pull_only;
   push_pull_only.smoother.lambda = 0.0;
-  EXPECT_GT(CompleteByPushPull(values, weight, guide, push_pull_only).at<float>(40, 40), 2.5f);
+  EXPECT_GT(FillHoles(values, weight, guide, push_pull_only).at<float>(40, 40), 2.5f);
+}
+
+TEST(DepthCompletionTest, AHoleNoRegionReachesFallsBackToItsSurroundings) {
+  // A bright square whose outline holds no measurement: the spread stops at
+  // its edge, and push-pull fills it from the measurements around it.
+  cv::Mat values(80, 80, CV_32FC1, cv::Scalar(8.0f)), guide(80, 80, CV_32FC1, cv::Scalar(0.1f));
+  const cv::Rect square(20, 20, 40, 40);
+  guide(square).setTo(0.9f);
+  cv::Mat weight(values.size(), CV_32FC1, cv::Scalar(1.0f));
+  weight(square).setTo(0.0f);
+  values(square).setTo(0.0f);  // no value to leak
+  const cv::Mat filled = FillHoles(values, weight, guide);
+  EXPECT_NEAR(filled.at<float>(40, 40), 8.0f, 0.05f);
+  EXPECT_NEAR(filled.at<float>(21, 21), 8.0f, 0.05f);
 }
 
 TEST(DepthCompletionTest, NothingToFillFrom) {
   const cv::Mat values(8, 8, CV_32FC1, cv::Scalar(1.0f));
   const cv::Mat zero(8, 8, CV_32FC1, cv::Scalar(0.0f));
-  EXPECT_TRUE(CompleteByPushPull(values, zero, values).empty());
+  EXPECT_TRUE(FillHoles(values, zero, values).empty());
   DepthCompletionOptions bad;
   bad.filled_weight = 0.0f;
   EXPECT_THROW(bad.Check(), std::invalid_argument);
