@@ -122,11 +122,19 @@ bool Exchange(int port, const std::string& bytes, std::string* answer,
 // 1195 without (measured 2026-11-26). Leaks are for the in-process http harness
 // and the ASan stage to find. Inserted first: a -detect_leaks=1 given on the
 // command line still wins.
+//
+// libFuzzer's own per-input timeout (-timeout=10 in ctest_fuzz.sh and
+// run-fuzz.sh) would cut the stretched deadlines of Exchange short, so it is
+// set here, last, which wins over the command line: two exchanges of at most
+// 5 s + kMostLateness each, and a margin. The harness's deadlines are what
+// detect a hang; this is only the backstop.
 extern "C" int LLVMFuzzerInitialize(int* argc, char*** argv) {
   static char no_leak_check[] = "-detect_leaks=0";
+  static char input_timeout[] = "-timeout=130";
   static std::vector<char*> args;
   args.assign(*argv, *argv + *argc);
   args.insert(args.begin() + (args.empty() ? 0 : 1), no_leak_check);
+  args.push_back(input_timeout);
   args.push_back(nullptr);
   *argc = static_cast<int>(args.size()) - 1;
   *argv = args.data();

@@ -29,6 +29,8 @@ struct UpsampleAxis {
     }
   }
   UpsampleAxis(int small, int full) : UpsampleAxis(small, full, full) {}
+  // The small index nearest to full index i.
+  int Nearest(int i) const { return t[i] < 0.5f ? lower[i] : lower[i] + step[i]; }
 };
 
 // The bilinear value at full-resolution column x of the small map whose rows

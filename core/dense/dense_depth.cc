@@ -203,6 +203,7 @@ DenseDepth ComputeDenseDepth(const Burst& input, const CameraModel& camera,
   const double lattice_ratio =
       static_cast<double>(lattice.planes - 1) / (coarse_lattice.planes - 1);
   PlaneSelection coarse_selection;
+  cv::Mat outliers;  // coarse, 255: photo-consistency outliers
   if (options.regularize) {
     const std::vector<cv::Mat> costs = SweepAllPlaneCosts(coarse, coarse_lattice, cost);
     coarse_selection =
@@ -214,10 +215,11 @@ DenseDepth ComputeDenseDepth(const Burst& input, const CameraModel& camera,
     coarse_selection.confidence =
         ConfidenceOfPlanes(costs, coarse_selection.plane, coarse_reach, &valley_cost);
     if (options.max_cost_ratio > 0.0)
-      result.outlier_fraction = static_cast<double>(RejectCostOutliers(
-                                    valley_cost, coarse.reference, options.coarse_window_radius,
-                                    options.max_cost_ratio, &coarse_selection.confidence)) /
-                                valley_cost.total();
+      result.outlier_fraction =
+          static_cast<double>(
+              RejectCostOutliers(valley_cost, coarse.reference, options.coarse_window_radius,
+                                 options.max_cost_ratio, &coarse_selection.confidence, &outliers)) /
+          valley_cost.total();
   } else {
     coarse_selection = SweepAllPlanes(coarse, coarse_lattice, cost);
   }
@@ -256,11 +258,14 @@ DenseDepth ComputeDenseDepth(const Burst& input, const CameraModel& camera,
       const float* c1 = coarse_selection.confidence.ptr<float>(r1);
       int* f = first.ptr<int>(y);
       float* c = coarse_confidence.ptr<float>(y);
+      // An outlier's zero would only dim its neighbours' confidence when
+      // interpolated: every full-resolution pixel nearest to one is left out.
+      const uchar* outlier = outliers.empty() ? nullptr : outliers.ptr<uchar>(rows.Nearest(y));
       for (int x = 0; x < full.width; ++x) {
         const float centre = Upsampled(p0, p1, ty, columns, x);
         f[x] = std::clamp(static_cast<int>(std::lround(centre)) - reach, 0,
                           lattice.planes - 1 - (window - 1) * stride);
-        c[x] = Upsampled(c0, c1, ty, columns, x);
+        c[x] = outlier && outlier[columns.Nearest(x)] ? 0.0f : Upsampled(c0, c1, ty, columns, x);
       }
     });
     const SweepLevel fine =

@@ -119,8 +119,8 @@ struct DenseOptions {
 
 struct DenseDepth {
   cv::Mat depth;  // CV_32FC1 on the reference frame's captured (distorted) grid; 0 = none
-  // CV_32FC1 in [0, 1] on the same grid; depth > 0 exactly where it is
-  // >= min_confidence (0 elsewhere).
+  // CV_32FC1 in [0, 1] on the same grid; 0 wherever depth is 0, so with a
+  // positive min_confidence depth > 0 exactly where it is >= min_confidence.
   cv::Mat confidence;
   double min_confidence = 0.0;  // DenseOptions::min_confidence, as used
   // `depth` with every hole filled (fill_holes); empty when off or when there

@@ -140,7 +140,7 @@ cv::Mat ConfidenceOfPlanes(const std::vector<cv::Mat>& costs, const cv::Mat& pla
 }
 
 int RejectCostOutliers(const cv::Mat& cost, const cv::Mat& reference, int window_radius,
-                       double max_ratio, cv::Mat* confidence) {
+                       double max_ratio, cv::Mat* confidence, cv::Mat* rejected) {
   CV_Assert(cost.type() == CV_32FC1 && confidence->type() == CV_32FC1 &&
             reference.type() == CV_32FC1 && cost.size() == confidence->size() &&
             cost.size() == reference.size() && max_ratio > 0.0 && window_radius >= 0);
@@ -163,24 +163,32 @@ int RejectCostOutliers(const cv::Mat& cost, const cv::Mat& reference, int window
   if (order.empty()) return 0;
   std::sort(order.begin(), order.end());
   float* conf = confidence->ptr<float>(0);
+  uchar* mask = nullptr;
+  if (rejected) {
+    rejected->create(cost.size(), CV_8UC1);
+    rejected->setTo(0);
+    mask = rejected->ptr<uchar>(0);
+  }
   const size_t classes = std::min<size_t>(kTextureClasses, order.size());
-  int rejected = 0;
+  int count = 0;
   std::vector<float> costs;
   for (size_t k = 0; k < classes; ++k) {
     const size_t begin = order.size() * k / classes, end = order.size() * (k + 1) / classes;
     costs.clear();
     for (size_t j = begin; j < end; ++j) costs.push_back(c_all[order[j].second]);
     std::nth_element(costs.begin(), costs.begin() + costs.size() / 2, costs.end());
-    const float limit = static_cast<float>(max_ratio) * costs[costs.size() / 2];
+    const float limit =
+        static_cast<float>(max_ratio) * std::max(costs[costs.size() / 2], kMinOutlierCostScale);
     for (size_t j = begin; j < end; ++j) {
       const int i = order[j].second;
       if (c_all[i] > limit && conf[i] > 0.0f) {
         conf[i] = 0.0f;
-        ++rejected;
+        if (mask) mask[i] = 255;
+        ++count;
       }
     }
   }
-  return rejected;
+  return count;
 }
 
 }  // namespace dfsm

@@ -57,7 +57,13 @@ cv::Mat ConfidenceOfPlanes(const std::vector<cv::Mat>& costs, const cv::Mat& pla
 // noise grow with it), so each pixel is held to what its own kind of texture
 // costs in this burst, and no absolute level is assumed. Returns the number
 // of pixels it zeroed.
+// `rejected`, when given, receives CV_8UC1 255 where it zeroed (0 elsewhere).
+// A class whose median is below kMinOutlierCostScale (frames identical there:
+// clipped black or white) is held to that instead.
 int RejectCostOutliers(const cv::Mat& cost, const cv::Mat& reference, int window_radius,
-                       double max_ratio, cv::Mat* confidence);
+                       double max_ratio, cv::Mat* confidence, cv::Mat* rejected = nullptr);
+
+// Grey levels of mean truncated difference: below the noise of any camera.
+inline constexpr float kMinOutlierCostScale = 0.1f;
 
 }  // namespace dfsm

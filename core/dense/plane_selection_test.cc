@@ -109,10 +109,26 @@ TEST(PlaneSelectionTest, CostOutliersAreJudgedAgainstPixelsOfLikeTexture) {
   EXPECT_EQ(cv::countNonZero(confidence(flat_patch)), 0);
   EXPECT_EQ(cv::countNonZero(confidence), rows * cols - flat_patch.area());
 
-  // A lower ratio takes the textured patch too.
+  // A lower ratio takes the textured patch too, and says where.
   confidence.setTo(0.5f);
-  EXPECT_EQ(RejectCostOutliers(cost, reference, 2, 2.0, &confidence),
+  cv::Mat rejected;
+  EXPECT_EQ(RejectCostOutliers(cost, reference, 2, 2.0, &confidence, &rejected),
             flat_patch.area() + textured_patch.area());
+  EXPECT_EQ(cv::countNonZero(rejected), flat_patch.area() + textured_patch.area());
+  EXPECT_EQ(cv::countNonZero(rejected(textured_patch)), textured_patch.area());
+}
+
+TEST(PlaneSelectionTest, CostOutliersOfAPerfectMatchAreHeldToAFloor) {
+  // Frames identical but for a patch (noise-free, or clipped white): the
+  // median cost is 0, and a cost just above it is no outlier.
+  const cv::Mat reference(32, 32, CV_32FC1, cv::Scalar(0.5f));
+  cv::Mat cost = cv::Mat::zeros(32, 32, CV_32FC1);
+  cost(cv::Rect(0, 0, 4, 4)).setTo(2.0f * kMinOutlierCostScale);
+  cost(cv::Rect(20, 20, 4, 4)).setTo(4.0f * kMinOutlierCostScale);
+  cv::Mat confidence(32, 32, CV_32FC1, cv::Scalar(0.5f));
+  EXPECT_EQ(RejectCostOutliers(cost, reference, 2, 3.0, &confidence), 16);
+  EXPECT_EQ(cv::countNonZero(confidence(cv::Rect(20, 20, 4, 4))), 0);
+  EXPECT_EQ(cv::countNonZero(confidence(cv::Rect(0, 0, 4, 4))), 16);
 }
 
 }  // namespace
