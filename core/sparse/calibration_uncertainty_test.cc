@@ -127,20 +127,30 @@ TEST(CalibrationUncertainty, InflationScalesTheDataShare) {
   EXPECT_EQ(u3.inflation, 3.0);
 }
 
-TEST(CalibrationUncertainty, HeldIntrinsicsHaveNoUncertainty) {
-  TrackSimulatorOptions options;
-  options.noise_px = 0.05;
-  const TrackSimulation sim = SimulateTracks(options);
+// Adjusts a simulated burst from its rank-1 start with the true intrinsics
+// held fixed (and the readout estimated, if asked); returns the adjusted
+// state and the uncertainty.
+SparseState AdjustWithHeldIntrinsics(const TrackSimulation& sim, bool estimate_readout,
+                                     CalibrationUncertainty* uncertainty) {
   SparseState state;
   state.camera = sim.camera;
   const RankOneResult init =
       RankOneInit(sim.tracks, state.camera, EstimateRotations(sim.tracks, state.camera));
   state.poses = init.poses;
   state.inverse_depths = init.inverse_depths;
-  BundleAdjustmentOptions fixed;
-  fixed.fix_intrinsics = true;
+  BundleAdjustmentOptions held;
+  held.fix_intrinsics = true;
+  held.estimate_readout = estimate_readout;
+  RunBundleAdjustment(sim.tracks, init.inliers, &state, held, uncertainty);
+  return state;
+}
+
+TEST(CalibrationUncertainty, HeldIntrinsicsHaveNoUncertainty) {
+  TrackSimulatorOptions options;
+  options.noise_px = 0.05;
+  const TrackSimulation sim = SimulateTracks(options);
   CalibrationUncertainty uncertainty;
-  RunBundleAdjustment(sim.tracks, init.inliers, &state, fixed, &uncertainty);
+  const SparseState state = AdjustWithHeldIntrinsics(sim, false, &uncertainty);
   EXPECT_FALSE(uncertainty.available);
   EXPECT_EQ(uncertainty.unavailable_reason, "the intrinsics were held fixed");
   EXPECT_EQ(uncertainty.sigma_readout, -1.0);  // not estimated
@@ -156,17 +166,8 @@ TEST(CalibrationUncertainty, AnEstimatedReadoutHasASigmaUnderHeldIntrinsics) {
   options.rotation_deg = 1.0;
   options.readout = 0.6;
   const TrackSimulation sim = SimulateTracks(options);
-  SparseState state;
-  state.camera = sim.camera;
-  const RankOneResult init =
-      RankOneInit(sim.tracks, state.camera, EstimateRotations(sim.tracks, state.camera));
-  state.poses = init.poses;
-  state.inverse_depths = init.inverse_depths;
-  BundleAdjustmentOptions held;
-  held.fix_intrinsics = true;
-  held.estimate_readout = true;
   CalibrationUncertainty uncertainty;
-  RunBundleAdjustment(sim.tracks, init.inliers, &state, held, &uncertainty);
+  const SparseState state = AdjustWithHeldIntrinsics(sim, true, &uncertainty);
   EXPECT_FALSE(uncertainty.available);
   EXPECT_EQ(uncertainty.unavailable_reason, "the intrinsics were held fixed");
   EXPECT_GT(uncertainty.sigma_readout, 0.0);
