@@ -1,7 +1,6 @@
 #include "core/sparse/bundle_adjustment.h"
 
 #include <ceres/ceres.h>
-#include <ceres/rotation.h>
 
 #include <algorithm>
 #include <array>
@@ -90,21 +89,16 @@ class Reprojection {
   bool rolling_;
 };
 
+// A pose as Ceres holds it: the 6 parameters of rolling_shutter.h's
+// PoseParameters (angle-axis of R, then T) in a plain array.
 std::array<double, 6> ToParameters(const Pose& pose) {
   std::array<double, 6> parameters;
-  const Eigen::Matrix<double, 3, 3, Eigen::RowMajor> R = pose.R;
-  ceres::RotationMatrixToAngleAxis(ceres::RowMajorAdapter3x3(R.data()), parameters.data());
-  for (int k = 0; k < 3; ++k) parameters[3 + k] = pose.T(k);
+  Eigen::Map<PoseParameters>(parameters.data()) = ToPoseParameters(pose);
   return parameters;
 }
 
 Pose FromParameters(const std::array<double, 6>& parameters) {
-  Pose pose;
-  Eigen::Matrix<double, 3, 3, Eigen::RowMajor> R;
-  ceres::AngleAxisToRotationMatrix(parameters.data(), ceres::RowMajorAdapter3x3(R.data()));
-  pose.R = R;
-  pose.T << parameters[3], parameters[4], parameters[5];
-  return pose;
+  return FromPoseParameters(Eigen::Map<const PoseParameters>(parameters.data()));
 }
 
 // The track whose inverse depth is held constant to fix the scale gauge: the
