@@ -311,9 +311,11 @@ DenseDepth ComputeDenseDepth(const Burst& input, const CameraModel& camera,
   breaks.max_span = static_cast<float>(options.discontinuity_parallax / plane_parallax);
   breaks.min_relative_span = static_cast<float>(options.discontinuity_relative);
   breaks.zero_plane = static_cast<float>(-lattice.min_inverse_depth / lattice.step());
-  if (options.guided_radius > 0) {
-    cv::Mat guide;
+  // The reference on [0, 1]: the guide of the refinement and of the fill.
+  cv::Mat guide;
+  if (options.guided_radius > 0 || options.fill_holes)
     burst.gray[burst.reference()].convertTo(guide, CV_32F, 1.0 / 255.0);
+  if (options.guided_radius > 0) {
     // The filter returns a new image, so the raw winners stay as they are.
     const cv::Mat raw_plane = plane;
     plane = WeightedGuidedFilter(guide, raw_plane, weight, options.guided_radius,
@@ -351,12 +353,9 @@ DenseDepth ComputeDenseDepth(const Burst& input, const CameraModel& camera,
   timer.Lap("refine");
 
   if (options.fill_holes && result.valid_fraction < 1.0) {
-    cv::Mat guide;
-    burst.gray[burst.reference()].convertTo(guide, CV_32F, 1.0 / 255.0);
-    // Measured pixels are those with a depth (the discontinuity bands too are holes).
-    cv::Mat measured = weight.clone();
-    measured.setTo(0.0f, result.depth <= 0.0f);
-    const cv::Mat filled = FillHoles(plane, measured, guide, options.completion);
+    // Measured pixels weigh in with their confidence, which is 0 at every
+    // pixel without a depth (the discontinuity bands too are holes).
+    const cv::Mat filled = FillHoles(plane, result.confidence, guide, options.completion);
     if (!filled.empty()) {
       result.depth_filled = result.depth.clone();
       const float last = static_cast<float>(lattice.planes - 1);
