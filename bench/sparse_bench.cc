@@ -68,11 +68,19 @@ void BM_FeaturesAndKlt(benchmark::State& state) {
   options.frames = 10;
   options.supersampling = 2;
   const std::vector<cv::Mat> gray = ToBurst(SynthesizeBurst(options)).gray;
+  GridedFeatureOptions features;
+  features.gain_bias = state.range(0) != 0;
   GridedFeatureStats stats;
-  for (auto _ : state) benchmark::DoNotOptimize(TrackGridedFeatures(gray, 0, {}, &stats));
+  for (auto _ : state) benchmark::DoNotOptimize(TrackGridedFeatures(gray, 0, features, &stats));
   state.counters["tracks"] = stats.tracks;
 }
-BENCHMARK(BM_FeaturesAndKlt)->Unit(benchmark::kMillisecond)->UseRealTime();
+// gain_bias:0 is KLT alone, to read the realignment's cost as a ratio in one run.
+BENCHMARK(BM_FeaturesAndKlt)
+    ->Arg(1)
+    ->Arg(0)
+    ->ArgName("gain_bias")
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 }  // namespace
 }  // namespace dfsm

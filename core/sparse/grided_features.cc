@@ -94,18 +94,35 @@ FeatureTracks TrackGridedFeatures(const std::vector<cv::Mat>& frames, int refere
       const bool inside = forward[j].x >= 0 && forward[j].y >= 0 &&
                           forward[j].x <= frames[i].cols - 1 && forward[j].y <= frames[i].rows - 1;
       valid[i][j] = status_forward[j] && status_backward[j] && inside && d.dot(d) <= max_fb2;
+
       // A lost track keeps its neighbour's position as the next frame's guess.
       if (!valid[i][j]) forward[j] = positions[neighbour][j];
     }
     positions[i] = std::move(forward);
   }
 
-  std::vector<int> kept;
-  for (int j = 0; j < m; ++j) {
-    bool all = true;
-    for (int i = 0; i < n && all; ++i) all = valid[i][j] != 0;
-    if (all) kept.push_back(j);
+  std::vector<uchar> tracked(m, 1);
+  for (int j = 0; j < m; ++j)
+    for (int i = 0; i < n; ++i) tracked[j] = tracked[j] && valid[i][j];
+  if (options.gain_bias && m > 0) {
+    // Track by track, so that each reference patch is prepared once for all
+    // of its frames; only the tracks KLT kept in every frame.
+    GainBiasAlignmentOptions alignment = options.alignment;
+    alignment.window = options.klt_window;
+    const GainBiasAligner aligner(ref, alignment);
+    cv::parallel_for_(cv::Range(0, m), [&](const cv::Range& range) {
+      GainBiasAligner::Patch patch;
+      for (int j = range.start; j < range.end; ++j) {
+        if (!tracked[j]) continue;
+        tracked[j] = aligner.Prepare(corners[j], &patch);
+        for (int i = 0; i < n && tracked[j]; ++i)
+          if (i != reference) tracked[j] = aligner.Align(patch, frames[i], &positions[i][j]);
+      }
+    });
   }
+  std::vector<int> kept;
+  for (int j = 0; j < m; ++j)
+    if (tracked[j]) kept.push_back(j);
   FeatureTracks tracks;
   tracks.reference = reference;
   tracks.pixels.assign(n, Eigen::Matrix2Xd(2, kept.size()));

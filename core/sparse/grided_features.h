@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "core/sparse/feature_tracks.h"
+#include "core/sparse/gain_bias_alignment.h"
 
 namespace dfsm {
 
@@ -33,6 +34,13 @@ struct GridedFeatureOptions {
   // and at 2 deg of VGA tremor they cost up to 0.75 points of focal accuracy
   // at 0.3 px (seed 1: 0.41 -> 1.16 %), 0.5 at 0.2 px (0.91 %).
   double max_forward_backward_px = 0.2;
+  // Each match that passes the check is realigned at full resolution with a
+  // gain and a bias of its own (gain_bias_alignment.h; its window is
+  // klt_window), and dropped where that fails. Off, vignetting and
+  // white-balance drift moved f by 8-23 % on the generator's phone and webcam
+  // bursts at 640x480 (docs/sparse.md, "A gain and a bias per track").
+  bool gain_bias = true;
+  GainBiasAlignmentOptions alignment;
 };
 
 // At most this many grid cells: the tracks, the adjustment's size and its

@@ -5,16 +5,13 @@
 #include <opencv2/imgproc.hpp>
 #include <set>
 
+#include "core/sparse/random_texture.h"
+
 namespace dfsm {
 namespace {
 
 cv::Mat Texture(int width, int height, uint64_t seed) {
-  cv::Mat noise(height / 4, width / 4, CV_8UC1);
-  cv::RNG(seed).fill(noise, cv::RNG::UNIFORM, 0, 256);
-  cv::Mat texture;
-  cv::resize(noise, texture, cv::Size(width, height), 0, 0, cv::INTER_CUBIC);
-  cv::GaussianBlur(texture, texture, cv::Size(0, 0), 1.0);
-  return texture;
+  return RandomTexture(width, height, seed, 1.0);
 }
 
 cv::Mat Shift(const cv::Mat& image, double dx, double dy) {

@@ -1,0 +1,77 @@
+// Sub-pixel alignment of one patch with a gain and a bias of its own (the
+// "linear appearance variation" of Baker & Matthews, IJCV 2004, with one
+// brightness basis and a constant): minimizes, over the position p and the
+// gain a and bias b,
+//
+//   sum_w  g(w) ( I(p + w) - a T(w) - b )^2,
+//
+// where T is the reference patch around its corner, w runs over a square
+// window and g is a Gaussian weight. Pyramidal KLT assumes brightness
+// constancy; under vignetting, white-balance drift or a gain left over by the
+// per-frame compensation a patch's brightness changes with its position, and
+// KLT moves the match to where the brightness fits rather than where the
+// texture does. Neighbouring tracks share that shift, so the bundle
+// adjustment reads it as focal length and distortion (docs/sparse.md, "A gain
+// and a bias per track").
+#pragma once
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+#include <vector>
+
+namespace dfsm {
+
+struct GainBiasAlignmentOptions {
+  // Odd side of the square window in pixels.
+  int window = 21;
+  // Sigma of the Gaussian weight over the window (px). A uniform window let
+  // the gain trade against the shift of edges near its border: ideal bursts
+  // lost up to 0.7 points of AbsRel and TUM's self-calibrated f wandered on
+  // two windows; sigma 7 in a 21 px window kept both, 3.5 lost the phone
+  // bursts' gain (docs/sparse.md).
+  double weight_sigma_px = 7.0;
+  int max_iterations = 20;
+  // Stop when a Gauss-Newton step moves the position by less than this (px).
+  double epsilon_px = 1e-3;
+  // A match that moves further than this from its start is not trusted: the
+  // start is a KLT match that passed the forward-backward check, and a gain
+  // explains sub-pixel shifts, not pixel-sized ones.
+  double max_shift_px = 0.5;
+  // A gain outside (1 / max_gain, max_gain) is a different surface, not the
+  // same one seen darker.
+  double max_gain = 2.0;
+
+  bool Check() const;
+};
+
+// Aligns patches of one reference frame in other frames of the same size.
+class GainBiasAligner {
+ public:
+  // One reference patch and what the normal equations need of it, prepared
+  // once for aligning it in every frame.
+  struct Patch {
+    std::vector<float> intensity;  // T, row-major over the window
+    std::vector<float> weighted;   // g Tx, g Ty, g T, g: four arrays of the window's size
+    Eigen::Matrix4d sums;          // sum g [Tx Ty T 1]^T [Tx Ty T 1] (lower triangle)
+  };
+
+  // `reference`: 8-bit gray.
+  GainBiasAligner(const cv::Mat& reference, const GainBiasAlignmentOptions& options);
+
+  // Prepares the reference patch around `corner`; false where the window
+  // leaves the reference.
+  bool Prepare(cv::Point2f corner, Patch* patch) const;
+
+  // Aligns a prepared patch in `image` (8-bit gray, the reference's size),
+  // starting from `*position`. Returns false, leaving `*position` as it was,
+  // when the window leaves the image, the system is singular, or a bound of
+  // the options is broken.
+  bool Align(const Patch& patch, const cv::Mat& image, cv::Point2f* position) const;
+
+ private:
+  GainBiasAlignmentOptions options_;
+  cv::Mat intensity_, dx_, dy_;  // CV_32F; the derivatives in grey levels per pixel
+  std::vector<double> weights_;  // g per window pixel, row-major
+};
+
+}  // namespace dfsm
