@@ -2,6 +2,7 @@
 
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
+#include <algorithm>
 #include <cmath>
 #include <opencv2/imgproc.hpp>
 
@@ -29,7 +30,7 @@ bool WindowInside(const cv::Mat& image, cv::Point2f centre, int half) {
 
 bool GainBiasAlignmentOptions::Check() const {
   return window >= 3 && window % 2 == 1 && weight_sigma_px > 0.0 && max_iterations >= 1 &&
-         epsilon_px > 0.0 && max_shift_px > 0.0 && max_gain > 1.0;
+         epsilon_px > 0.0 && max_shift_px > 0.0 && max_shift_fraction >= 0.0 && max_gain > 1.0;
 }
 
 GainBiasAligner::GainBiasAligner(const cv::Mat& reference, const GainBiasAlignmentOptions& options)
@@ -59,6 +60,7 @@ bool GainBiasAligner::Prepare(cv::Point2f corner, Patch* patch) const {
   patch->intensity.resize(size);
   patch->weighted.resize(4 * size);
   patch->sums.setZero();
+  patch->corner = corner;
   for (int v = -half, k = 0; v <= half; ++v) {
     for (int u = -half; u <= half; ++u, ++k) {
       const float x = corner.x + static_cast<float>(u), y = corner.y + static_cast<float>(v);
@@ -131,8 +133,10 @@ bool GainBiasAligner::Align(const Patch& patch, const cv::Mat& image, cv::Point2
     bias += step[3];
     converged = std::hypot(step[0], step[1]) < options_.epsilon_px;
   }
-  const cv::Point2f shift = p - start;
-  if (std::hypot(shift.x, shift.y) > options_.max_shift_px) return false;
+  const cv::Point2f shift = p - start, travel = start - patch.corner;
+  if (std::hypot(shift.x, shift.y) >
+      std::max(options_.max_shift_px, options_.max_shift_fraction * std::hypot(travel.x, travel.y)))
+    return false;
   if (!(gain > 1.0 / options_.max_gain && gain < options_.max_gain)) return false;
   *position = p;
   return true;
