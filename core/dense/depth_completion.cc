@@ -86,7 +86,11 @@ cv::Mat FillHoles(const cv::Mat& values, const cv::Mat& weight, const cv::Mat& g
   cv::Mat filled, unreached = w0 <= 0.0f;
   if (options.smoother.lambda > 0.0) {
     cv::Mat value = values.mul(w0), spread_weight = w0.clone();
-    SmoothAlongEdges(guide * 255.0f, {&value, &spread_weight}, options.smoother);
+    // The guide is in [0, 1] and the smoother's sigma in grey levels: scaling
+    // the sigma instead of the guide saves a full-size image.
+    GlobalSmootherOptions smoother = options.smoother;
+    smoother.sigma /= 255.0;
+    SmoothAlongEdges(guide, {&value, &spread_weight}, smoother);
     cv::divide(value, cv::max(spread_weight, kMinSpreadWeight), filled);
     unreached &= spread_weight < kMinSpreadWeight;
   }

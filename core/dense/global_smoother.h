@@ -36,7 +36,8 @@ struct GlobalSmootherOptions {
 };
 
 // Smooths every image of `images` (CV_32FC1, the guide's size) in place with
-// the weights of `guide` (CV_32FC1, grey levels 0-255). The images share the
+// the weights of `guide` (CV_32FC1, in the units of options.sigma: grey
+// levels 0-255 for the default). The images share the
 // guide's weights and the systems' factorization.
 void SmoothAlongEdges(const cv::Mat& guide, const std::vector<cv::Mat*>& images,
                       const GlobalSmootherOptions& options = {});
