@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <cmath>
 #include <opencv2/imgproc.hpp>
+#include <stdexcept>
+#include <string>
 
 namespace dfsm {
 namespace {
@@ -28,14 +30,21 @@ bool WindowInside(const cv::Mat& image, cv::Point2f centre, int half) {
 
 }  // namespace
 
-bool GainBiasAlignmentOptions::Check() const {
-  return window >= 3 && window % 2 == 1 && weight_sigma_px > 0.0 && max_iterations >= 1 &&
-         epsilon_px > 0.0 && max_shift_px > 0.0 && max_shift_fraction >= 0.0 && max_gain > 1.0;
+void GainBiasAlignmentOptions::Check() const {
+  if (!(window >= 3 && window % 2 == 1))
+    throw std::invalid_argument("window must be odd and >= 3, got " + std::to_string(window));
+  if (!(weight_sigma_px > 0.0)) throw std::invalid_argument("weight_sigma_px must be > 0");
+  if (max_iterations < 1) throw std::invalid_argument("max_iterations must be >= 1");
+  if (!(epsilon_px > 0.0)) throw std::invalid_argument("epsilon_px must be > 0");
+  if (!(max_shift_px > 0.0)) throw std::invalid_argument("max_shift_px must be > 0");
+  if (!(max_shift_fraction >= 0.0)) throw std::invalid_argument("max_shift_fraction must be >= 0");
+  if (!(max_gain > 1.0)) throw std::invalid_argument("max_gain must be > 1");
 }
 
 GainBiasAligner::GainBiasAligner(const cv::Mat& reference, const GainBiasAlignmentOptions& options)
     : options_(options) {
-  CV_Assert(options.Check() && reference.type() == CV_8UC1);
+  options.Check();
+  CV_Assert(reference.type() == CV_8UC1);
   reference.convertTo(intensity_, CV_32F);
   // Scharr's derivative, as OpenCV's KLT takes it.
   cv::Scharr(intensity_, dx_, CV_32F, 1, 0, 1.0 / 32.0);

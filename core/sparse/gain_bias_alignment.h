@@ -47,7 +47,8 @@ struct GainBiasAlignmentOptions {
   // same one seen darker.
   double max_gain = 2.0;
 
-  bool Check() const;
+  // Throws std::invalid_argument naming the option out of range.
+  void Check() const;
 };
 
 // Aligns patches of one reference frame in other frames of the same size.

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <opencv2/imgproc.hpp>
+#include <stdexcept>
 
 #include "core/sparse/grided_features.h"
 #include "core/sparse/random_texture.h"
@@ -38,13 +39,13 @@ cv::Mat ShiftAndRelight(const cv::Mat& image, double dx, double dy, double gain_
 }
 
 TEST(GainBiasAlignment, OptionsCheck) {
-  EXPECT_TRUE(GainBiasAlignmentOptions{}.Check());
+  EXPECT_NO_THROW(GainBiasAlignmentOptions{}.Check());
   GainBiasAlignmentOptions even;
   even.window = 20;
-  EXPECT_FALSE(even.Check());
+  EXPECT_THROW(even.Check(), std::invalid_argument);
   GainBiasAlignmentOptions gain;
   gain.max_gain = 1.0;
-  EXPECT_FALSE(gain.Check());
+  EXPECT_THROW(gain.Check(), std::invalid_argument);
 }
 
 TEST(GainBiasAlignment, RecoversTheShiftUnderAGainAndABias) {
