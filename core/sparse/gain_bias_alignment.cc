@@ -142,6 +142,9 @@ bool GainBiasAligner::Align(const Patch& patch, const cv::Mat& image, cv::Point2
     bias += step[3];
     converged = std::hypot(step[0], step[1]) < options_.epsilon_px;
   }
+  // A solve still moving after max_iterations oscillates between two fits of
+  // the patch (0-4 of ~2000 realignments per burst): neither is trusted.
+  if (!converged) return false;
   const cv::Point2f shift = p - start, travel = start - patch.corner;
   if (std::hypot(shift.x, shift.y) >
       std::max(options_.max_shift_px, options_.max_shift_fraction * std::hypot(travel.x, travel.y)))

@@ -72,8 +72,8 @@ class GainBiasAligner {
 
   // Aligns a prepared patch in `image` (8-bit gray, the reference's size),
   // starting from `*position`. Returns false, leaving `*position` as it was,
-  // when the window leaves the image, the system is singular, or a bound of
-  // the options is broken.
+  // when the window leaves the image, the system is singular, the solve has
+  // not converged within max_iterations, or a bound of the options is broken.
   bool Align(const Patch& patch, const cv::Mat& image, cv::Point2f* position) const;
 
  private:

@@ -36,7 +36,8 @@ struct GridedFeatureOptions {
   double max_forward_backward_px = 0.2;
   // Each match that passes the check is realigned at full resolution with a
   // gain and a bias of its own (gain_bias_alignment.h; its window is
-  // klt_window), and dropped where that fails. Off, vignetting and
+  // klt_window, which overrides alignment.window and must be odd), and
+  // dropped where that fails. Off, vignetting and
   // white-balance drift moved f by 8-23 % on the generator's phone and webcam
   // bursts at 640x480 (docs/sparse.md, "A gain and a bias per track").
   bool gain_bias = true;
