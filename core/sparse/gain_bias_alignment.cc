@@ -11,16 +11,6 @@
 namespace dfsm {
 namespace {
 
-// Bilinear sample of a CV_32F image; (x, y) must lie in [0, cols-1) x [0, rows-1).
-float Sample(const cv::Mat& image, float x, float y) {
-  const int x0 = static_cast<int>(x), y0 = static_cast<int>(y);
-  const float ax = x - static_cast<float>(x0), ay = y - static_cast<float>(y0);
-  const float* row0 = image.ptr<float>(y0) + x0;
-  const float* row1 = image.ptr<float>(y0 + 1) + x0;
-  return (1.0f - ay) * ((1.0f - ax) * row0[0] + ax * row0[1]) +
-         ay * ((1.0f - ax) * row1[0] + ax * row1[1]);
-}
-
 bool WindowInside(const cv::Mat& image, cv::Point2f centre, int half) {
   const float h = static_cast<float>(half);
   return centre.x - h >= 0.0f && centre.y - h >= 0.0f &&
@@ -66,21 +56,26 @@ bool GainBiasAligner::Prepare(cv::Point2f corner, Patch* patch) const {
   // normal matrix is a fixed sum scaled by the gain, and an iteration only
   // accumulates the residual against the four weighted columns.
   const size_t size = weights_.size();
-  patch->intensity.resize(size);
+  // The window's samples (OpenCV's bilinear patch extraction; exact copies at
+  // the whole-pixel corners the detector gives).
+  const cv::Size side(options_.window, options_.window);
+  cv::Mat t, tx, ty;
+  cv::getRectSubPix(intensity_, side, corner, t, CV_32F);
+  cv::getRectSubPix(dx_, side, corner, tx, CV_32F);
+  cv::getRectSubPix(dy_, side, corner, ty, CV_32F);
+  patch->intensity.assign(t.begin<float>(), t.end<float>());
   patch->weighted.resize(4 * size);
-  patch->sums.setZero();
+  Eigen::Matrix4d sums = Eigen::Matrix4d::Zero();
   patch->corner = corner;
-  for (int v = -half, k = 0; v <= half; ++v) {
-    for (int u = -half; u <= half; ++u, ++k) {
-      const float x = corner.x + static_cast<float>(u), y = corner.y + static_cast<float>(v);
-      const Eigen::Vector4d column(Sample(dx_, x, y), Sample(dy_, x, y), Sample(intensity_, x, y),
-                                   1.0);
-      patch->sums.selfadjointView<Eigen::Lower>().rankUpdate(column, weights_[k]);
-      patch->intensity[k] = static_cast<float>(column[2]);
-      for (int c = 0; c < 4; ++c)
-        patch->weighted[c * size + k] = static_cast<float>(weights_[k] * column[c]);
-    }
+  const float* t_x = tx.ptr<float>();
+  const float* t_y = ty.ptr<float>();
+  for (size_t k = 0; k < size; ++k) {
+    const Eigen::Vector4d column(t_x[k], t_y[k], patch->intensity[k], 1.0);
+    sums.selfadjointView<Eigen::Lower>().rankUpdate(column, weights_[k]);
+    for (int c = 0; c < 4; ++c)
+      patch->weighted[c * size + k] = static_cast<float>(weights_[k] * column[c]);
   }
+  patch->sums = sums.selfadjointView<Eigen::Lower>();
   return true;
 }
 
@@ -92,7 +87,6 @@ bool GainBiasAligner::Align(const Patch& patch, const cv::Mat& image, cv::Point2
   const float* w_ty = w_tx + size;
   const float* w_t = w_ty + size;
   const float* w_1 = w_t + size;
-  const Eigen::Matrix4d sums = patch.sums.selfadjointView<Eigen::Lower>().toDenseMatrix();
 
   const cv::Point2f start = *position;
   cv::Point2f p = start;
@@ -131,7 +125,7 @@ bool GainBiasAligner::Align(const Patch& patch, const cv::Mat& image, cv::Point2
     const Eigen::Vector4d gradient(gain * r_tx, gain * r_ty, -r_t, -r_1);
     // J^T g J with J = [a Tx, a Ty, -T, -1]: the sums scaled by diag(a, a, -1, -1).
     const Eigen::Vector4d scale(gain, gain, -1.0, -1.0);
-    const Eigen::Matrix4d normal = scale.asDiagonal() * sums * scale.asDiagonal();
+    const Eigen::Matrix4d normal = scale.asDiagonal() * patch.sums * scale.asDiagonal();
     const Eigen::LDLT<Eigen::Matrix4d> solver(normal);
     if (solver.info() != Eigen::Success || !solver.isPositive()) return false;
     const Eigen::Vector4d step = solver.solve(-gradient);

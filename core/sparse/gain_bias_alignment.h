@@ -59,7 +59,7 @@ class GainBiasAligner {
   struct Patch {
     std::vector<float> intensity;  // T, row-major over the window
     std::vector<float> weighted;   // g Tx, g Ty, g T, g: four arrays of the window's size
-    Eigen::Matrix4d sums;          // sum g [Tx Ty T 1]^T [Tx Ty T 1] (lower triangle)
+    Eigen::Matrix4d sums;          // sum g [Tx Ty T 1]^T [Tx Ty T 1]
     cv::Point2f corner;
   };
 

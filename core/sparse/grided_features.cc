@@ -94,7 +94,6 @@ FeatureTracks TrackGridedFeatures(const std::vector<cv::Mat>& frames, int refere
       const bool inside = forward[j].x >= 0 && forward[j].y >= 0 &&
                           forward[j].x <= frames[i].cols - 1 && forward[j].y <= frames[i].rows - 1;
       valid[i][j] = status_forward[j] && status_backward[j] && inside && d.dot(d) <= max_fb2;
-
       // A lost track keeps its neighbour's position as the next frame's guess.
       if (!valid[i][j]) forward[j] = positions[neighbour][j];
     }
