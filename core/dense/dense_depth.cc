@@ -61,6 +61,7 @@ void ValidateInputs(const Burst& burst, const CameraModel& camera, const std::ve
               " too small for coarse_scale " + std::to_string(scale));
   if (options.regularize) options.semi_global.Check();
   Require(options.refine_radius >= 1, "refine_radius must be >= 1");
+  Require(options.seed_prior >= 0.0, "seed_prior must be >= 0 (0: off)");
   Require(options.oversample_max_pixels >= 0, "oversample_max_pixels must be >= 0 (0: never)");
   Require(options.edge_guard_parallax >= 0.0 && options.discontinuity_parallax >= 0.0 &&
               options.discontinuity_relative >= 0.0 && options.discontinuity_radius >= 0,
@@ -254,6 +255,7 @@ DenseDepth ComputeDenseDepth(const Burst& input, const CameraModel& camera,
     result.fine_planes = window;
     result.fine_stride = stride;
     cv::Mat first(full, CV_32SC1), coarse_confidence(full, CV_32FC1);
+    cv::Mat seed = options.seed_prior > 0.0 ? cv::Mat(full, CV_32FC1) : cv::Mat();
     ParallelRows(full.height, [&](int y) {
       const int r0 = rows.lower[y], r1 = r0 + rows.step[y];
       const float ty = rows.t[y];
@@ -262,12 +264,14 @@ DenseDepth ComputeDenseDepth(const Burst& input, const CameraModel& camera,
       const float* c0 = coarse_selection.confidence.ptr<float>(r0);
       const float* c1 = coarse_selection.confidence.ptr<float>(r1);
       int* f = first.ptr<int>(y);
+      float* s = seed.empty() ? nullptr : seed.ptr<float>(y);
       float* c = coarse_confidence.ptr<float>(y);
       // An outlier's zero would only dim its neighbours' confidence when
       // interpolated: every full-resolution pixel nearest to one is left out.
       const uchar* outlier = outliers.empty() ? nullptr : outliers.ptr<uchar>(rows.Nearest(y));
       for (int x = 0; x < full.width; ++x) {
         const float centre = Upsampled(p0, p1, ty, columns, x);
+        if (s) s[x] = centre;
         f[x] = std::clamp(static_cast<int>(std::lround(centre)) - reach, 0,
                           lattice.planes - 1 - (window - 1) * stride);
         c[x] = outlier && outlier[columns.Nearest(x)] ? 0.0f : Upsampled(c0, c1, ty, columns, x);
@@ -283,6 +287,11 @@ DenseDepth ComputeDenseDepth(const Burst& input, const CameraModel& camera,
       cost.wide_window_mask =
           WeakTextureMask(fine.reference, cost.wide_window_radius, options.weak_texture_gradient);
     }
+    // seed_prior is per squared pixel of parallax; the selection's weight per
+    // squared slice, `stride` lattice planes.
+    cost.seed_prior.seed = seed;
+    cost.seed_prior.weight =
+        static_cast<float>(options.seed_prior * std::pow(stride * plane_parallax, 2));
     const PlaneSelection fine_selection =
         SweepPlaneWindow(fine, lattice, first, window, stride, cost);
     timer.Lap("fine_sweep");

@@ -58,6 +58,14 @@ struct DenseOptions {
   // between them), so the window spans a similar parallax at every lattice density.
   int refine_radius = 3;
   int refine_stride = 0;
+  // The upsampled coarse winner as a prior in that window (SeedPrior,
+  // plane_selection.h): a plane d pixels of parallax (in the frame that moves
+  // most) from the seed costs seed_prior x d^2 grey levels more. The coarse
+  // winner was regularized over its surroundings, the full-resolution curve
+  // of a weakly textured or noisy pixel is shallow: there the seed decides,
+  // where texture is sharp the curve does. 0: off. docs/dense.md, "The seed
+  // as a prior".
+  double seed_prior = 0.1;
   // Aggregation window half-widths (pixels of the respective level).
   int coarse_window_radius = 2;
   int fine_window_radius = 3;

@@ -71,6 +71,11 @@ PlaneSelection SelectPlanes(const std::vector<cv::Mat>& costs, const cv::Mat& fi
 
 void SelectPlanesInto(const std::vector<cv::Mat>& costs, const cv::Mat& first_plane, int stride,
                       PlaneSelection* out) {
+  SelectPlanesNearSeedInto(costs, first_plane, stride, {}, out);
+}
+
+void SelectPlanesNearSeedInto(const std::vector<cv::Mat>& costs, const cv::Mat& first_plane,
+                              int stride, const SeedPrior& prior, PlaneSelection* out) {
   CV_Assert(!costs.empty());
   const int n = static_cast<int>(costs.size());
   const cv::Size size = costs[0].size();
@@ -78,6 +83,9 @@ void SelectPlanesInto(const std::vector<cv::Mat>& costs, const cv::Mat& first_pl
   CV_Assert(out->confidence.size() == size && out->confidence.type() == CV_32FC1);
   CV_Assert(out->at_edge.size() == size && out->at_edge.type() == CV_8UC1);
   CV_Assert(first_plane.empty() || (first_plane.size() == size && first_plane.type() == CV_32SC1));
+  const bool with_prior = prior.weight > 0.0f;
+  CV_Assert(prior.weight >= 0.0f && stride >= 1);
+  CV_Assert(!with_prior || (prior.seed.size() == size && prior.seed.type() == CV_32FC1));
   PlaneSelection& selection = *out;
   cv::parallel_for_(cv::Range(0, size.height), [&](const cv::Range& rows) {
     std::vector<const float*> slice(n);
@@ -85,13 +93,29 @@ void SelectPlanesInto(const std::vector<cv::Mat>& costs, const cv::Mat& first_pl
     for (int y = rows.start; y < rows.end; ++y) {
       for (int k = 0; k < n; ++k) slice[k] = costs[k].ptr<float>(y);
       const int* first = first_plane.empty() ? nullptr : first_plane.ptr<int>(y);
+      const float* seed = with_prior ? prior.seed.ptr<float>(y) : nullptr;
       float* plane = selection.plane.ptr<float>(y);
       float* confidence = selection.confidence.ptr<float>(y);
       uchar* at_edge = selection.at_edge.ptr<uchar>(y);
       for (int x = 0; x < size.width; ++x) {
         for (int k = 0; k < n; ++k) curve[k] = slice[k][x];
+        if (!with_prior) {
+          SelectCurve(curve.data(), n, first ? first[x] : 0, stride, &plane[x], &confidence[x],
+                      &at_edge[x]);
+          continue;
+        }
+        // The edge flag of the photo-consistency alone.
+        const int best =
+            static_cast<int>(std::min_element(curve.begin(), curve.end()) - curve.begin());
+        const uchar raw_edge = curve[best] < kNoCost && (best == 0 || best == n - 1) ? 255 : 0;
+        const float seed_slice = (seed[x] - (first ? first[x] : 0)) / stride;
+        for (int k = 0; k < n; ++k) {
+          const float offset = k - seed_slice;
+          if (curve[k] < kNoCost) curve[k] += prior.weight * offset * offset;
+        }
         SelectCurve(curve.data(), n, first ? first[x] : 0, stride, &plane[x], &confidence[x],
                     &at_edge[x]);
+        at_edge[x] = raw_edge;
       }
     }
   });

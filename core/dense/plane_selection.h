@@ -34,6 +34,23 @@ void SelectCurve(const float* curve, int n, int first, int stride, float* plane,
 void SelectPlanesInto(const std::vector<cv::Mat>& costs, const cv::Mat& first_plane, int stride,
                       PlaneSelection* selection);
 
+// A prior on the winner of a window of planes: the curve of every pixel gets
+// weight x (k - k_seed)^2 added before the winner is selected, k_seed =
+// (seed - first_plane) / stride the seed's fractional slice. The winner is
+// then the maximum a posteriori plane under a Gaussian prior around the seed
+// (for a cost that is quadratic near its minimum): where the photo-
+// consistency is sharp it decides; where it is shallow (weak texture, noise)
+// the seed does. The edge flag is the photo-consistency's alone, so a
+// minimum beyond the window is still told.
+struct SeedPrior {
+  cv::Mat seed;         // CV_32FC1, fractional lattice index, the costs' size
+  float weight = 0.0f;  // cost per squared slice offset; 0: no prior
+};
+
+// SelectPlanesInto with the winners drawn towards `prior.seed` (see SeedPrior).
+void SelectPlanesNearSeedInto(const std::vector<cv::Mat>& costs, const cv::Mat& first_plane,
+                              int stride, const SeedPrior& prior, PlaneSelection* selection);
+
 // The confidence of given winners (plane: CV_32FC1 index into `costs`,
 // rounded; -1 for none) on the curves of `costs`: the confidence SelectPlanes
 // gives the minimum of the valley that holds the winner (found by walking

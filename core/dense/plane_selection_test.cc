@@ -33,6 +33,48 @@ TEST(PlaneSelectionTest, WindowOffsetAndStrideMapBackToTheLattice) {
   EXPECT_FLOAT_EQ(selection.plane.at<float>(0, 0), 46.0f);  // 40 + 2 * 3
 }
 
+// The winner of a curve under a SeedPrior, as a fine window selects it.
+PlaneSelection SelectNearSeed(const std::vector<float>& curve, int first, int stride, float seed,
+                              float weight) {
+  PlaneSelection selection{cv::Mat(1, 1, CV_32FC1), cv::Mat(1, 1, CV_32FC1),
+                           cv::Mat(1, 1, CV_8UC1)};
+  SeedPrior prior;
+  prior.seed = cv::Mat(1, 1, CV_32FC1, cv::Scalar(seed));
+  prior.weight = weight;
+  SelectPlanesNearSeedInto(Volume(curve), cv::Mat(1, 1, CV_32SC1, cv::Scalar(first)), stride, prior,
+                           &selection);
+  return selection;
+}
+
+TEST(PlaneSelectionTest, SeedPriorIsTheMaximumAPosterioriOfTwoQuadratics) {
+  // A cost a (k - 2)^2 and a prior w (k - 4)^2 (the seed at lattice plane
+  // 10 + 4 * 2 = 18): the sum is least at (a 2 + w 4) / (a + w), which the
+  // parabola through the three best samples finds exactly.
+  const float a = 1.0f, w = 0.5f;
+  std::vector<float> curve;
+  for (int k = 0; k < 7; ++k) curve.push_back(a * (k - 2.0f) * (k - 2.0f) + 3.0f);
+  const PlaneSelection near_seed = SelectNearSeed(curve, 10, 2, 18.0f, w);
+  EXPECT_NEAR(near_seed.plane.at<float>(0, 0), 10.0f + 2.0f * (a * 2 + w * 4) / (a + w), 1e-4f);
+  // A sharp curve hardly moves, a shallow one follows the seed.
+  for (float& c : curve) c *= 100.0f;
+  EXPECT_NEAR(SelectNearSeed(curve, 10, 2, 18.0f, w).plane.at<float>(0, 0), 14.0f, 0.05f);
+  // No weight: the plain winner.
+  EXPECT_FLOAT_EQ(SelectNearSeed(curve, 10, 2, 18.0f, 0.0f).plane.at<float>(0, 0), 14.0f);
+}
+
+TEST(PlaneSelectionTest, SeedPriorLeavesTheEdgeFlagToThePhotoConsistency) {
+  // The photo-consistency falls towards the window's first slice (its
+  // minimum lies beyond the window); the prior pulls the winner inside, but
+  // the flag still says the search did not reach the minimum.
+  const std::vector<float> falling = {1.0f, 1.1f, 1.2f, 1.3f, 1.4f, 1.5f, 1.6f};
+  const PlaneSelection flagged = SelectNearSeed(falling, 0, 1, 3.0f, 1.0f);
+  EXPECT_GT(flagged.plane.at<float>(0, 0), 2.0f);
+  EXPECT_EQ(flagged.at_edge.at<uchar>(0, 0), 255);
+  // A minimum inside the window stays unflagged however far the seed is.
+  const std::vector<float> inside = {3, 2, 1, 2, 3, 4, 5};
+  EXPECT_EQ(SelectNearSeed(inside, 0, 1, 6.0f, 1.0f).at_edge.at<uchar>(0, 0), 0);
+}
+
 TEST(PlaneSelectionTest, RivalValleyLowersTheConfidence) {
   // Two valleys of nearly equal depth (a repetitive texture): low confidence.
   const std::vector<float> ambiguous = {9, 5, 2.0f, 5, 9, 5, 2.1f, 5, 9};

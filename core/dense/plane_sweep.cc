@@ -259,9 +259,15 @@ struct BandSlices {
               const cv::Mat& first_plane, int stride, PlaneSelection& selection) {
     Aggregate(band, frames, options);
     PlaneSelection rows = SelectionRows(selection, band);
-    SelectPlanesInto(sums,
-                     first_plane.empty() ? cv::Mat() : first_plane.rowRange(band.first, band.last),
-                     stride, &rows);
+    const cv::Mat first =
+        first_plane.empty() ? cv::Mat() : first_plane.rowRange(band.first, band.last);
+    if (options.seed_prior.weight > 0.0f && !first_plane.empty()) {
+      SeedPrior prior = options.seed_prior;
+      prior.seed = prior.seed.rowRange(band.first, band.last);
+      SelectPlanesNearSeedInto(sums, first, stride, prior, &rows);
+    } else {
+      SelectPlanesInto(sums, first, stride, &rows);
+    }
   }
 };
 
@@ -343,6 +349,8 @@ PlaneSelection SweepPlaneWindow(const SweepLevel& level, const InverseDepthLatti
                                 const cv::Mat& first_plane, int count, int stride,
                                 const PhotoCostOptions& options) {
   CV_Assert(first_plane.type() == CV_32SC1 && first_plane.size() == level.reference.size());
+  CV_Assert(options.seed_prior.weight <= 0.0f ||
+            options.seed_prior.seed.size() == level.reference.size());
   CheckWideWindowMask(level, options);
   const int frames = static_cast<int>(level.frames.size());
   const cv::Size size = level.reference.size();

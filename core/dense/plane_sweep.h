@@ -41,6 +41,9 @@ struct PhotoCostOptions {
   // between their two projections (see SweepPlaneWindow for why that holds).
   // The caller picks it so that a segment spans a couple of pixels of parallax.
   int projected_every = 1;
+  // SweepPlaneWindow only: the winners are drawn towards a seed (SeedPrior,
+  // plane_selection.h; its seed on the level's grid). weight 0: off.
+  SeedPrior seed_prior;
 };
 
 // The cost volume is streamed: the level is swept in bands of rows (plus
@@ -71,7 +74,8 @@ std::vector<cv::Mat> SweepAllPlaneCosts(const SweepLevel& level, const InverseDe
 // aggregated slice by slice, i.e. at their own window's k-th plane: exact
 // where first_plane is locally constant, which the caller's smooth coarse
 // estimate makes almost everywhere. Returns the winners as SelectPlanes(costs,
-// first_plane, stride) would.
+// first_plane, stride) would, or, with options.seed_prior, as
+// SelectPlanesNearSeedInto does.
 PlaneSelection SweepPlaneWindow(const SweepLevel& level, const InverseDepthLattice& lattice,
                                 const cv::Mat& first_plane, int count, int stride,
                                 const PhotoCostOptions& options);
