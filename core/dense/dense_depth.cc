@@ -314,6 +314,7 @@ DenseDepth ComputeDenseDepth(const Burst& input, const CameraModel& camera,
   // the fill, where the stage peaks at 1080p, need 60-70 MB less.
   frames = std::vector<cv::Mat>();
   reference.release();
+  cost = PhotoCostOptions();  // the seed and the weak-texture mask
 
   const float min_confidence = static_cast<float>(options.min_confidence);
   cv::Mat weight(plane.size(), CV_32FC1);

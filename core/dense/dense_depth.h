@@ -64,7 +64,7 @@ struct DenseOptions {
   // winner was regularized over its surroundings, the full-resolution curve
   // of a weakly textured or noisy pixel is shallow: there the seed decides,
   // where texture is sharp the curve does. 0: off. docs/dense.md, "The seed
-  // as a prior".
+  // as a prior in the fine window".
   double seed_prior = 0.1;
   // Aggregation window half-widths (pixels of the respective level).
   int coarse_window_radius = 2;

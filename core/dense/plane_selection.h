@@ -40,8 +40,10 @@ void SelectPlanesInto(const std::vector<cv::Mat>& costs, const cv::Mat& first_pl
 // then the maximum a posteriori plane under a Gaussian prior around the seed
 // (for a cost that is quadratic near its minimum): where the photo-
 // consistency is sharp it decides; where it is shallow (weak texture, noise)
-// the seed does. The edge flag is the photo-consistency's alone, so a
-// minimum beyond the window is still told.
+// the seed does. The edge flag is the photo-consistency's alone (its own
+// minimum on the window's first or last slice: the minimum may lie beyond
+// the window), so a miss is still told; the winner and its confidence are
+// those of the drawn curve.
 struct SeedPrior {
   cv::Mat seed;         // CV_32FC1, fractional lattice index, the costs' size
   float weight = 0.0f;  // cost per squared slice offset; 0: no prior

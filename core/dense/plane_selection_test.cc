@@ -64,15 +64,19 @@ TEST(PlaneSelectionTest, SeedPriorIsTheMaximumAPosterioriOfTwoQuadratics) {
 
 TEST(PlaneSelectionTest, SeedPriorLeavesTheEdgeFlagToThePhotoConsistency) {
   // The photo-consistency falls towards the window's first slice (its
-  // minimum lies beyond the window); the prior pulls the winner inside, but
-  // the flag still says the search did not reach the minimum.
+  // minimum may lie beyond the window): the prior pulls the winner inside
+  // (to 2.95), but the flag still says the search did not reach the minimum.
   const std::vector<float> falling = {1.0f, 1.1f, 1.2f, 1.3f, 1.4f, 1.5f, 1.6f};
   const PlaneSelection flagged = SelectNearSeed(falling, 0, 1, 3.0f, 1.0f);
-  EXPECT_GT(flagged.plane.at<float>(0, 0), 2.0f);
+  EXPECT_NEAR(flagged.plane.at<float>(0, 0), 2.95f, 1e-4f);
   EXPECT_EQ(flagged.at_edge.at<uchar>(0, 0), 255);
-  // A minimum inside the window stays unflagged however far the seed is.
+  // A minimum inside the window stays unflagged even where the prior pulls
+  // the winner onto the window's last slice: {3 + 72, 2 + 50, 1 + 32, 2 + 18,
+  // 3 + 8, 4 + 2, 5 + 0} with the seed on slice 6 and weight 2.
   const std::vector<float> inside = {3, 2, 1, 2, 3, 4, 5};
-  EXPECT_EQ(SelectNearSeed(inside, 0, 1, 6.0f, 1.0f).at_edge.at<uchar>(0, 0), 0);
+  const PlaneSelection pulled = SelectNearSeed(inside, 0, 1, 6.0f, 2.0f);
+  EXPECT_FLOAT_EQ(pulled.plane.at<float>(0, 0), 6.0f);
+  EXPECT_EQ(pulled.at_edge.at<uchar>(0, 0), 0);
 }
 
 TEST(PlaneSelectionTest, RivalValleyLowersTheConfidence) {

@@ -261,7 +261,7 @@ struct BandSlices {
     PlaneSelection rows = SelectionRows(selection, band);
     const cv::Mat first =
         first_plane.empty() ? cv::Mat() : first_plane.rowRange(band.first, band.last);
-    if (options.seed_prior.weight > 0.0f && !first_plane.empty()) {
+    if (options.seed_prior.weight > 0.0f && !first_plane.empty()) {  // SweepPlaneWindow
       SeedPrior prior = options.seed_prior;
       prior.seed = prior.seed.rowRange(band.first, band.last);
       SelectPlanesNearSeedInto(sums, first, stride, prior, &rows);
@@ -350,7 +350,8 @@ PlaneSelection SweepPlaneWindow(const SweepLevel& level, const InverseDepthLatti
                                 const PhotoCostOptions& options) {
   CV_Assert(first_plane.type() == CV_32SC1 && first_plane.size() == level.reference.size());
   CV_Assert(options.seed_prior.weight <= 0.0f ||
-            options.seed_prior.seed.size() == level.reference.size());
+            (options.seed_prior.seed.size() == level.reference.size() &&
+             options.seed_prior.seed.type() == CV_32FC1));
   CheckWideWindowMask(level, options);
   const int frames = static_cast<int>(level.frames.size());
   const cv::Size size = level.reference.size();

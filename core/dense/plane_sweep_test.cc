@@ -77,5 +77,43 @@ TEST(SweepPlaneWindow, WideWindowUnderAFullMaskEqualsThatWindowEverywhere) {
   EXPECT_GT(cv::norm(a.plane, c.plane, cv::NORM_INF), 0.0);  // the windows differ at all
 }
 
+// A seed prior that dominates the costs puts every winner on its seed, row
+// by row across the streamed bands (the seed's rows line up with the
+// bands'), while the edge flags stay the photo-consistency's.
+TEST(SweepPlaneWindow, ADominantSeedPriorPutsTheWinnersOnTheirSeeds) {
+  const SweepFixture f;
+  const RadialInverse radial(f.camera);
+  std::vector<Pose> burst_poses = {Pose{}};
+  burst_poses.insert(burst_poses.end(), f.poses.begin(), f.poses.end());
+  const SweepLevel level =
+      MakeSweepLevel(f.reference, f.frames, SweepPoses::Make(burst_poses, 0, 0.0, f.camera.height),
+                     f.camera, radial, 1);
+  InverseDepthLattice lattice;
+  lattice.min_inverse_depth = 0.2;
+  lattice.max_inverse_depth = 2.0;
+  lattice.planes = 32;
+  const cv::Mat first(f.reference.size(), CV_32SC1, cv::Scalar(10));
+  PhotoCostOptions options;
+  options.window_radius = 2;
+  const PlaneSelection free = SweepPlaneWindow(level, lattice, first, 7, 1, options);
+  options.seed_prior.seed.create(f.reference.size(), CV_32FC1);
+  for (int y = 0; y < f.reference.rows; ++y)
+    options.seed_prior.seed.row(y).setTo(10.0f + 1.5f + 0.5f * (y % 7));  // slices 1.5-4.5
+  options.seed_prior.weight = 1e4f;
+  const PlaneSelection drawn = SweepPlaneWindow(level, lattice, first, 7, 1, options);
+  for (int y = 0; y < f.reference.rows; ++y)
+    for (int x = 0; x < f.reference.cols; ++x) {
+      // Near the image's border some planes leave the frames (no cost) and
+      // the winner is among the others.
+      const bool border =
+          x < 20 || y < 20 || x >= f.reference.cols - 20 || y >= f.reference.rows - 20;
+      if (border) continue;
+      const float plane = drawn.plane.at<float>(y, x);
+      ASSERT_NEAR(plane, options.seed_prior.seed.at<float>(y, x), 0.01f) << y << ", " << x;
+    }
+  EXPECT_EQ(cv::norm(drawn.at_edge, free.at_edge, cv::NORM_INF), 0.0);
+  EXPECT_GT(cv::countNonZero(free.at_edge), 0);  // random costs often fall to an end
+}
+
 }  // namespace
 }  // namespace dfsm
