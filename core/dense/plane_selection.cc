@@ -32,13 +32,25 @@ float Distinctiveness(const float* curve, int n, int best) {
   return rival > 0.0f ? 1.0f - c_best / rival : 0.0f;
 }
 
+// The lowest slice of a cost curve (the first of equals).
+int LowestSlice(const float* curve, int n) {
+  int best = 0;
+  for (int k = 1; k < n; ++k)
+    if (curve[k] < curve[best]) best = k;
+  return best;
+}
+
+// 255 where the curve's lowest slice `best` has a cost and is the first or
+// the last: the minimum may lie beyond the curve.
+uchar EdgeFlag(const float* curve, int n, int best) {
+  return curve[best] < kNoCost && (best == 0 || best == n - 1) ? 255 : 0;
+}
+
 }  // namespace
 
 void SelectCurve(const float* curve, int n, int first, int stride, float* plane, float* confidence,
                  uchar* at_edge) {
-  int best = 0;
-  for (int k = 1; k < n; ++k)
-    if (curve[k] < curve[best]) best = k;
+  const int best = LowestSlice(curve, n);
   const float c_best = curve[best];
   if (c_best >= kNoCost) {
     *plane = -1.0f;
@@ -54,7 +66,7 @@ void SelectCurve(const float* curve, int n, int first, int stride, float* plane,
       offset = std::clamp(0.5f * (curve[best - 1] - curve[best + 1]) / curvature, -0.5f, 0.5f);
   }
   *plane = static_cast<float>(first + (best + offset) * stride);
-  *at_edge = (best == 0 || best == n - 1) ? 255 : 0;
+  *at_edge = EdgeFlag(curve, n, best);
 }
 
 PlaneSelection SelectPlanes(const std::vector<cv::Mat>& costs, const cv::Mat& first_plane,
@@ -105,9 +117,7 @@ void SelectPlanesNearSeedInto(const std::vector<cv::Mat>& costs, const cv::Mat& 
           continue;
         }
         // The edge flag of the photo-consistency alone.
-        const int best =
-            static_cast<int>(std::min_element(curve.begin(), curve.end()) - curve.begin());
-        const uchar raw_edge = curve[best] < kNoCost && (best == 0 || best == n - 1) ? 255 : 0;
+        const uchar raw_edge = EdgeFlag(curve.data(), n, LowestSlice(curve.data(), n));
         const float seed_slice = (seed[x] - (first ? first[x] : 0)) / stride;
         for (int k = 0; k < n; ++k) {
           const float offset = k - seed_slice;

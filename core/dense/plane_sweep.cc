@@ -259,15 +259,11 @@ struct BandSlices {
               const cv::Mat& first_plane, int stride, PlaneSelection& selection) {
     Aggregate(band, frames, options);
     PlaneSelection rows = SelectionRows(selection, band);
-    const cv::Mat first =
-        first_plane.empty() ? cv::Mat() : first_plane.rowRange(band.first, band.last);
-    if (options.seed_prior.weight > 0.0f && !first_plane.empty()) {  // SweepPlaneWindow
-      SeedPrior prior = options.seed_prior;
-      prior.seed = prior.seed.rowRange(band.first, band.last);
-      SelectPlanesNearSeedInto(sums, first, stride, prior, &rows);
-    } else {
-      SelectPlanesInto(sums, first, stride, &rows);
-    }
+    SeedPrior prior = options.seed_prior;
+    if (prior.weight > 0.0f) prior.seed = prior.seed.rowRange(band.first, band.last);
+    SelectPlanesNearSeedInto(
+        sums, first_plane.empty() ? cv::Mat() : first_plane.rowRange(band.first, band.last), stride,
+        prior, &rows);
   }
 };
 
@@ -277,6 +273,7 @@ template <typename FinishBand>
 void SweepEveryPlane(const SweepLevel& level, const InverseDepthLattice& lattice,
                      const PhotoCostOptions& options, const FinishBand& finish_band) {
   CV_Assert(options.projected_every >= 1);
+  CV_Assert(options.seed_prior.weight <= 0.0f);  // a prior is SweepPlaneWindow's
   CheckWideWindowMask(level, options);
   const int frames = static_cast<int>(level.frames.size());
   const cv::Size size = level.reference.size();

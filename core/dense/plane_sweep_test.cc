@@ -40,39 +40,54 @@ struct SweepFixture {
   }
 };
 
+// The fixture's frames as a full-resolution level, a 32-plane lattice and
+// every pixel's window starting at plane 10: what both window sweeps below run on.
+struct WindowSweep {
+  SweepFixture f;
+  RadialInverse radial{f.camera};
+  SweepLevel level;
+  InverseDepthLattice lattice;
+  cv::Mat first{f.reference.size(), CV_32SC1, cv::Scalar(10)};
+
+  WindowSweep() {
+    // Burst order: the reference first, then the three frames.
+    std::vector<Pose> burst_poses = {Pose{}};
+    burst_poses.insert(burst_poses.end(), f.poses.begin(), f.poses.end());
+    level =
+        MakeSweepLevel(f.reference, f.frames,
+                       SweepPoses::Make(burst_poses, 0, 0.0, f.camera.height), f.camera, radial, 1);
+    lattice.min_inverse_depth = 0.2;
+    lattice.max_inverse_depth = 2.0;
+    lattice.planes = 32;
+  }
+
+  // Seven planes, one lattice plane apart, from `first`.
+  PlaneSelection Run(const PhotoCostOptions& options) const {
+    return SweepPlaneWindow(level, lattice, first, 7, 1, options);
+  }
+};
+
 // A wide window wherever the mask is set is exactly the wide window
 // everywhere: the streamed bands' halo covers it, and the mask's rows line
 // up with the bands' rows.
 TEST(SweepPlaneWindow, WideWindowUnderAFullMaskEqualsThatWindowEverywhere) {
-  const SweepFixture f;
-  const RadialInverse radial(f.camera);
-  // Burst order: the reference first, then the three frames.
-  std::vector<Pose> burst_poses = {Pose{}};
-  burst_poses.insert(burst_poses.end(), f.poses.begin(), f.poses.end());
-  const SweepLevel level =
-      MakeSweepLevel(f.reference, f.frames, SweepPoses::Make(burst_poses, 0, 0.0, f.camera.height),
-                     f.camera, radial, 1);
-  InverseDepthLattice lattice;
-  lattice.min_inverse_depth = 0.2;
-  lattice.max_inverse_depth = 2.0;
-  lattice.planes = 32;
-  const cv::Mat first(f.reference.size(), CV_32SC1, cv::Scalar(10));
+  const WindowSweep sweep;
   PhotoCostOptions wide;
   wide.window_radius = 5;
   PhotoCostOptions masked;
   masked.window_radius = 2;
   masked.wide_window_radius = 5;
-  masked.wide_window_mask = cv::Mat(f.reference.size(), CV_8UC1, cv::Scalar(255));
-  const PlaneSelection a = SweepPlaneWindow(level, lattice, first, 7, 1, wide);
-  const PlaneSelection b = SweepPlaneWindow(level, lattice, first, 7, 1, masked);
+  masked.wide_window_mask = cv::Mat(sweep.f.reference.size(), CV_8UC1, cv::Scalar(255));
+  const PlaneSelection a = sweep.Run(wide);
+  const PlaneSelection b = sweep.Run(masked);
   EXPECT_EQ(cv::norm(a.plane, b.plane, cv::NORM_INF), 0.0);
   EXPECT_EQ(cv::norm(a.confidence, b.confidence, cv::NORM_INF), 0.0);
   // An empty mask leaves the narrow window.
   masked.wide_window_mask.setTo(0);
   PhotoCostOptions narrow;
   narrow.window_radius = 2;
-  const PlaneSelection c = SweepPlaneWindow(level, lattice, first, 7, 1, narrow);
-  const PlaneSelection d = SweepPlaneWindow(level, lattice, first, 7, 1, masked);
+  const PlaneSelection c = sweep.Run(narrow);
+  const PlaneSelection d = sweep.Run(masked);
   EXPECT_EQ(cv::norm(c.plane, d.plane, cv::NORM_INF), 0.0);
   EXPECT_GT(cv::norm(a.plane, c.plane, cv::NORM_INF), 0.0);  // the windows differ at all
 }
@@ -81,32 +96,21 @@ TEST(SweepPlaneWindow, WideWindowUnderAFullMaskEqualsThatWindowEverywhere) {
 // by row across the streamed bands (the seed's rows line up with the
 // bands'), while the edge flags stay the photo-consistency's.
 TEST(SweepPlaneWindow, ADominantSeedPriorPutsTheWinnersOnTheirSeeds) {
-  const SweepFixture f;
-  const RadialInverse radial(f.camera);
-  std::vector<Pose> burst_poses = {Pose{}};
-  burst_poses.insert(burst_poses.end(), f.poses.begin(), f.poses.end());
-  const SweepLevel level =
-      MakeSweepLevel(f.reference, f.frames, SweepPoses::Make(burst_poses, 0, 0.0, f.camera.height),
-                     f.camera, radial, 1);
-  InverseDepthLattice lattice;
-  lattice.min_inverse_depth = 0.2;
-  lattice.max_inverse_depth = 2.0;
-  lattice.planes = 32;
-  const cv::Mat first(f.reference.size(), CV_32SC1, cv::Scalar(10));
+  const WindowSweep sweep;
   PhotoCostOptions options;
   options.window_radius = 2;
-  const PlaneSelection free = SweepPlaneWindow(level, lattice, first, 7, 1, options);
-  options.seed_prior.seed.create(f.reference.size(), CV_32FC1);
-  for (int y = 0; y < f.reference.rows; ++y)
+  const PlaneSelection free = sweep.Run(options);
+  options.seed_prior.seed.create(sweep.f.reference.size(), CV_32FC1);
+  for (int y = 0; y < sweep.f.reference.rows; ++y)
     options.seed_prior.seed.row(y).setTo(10.0f + 1.5f + 0.5f * (y % 7));  // slices 1.5-4.5
   options.seed_prior.weight = 1e4f;
-  const PlaneSelection drawn = SweepPlaneWindow(level, lattice, first, 7, 1, options);
-  for (int y = 0; y < f.reference.rows; ++y)
-    for (int x = 0; x < f.reference.cols; ++x) {
+  const PlaneSelection drawn = sweep.Run(options);
+  for (int y = 0; y < sweep.f.reference.rows; ++y)
+    for (int x = 0; x < sweep.f.reference.cols; ++x) {
       // Near the image's border some planes leave the frames (no cost) and
       // the winner is among the others.
       const bool border =
-          x < 20 || y < 20 || x >= f.reference.cols - 20 || y >= f.reference.rows - 20;
+          x < 20 || y < 20 || x >= sweep.f.reference.cols - 20 || y >= sweep.f.reference.rows - 20;
       if (border) continue;
       const float plane = drawn.plane.at<float>(y, x);
       ASSERT_NEAR(plane, options.seed_prior.seed.at<float>(y, x), 0.01f) << y << ", " << x;
