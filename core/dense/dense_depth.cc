@@ -330,9 +330,9 @@ DenseDepth ComputeDenseDepth(const Burst& input, const CameraModel& camera,
   breaks.max_span = static_cast<float>(options.discontinuity_parallax / plane_parallax);
   breaks.min_relative_span = static_cast<float>(options.discontinuity_relative);
   breaks.zero_plane = static_cast<float>(-lattice.min_inverse_depth / lattice.step());
-  // The reference on [0, 1]: the guide of the refinement and of the fill.
+  // The reference on [0, 1]: the guide of the refinement.
   cv::Mat guide;
-  if (options.guided_radius > 0 || options.fill_holes)
+  if (options.guided_radius > 0)
     burst.gray[burst.reference()].convertTo(guide, CV_32F, 1.0 / 255.0);
   if (options.guided_radius > 0) {
     // The filter returns a new image, so the raw winners stay as they are.
@@ -348,6 +348,7 @@ DenseDepth ComputeDenseDepth(const Burst& input, const CameraModel& camera,
                                 : 0,
                             breaks, plane);
   }
+  guide.release();
   if (options.discontinuity_parallax > 0.0)
     InvalidateAlongDiscontinuities(plane, options.discontinuity_radius, breaks, weight);
 
@@ -374,7 +375,12 @@ DenseDepth ComputeDenseDepth(const Burst& input, const CameraModel& camera,
   if (options.fill_holes && result.valid_fraction < 1.0) {
     // Measured pixels weigh in with their confidence, which is 0 at every
     // pixel without a depth (the discontinuity bands too are holes).
-    const cv::Mat filled = FillHoles(plane, result.confidence, guide, options.completion);
+    // The fill follows the reference's colour edges where it has colour.
+    const cv::Mat& color = burst.reference_color;
+    const bool has_color = color.type() == CV_8UC3 && color.size() == plane.size();
+    const cv::Mat filled =
+        FillHoles(plane, result.confidence, has_color ? color : burst.gray[burst.reference()],
+                  options.completion);
     if (!filled.empty()) {
       result.depth_filled = result.depth.clone();
       const float last = static_cast<float>(lattice.planes - 1);

@@ -51,12 +51,16 @@ cv::Mat PushPull(const cv::Mat& values, const cv::Mat& w0, const cv::Mat& guide,
     cv::min(w, 1.0f, alpha);
     filled = alpha.mul(mean) + (1.0f - alpha).mul(up);
   }
-  // The guided pass: measurements steer, the fill follows the image's edges.
+  // The guided pass: measurements steer, the fill follows the image's edges
+  // (of the grey reference: the guided filter's linear models are per channel).
   if (options.guided_radius > 0) {
+    cv::Mat gray = guide, gray01;
+    if (guide.channels() == 3) cv::cvtColor(guide, gray, cv::COLOR_BGR2GRAY);
+    gray.convertTo(gray01, CV_32F, 1.0 / 255.0);
     cv::Mat pass_weight = w0.clone();
     pass_weight.setTo(options.filled_weight, w0 <= 0.0f);
     const cv::Mat smoothed =
-        WeightedGuidedFilter(guide, filled, pass_weight, options.guided_radius, options.guided_eps,
+        WeightedGuidedFilter(gray01, filled, pass_weight, options.guided_radius, options.guided_eps,
                              nullptr, guide.cols > 1000 ? 2 : 1);
     smoothed.copyTo(filled, w0 <= 0.0f);
   }
@@ -70,27 +74,26 @@ void DepthCompletionOptions::Check() const {
   if (!(guided_eps > 0.0f)) throw std::invalid_argument("guided_eps must be > 0");
   if (!(filled_weight > 0.0f && filled_weight <= 1.0f))
     throw std::invalid_argument("filled_weight must be in (0, 1]");
+  if (!(confidence_power > 0.0)) throw std::invalid_argument("confidence_power must be > 0");
   smoother.Check();
 }
 
 cv::Mat FillHoles(const cv::Mat& values, const cv::Mat& weight, const cv::Mat& guide,
                   const DepthCompletionOptions& options) {
   options.Check();
-  CV_Assert(values.type() == CV_32FC1 && weight.type() == CV_32FC1 && guide.type() == CV_32FC1);
+  CV_Assert(values.type() == CV_32FC1 && weight.type() == CV_32FC1);
+  CV_Assert(guide.type() == CV_8UC1 || guide.type() == CV_8UC3);
   CV_Assert(values.size() == weight.size() && values.size() == guide.size());
   cv::Mat w0;
   cv::max(weight, 0.0f, w0);
   if (cv::countNonZero(w0) == 0) return {};
+  if (options.confidence_power != 1.0) cv::pow(w0, options.confidence_power, w0);
 
   // The holes the spread along the image's regions does not reach.
   cv::Mat filled, unreached = w0 <= 0.0f;
   if (options.smoother.lambda > 0.0) {
     cv::Mat value = values.mul(w0), spread_weight = w0.clone();
-    // The guide is in [0, 1] and the smoother's sigma in grey levels: scaling
-    // the sigma instead of the guide saves a full-size image.
-    GlobalSmootherOptions smoother = options.smoother;
-    smoother.sigma /= 255.0;
-    SmoothAlongEdges(guide, {&value, &spread_weight}, smoother);
+    SmoothAlongEdges(guide, {&value, &spread_weight}, options.smoother);
     cv::divide(value, cv::max(spread_weight, kMinSpreadWeight), filled);
     unreached &= spread_weight < kMinSpreadWeight;
   }

@@ -10,11 +10,11 @@ namespace {
 TEST(DepthCompletionTest, FillsEveryHoleAndKeepsEveryMeasurement) {
   // Two surfaces split at x = 40 (an image edge too); a hole across the edge
   // and a large one inside the right surface.
-  cv::Mat values(60, 80, CV_32FC1), guide(60, 80, CV_32FC1);
+  cv::Mat values(60, 80, CV_32FC1), guide(60, 80, CV_8UC1);
   for (int y = 0; y < 60; ++y)
     for (int x = 0; x < 80; ++x) {
       values.at<float>(y, x) = x < 40 ? 10.0f : 30.0f;
-      guide.at<float>(y, x) = x < 40 ? 0.2f : 0.8f;
+      guide.at<uchar>(y, x) = x < 40 ? 50 : 200;
     }
   cv::Mat weight(values.size(), CV_32FC1, cv::Scalar(1.0f));
   weight(cv::Rect(30, 20, 20, 10)).setTo(0.0f);  // across the edge
@@ -39,9 +39,9 @@ TEST(DepthCompletionTest, FillsEveryHoleAndKeepsEveryMeasurement) {
 TEST(DepthCompletionTest, AHoleInARegionTakesTheDepthOfItsOutline) {
   // TUM's black monitor: a dark square (guide 0.05) in a bright scene (0.8),
   // measured only along its outline (depth 2) and everywhere outside (depth 8).
-  cv::Mat values(80, 80, CV_32FC1, cv::Scalar(8.0f)), guide(80, 80, CV_32FC1, cv::Scalar(0.8f));
+  cv::Mat values(80, 80, CV_32FC1, cv::Scalar(8.0f)), guide(80, 80, CV_8UC1, cv::Scalar(200));
   const cv::Rect square(20, 20, 40, 40);
-  guide(square).setTo(0.05f);
+  guide(square).setTo(12);
   values(square).setTo(2.0f);
   cv::Mat weight(values.size(), CV_32FC1, cv::Scalar(1.0f));
   weight(cv::Rect(22, 22, 36, 36)).setTo(0.0f);  // the interior, a hole
@@ -57,9 +57,9 @@ TEST(DepthCompletionTest, AHoleInARegionTakesTheDepthOfItsOutline) {
 TEST(DepthCompletionTest, AHoleNoRegionReachesFallsBackToItsSurroundings) {
   // A bright square whose outline holds no measurement: the spread stops at
   // its edge, and push-pull fills it from the measurements around it.
-  cv::Mat values(80, 80, CV_32FC1, cv::Scalar(8.0f)), guide(80, 80, CV_32FC1, cv::Scalar(0.1f));
+  cv::Mat values(80, 80, CV_32FC1, cv::Scalar(8.0f)), guide(80, 80, CV_8UC1, cv::Scalar(25));
   const cv::Rect square(20, 20, 40, 40);
-  guide(square).setTo(0.9f);
+  guide(square).setTo(230);
   cv::Mat weight(values.size(), CV_32FC1, cv::Scalar(1.0f));
   weight(square).setTo(0.0f);
   values(square).setTo(0.0f);  // no value to leak
@@ -68,12 +68,54 @@ TEST(DepthCompletionTest, AHoleNoRegionReachesFallsBackToItsSurroundings) {
   EXPECT_NEAR(filled.at<float>(21, 21), 8.0f, 0.05f);
 }
 
+TEST(DepthCompletionTest, AColourEdgeOfOneBrightnessStopsTheFill) {
+  // An orange wall (depth 4) behind a grey photo (depth 1) of the same
+  // brightness, the wall measured only far from the photo: its hole beside
+  // the photo takes the wall's depth from the colour guide; a grey guide sees
+  // no edge and lets the photo's depth in.
+  const cv::Vec3b orange(30, 140, 225), grey(153, 153, 153);  // BGR, both grey level 153
+  cv::Mat color(40, 80, CV_8UC3, cv::Scalar(orange[0], orange[1], orange[2]));
+  color.colRange(0, 40).setTo(cv::Scalar(grey[0], grey[1], grey[2]));
+  cv::Mat gray;
+  cv::cvtColor(color, gray, cv::COLOR_BGR2GRAY);
+  ASSERT_LE(std::abs(gray.at<uchar>(20, 10) - gray.at<uchar>(20, 70)), 1);
+  cv::Mat values(color.size(), CV_32FC1, cv::Scalar(4.0f));
+  values.colRange(0, 40).setTo(1.0f);
+  cv::Mat weight(color.size(), CV_32FC1, cv::Scalar(1.0f));
+  weight.colRange(40, 70).setTo(0.0f);  // the wall's hole, beside the photo
+  EXPECT_NEAR(FillHoles(values, weight, color).at<float>(20, 42), 4.0f, 0.05f);
+  EXPECT_LT(FillHoles(values, weight, gray).at<float>(20, 42), 3.0f);
+}
+
+TEST(DepthCompletionTest, TheConfidentInteriorOutweighsAFringe) {
+  // One region of even brightness: its confident interior (depth 10,
+  // confidence 0.9) and, between it and a hole, a fringe of low confidence
+  // (0.2) that carries another surface's depth (30), as the window at a depth
+  // edge leaves it. The power pulls the hole towards the interior.
+  const cv::Mat guide(20, 60, CV_8UC1, cv::Scalar(128));
+  cv::Mat values(guide.size(), CV_32FC1, cv::Scalar(10.0f));
+  cv::Mat weight(guide.size(), CV_32FC1, cv::Scalar(0.9f));
+  values.colRange(20, 26).setTo(30.0f);
+  weight.colRange(20, 26).setTo(0.2f);
+  weight.colRange(26, 60).setTo(0.0f);
+  DepthCompletionOptions linear;
+  linear.confidence_power = 1.0;
+  const float with_power = FillHoles(values, weight, guide).at<float>(10, 40);
+  const float without = FillHoles(values, weight, guide, linear).at<float>(10, 40);
+  EXPECT_LT(with_power, without - 1.0f);
+  EXPECT_GT(with_power, 10.0f);
+}
+
 TEST(DepthCompletionTest, NothingToFillFrom) {
   const cv::Mat values(8, 8, CV_32FC1, cv::Scalar(1.0f));
   const cv::Mat zero(8, 8, CV_32FC1, cv::Scalar(0.0f));
-  EXPECT_TRUE(FillHoles(values, zero, values).empty());
+  const cv::Mat guide(8, 8, CV_8UC1, cv::Scalar(100));
+  EXPECT_TRUE(FillHoles(values, zero, guide).empty());
   DepthCompletionOptions bad;
   bad.filled_weight = 0.0f;
+  EXPECT_THROW(bad.Check(), std::invalid_argument);
+  bad = {};
+  bad.confidence_power = 0.0;
   EXPECT_THROW(bad.Check(), std::invalid_argument);
 }
 

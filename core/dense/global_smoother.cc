@@ -3,16 +3,25 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <vector>
 
 namespace dfsm {
 namespace {
 
 // exp(-|b - a| / sigma), elementwise: the pull between the neighbours of two
-// views of the guide shifted by one pixel.
+// views of the guide shifted by one pixel; for several channels |b - a| is
+// the largest of theirs.
 cv::Mat Affinity(const cv::Mat& a, const cv::Mat& b, double sigma) {
+  cv::Mat difference;
+  cv::absdiff(a, b, difference);
+  if (difference.channels() > 1) {
+    std::vector<cv::Mat> channels;
+    cv::split(difference, channels);
+    difference = channels[0];
+    for (size_t c = 1; c < channels.size(); ++c) cv::max(difference, channels[c], difference);
+  }
   cv::Mat affinity;
-  cv::absdiff(a, b, affinity);
-  affinity *= -1.0 / sigma;
+  difference.convertTo(affinity, CV_32F, -1.0 / sigma);
   cv::exp(affinity, affinity);
   return affinity;
 }
@@ -104,25 +113,26 @@ void SolveRows(const cv::Mat& affinity, float lambda, const std::vector<cv::Mat*
 void GlobalSmootherOptions::Check() const {
   if (!(lambda >= 0.0)) throw std::invalid_argument("lambda must be >= 0");
   if (!(sigma > 0.0)) throw std::invalid_argument("sigma must be > 0");
+  if (!(color_sigma > 0.0)) throw std::invalid_argument("color_sigma must be > 0");
   if (iterations < 1) throw std::invalid_argument("iterations must be >= 1");
 }
 
 void SmoothAlongEdges(const cv::Mat& guide, const std::vector<cv::Mat*>& images,
                       const GlobalSmootherOptions& options) {
   options.Check();
-  CV_Assert(guide.type() == CV_32FC1);
+  CV_Assert((guide.depth() == CV_8U || guide.depth() == CV_32F) &&
+            (guide.channels() == 1 || guide.channels() == 3));
   for (const cv::Mat* image : images)
     CV_Assert(image->type() == CV_32FC1 && image->size() == guide.size());
   if (images.empty() || options.lambda == 0.0) return;
   const int rows = guide.rows, cols = guide.cols;
+  const double sigma = guide.channels() == 1 ? options.sigma : options.color_sigma;
   // vertical(y, x): between (x, y) and (x, y + 1); horizontal(y, x): between
   // (x, y) and (x + 1, y). Empty where the image is one pixel high or wide.
   const cv::Mat vertical =
-      rows > 1 ? Affinity(guide.rowRange(0, rows - 1), guide.rowRange(1, rows), options.sigma)
-               : cv::Mat();
+      rows > 1 ? Affinity(guide.rowRange(0, rows - 1), guide.rowRange(1, rows), sigma) : cv::Mat();
   const cv::Mat horizontal =
-      cols > 1 ? Affinity(guide.colRange(0, cols - 1), guide.colRange(1, cols), options.sigma)
-               : cv::Mat();
+      cols > 1 ? Affinity(guide.colRange(0, cols - 1), guide.colRange(1, cols), sigma) : cv::Mat();
   // Min et al.'s schedule: lambda_t = 3/2 4^(T-1-t) / (4^T - 1) lambda, the
   // largest first; the passes of all iterations add up to lambda / 2.
   const int iterations = options.iterations;

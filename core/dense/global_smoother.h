@@ -23,9 +23,15 @@ struct GlobalSmootherOptions {
   // (a 1-D pass spreads over about sqrt(lambda) pixels).
   double lambda = 3000.0;
   // Guide differences (grey levels, 0-255) at which a neighbour's pull falls
-  // to 1/e: small, so that the faint outline of a textureless surface stops
-  // the spread.
+  // to 1/e, for a single-channel guide: small, so that the faint outline of a
+  // textureless surface stops the spread.
   double sigma = 2.0;
+  // The same for a three-channel (colour) guide, on the largest difference of
+  // its channels: an edge between two colours of one brightness (an orange
+  // wall behind a grey photo) stops the spread there too. Wider than sigma
+  // because the largest of three channels' noise exceeds the grey's; on
+  // generated bursts sigma 2 / 3 / 4 scored 7.32 / 7.27 / 7.31 % (docs/dense.md).
+  double color_sigma = 3.0;
   // Row-and-column passes. One scores as well as three on TUM and on
   // generated bursts (docs/dense.md) but leaves streaks along the last
   // pass; each further pass costs ~20 ms at 1080p.
@@ -36,9 +42,9 @@ struct GlobalSmootherOptions {
 };
 
 // Smooths every image of `images` (CV_32FC1, the guide's size) in place with
-// the weights of `guide` (CV_32FC1, in the units of options.sigma: grey
-// levels 0-255 for the default). The images share the
-// guide's weights and the systems' factorization.
+// the weights of `guide` (8-bit or float, one channel or three, in the units
+// of options.sigma and color_sigma: grey levels 0-255 for the defaults). The
+// images share the guide's weights and the systems' factorization.
 void SmoothAlongEdges(const cv::Mat& guide, const std::vector<cv::Mat*>& images,
                       const GlobalSmootherOptions& options = {});
 

@@ -52,9 +52,22 @@ TEST(GlobalSmootherTest, WithoutAnEdgeTheValuesBlend) {
   EXPECT_LT(spread.at<float>(20, 30), 8.5f);
 }
 
+TEST(GlobalSmootherTest, AColourGuideStopsTheSpreadAtAnyChannelsEdge) {
+  // Two colours of one brightness split at x = 30: the largest channel
+  // difference (123 levels) stops the spread where the grey one could not.
+  cv::Mat guide(40, 60, CV_8UC3, cv::Scalar(30, 140, 225));
+  guide.colRange(30, 60).setTo(cv::Scalar(153, 153, 153));
+  const cv::Mat spread = SpreadTwoColumns(guide, {});
+  EXPECT_NEAR(spread.at<float>(20, 29), 5.0f, 1e-3f);
+  EXPECT_NEAR(spread.at<float>(20, 30), 9.0f, 1e-3f);
+}
+
 TEST(GlobalSmootherTest, RefusesOptionsOutOfRange) {
   GlobalSmootherOptions options;
   options.sigma = 0.0;
+  EXPECT_THROW(options.Check(), std::invalid_argument);
+  options = {};
+  options.color_sigma = 0.0;
   EXPECT_THROW(options.Check(), std::invalid_argument);
   options = {};
   options.iterations = 0;
