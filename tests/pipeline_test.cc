@@ -34,6 +34,7 @@ SynthBurst SmallBurst() { return GenerateBurst(640, 480, 10, 0); }
 struct DepthCase {
   int width, height, frames, jpeg_quality;
   double max_abs_rel, min_within_5_percent, min_coverage;
+  double max_filled_abs_rel;  // depth_filled.tiff, every pixel
 };
 
 void PrintTo(const DepthCase& c, std::ostream* os) {
@@ -50,7 +51,11 @@ class PipelineDepth : public ::testing::TestWithParam<DepthCase> {};
 // and the realistic generated bursts most of their accuracy back and cost
 // these ideal bursts, which have no brightness change to remove, up to 1.6
 // points. At VGA they now measure 2.78 % / 92.3 % (JPEG 90: 3.42 % / 89.5 %),
-// so 3 % / 90 % (4 % / 87 %); 1080p still meets 2 % / 95 %.
+// so 3 % / 90 % (4 % / 87 %); 1080p still meets 2 % / 95 %. Since the breaks
+// among the raw winners (docs/dense.md) fewer pixels are measured and those
+// better: VGA 1.84 % / 95.3 % / 89.7 % covered (JPEG 90: 2.38 / 93.1 / 89.4),
+// 1080p 0.83-0.92 % / 98.0 % / 89.4-89.6 %, so coverage >= 87 %; the filled
+// map (every pixel) 2.72 % (3.28 %) and 1.72-1.85 %.
 TEST_P(PipelineDepth, MatchesTheGroundTruth) {
   const DepthCase c = GetParam();
   const SynthBurst generated = GenerateBurst(c.width, c.height, c.frames, c.jpeg_quality);
@@ -66,13 +71,18 @@ TEST_P(PipelineDepth, MatchesTheGroundTruth) {
   EXPECT_LE(score.abs_rel, c.max_abs_rel);
   EXPECT_GE(score.within_5_percent, c.min_within_5_percent);
   EXPECT_GE(score.coverage, c.min_coverage);
+  const DepthEvaluation filled = EvaluateDepth(output.dense->depth_filled, generated.truth.depth,
+                                               TexturedMask(burst.gray[burst.reference()]));
+  RecordProperty("filled_abs_rel", std::to_string(filled.abs_rel));
+  EXPECT_LE(filled.abs_rel, c.max_filled_abs_rel);
+  EXPECT_GE(filled.coverage, 0.999);
 }
 
 INSTANTIATE_TEST_SUITE_P(Bursts, PipelineDepth,
-                         ::testing::Values(DepthCase{640, 480, 10, 0, 0.03, 0.90, 0.90},
-                                           DepthCase{640, 480, 10, 90, 0.04, 0.87, 0.90},
-                                           DepthCase{1920, 1080, 10, 0, 0.02, 0.95, 0.90},
-                                           DepthCase{1920, 1080, 15, 90, 0.02, 0.95, 0.90}));
+                         ::testing::Values(DepthCase{640, 480, 10, 0, 0.03, 0.90, 0.87, 0.035},
+                                           DepthCase{640, 480, 10, 90, 0.04, 0.87, 0.87, 0.04},
+                                           DepthCase{1920, 1080, 10, 0, 0.02, 0.95, 0.87, 0.02},
+                                           DepthCase{1920, 1080, 15, 90, 0.02, 0.95, 0.87, 0.02}));
 
 TEST(Pipeline, WritesACompleteResultDirectory) {
   const SynthBurst generated = SmallBurst();

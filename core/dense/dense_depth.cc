@@ -64,9 +64,10 @@ void ValidateInputs(const Burst& burst, const CameraModel& camera, const std::ve
   Require(options.seed_prior >= 0.0, "seed_prior must be >= 0 (0: off)");
   Require(options.oversample_max_pixels >= 0, "oversample_max_pixels must be >= 0 (0: never)");
   Require(options.edge_guard_parallax >= 0.0 && options.discontinuity_parallax >= 0.0 &&
-              options.discontinuity_relative >= 0.0 && options.discontinuity_radius >= 0,
-          "edge_guard_parallax, discontinuity_parallax, discontinuity_relative and "
-          "discontinuity_radius must be >= 0");
+              options.discontinuity_relative >= 0.0 && options.discontinuity_radius >= 0 &&
+              options.raw_discontinuity_radius >= 0,
+          "edge_guard_parallax, discontinuity_parallax, discontinuity_relative, "
+          "discontinuity_radius and raw_discontinuity_radius must be >= 0");
   Require(options.refine_stride >= 0, "refine_stride must be >= 0 (0: chosen from the parallax)");
   Require(options.coarse_window_radius >= 0 && options.fine_window_radius >= 0 &&
               options.coarse_shiftable_radius >= 0 && options.fine_shiftable_radius >= 0 &&
@@ -334,9 +335,9 @@ DenseDepth ComputeDenseDepth(const Burst& input, const CameraModel& camera,
   cv::Mat guide;
   if (options.guided_radius > 0)
     burst.gray[burst.reference()].convertTo(guide, CV_32F, 1.0 / 255.0);
+  // The filter returns a new image, so the raw winners stay as they are.
+  cv::Mat raw_plane = plane;
   if (options.guided_radius > 0) {
-    // The filter returns a new image, so the raw winners stay as they are.
-    const cv::Mat raw_plane = plane;
     plane = WeightedGuidedFilter(guide, raw_plane, weight, options.guided_radius,
                                  static_cast<float>(options.guided_eps), nullptr,
                                  plane.cols > 1000 ? options.guided_subsample : 1);
@@ -349,8 +350,19 @@ DenseDepth ComputeDenseDepth(const Burst& input, const CameraModel& camera,
                             breaks, plane);
   }
   guide.release();
-  if (options.discontinuity_parallax > 0.0)
+  if (options.discontinuity_parallax > 0.0) {
+    // Breaks among the raw winners and among the refined ones, both found
+    // among the same measured pixels.
+    cv::Mat raw_weight;
+    if (options.raw_discontinuity_radius > 0) {
+      raw_weight = weight.clone();
+      InvalidateAlongDiscontinuities(raw_plane, options.raw_discontinuity_radius, breaks,
+                                     raw_weight);
+    }
     InvalidateAlongDiscontinuities(plane, options.discontinuity_radius, breaks, weight);
+    if (!raw_weight.empty()) weight.setTo(0.0f, raw_weight <= 0.0f);
+  }
+  raw_plane.release();
 
   result.depth = cv::Mat::zeros(plane.size(), CV_32FC1);
   result.confidence = confidence;

@@ -239,6 +239,10 @@ TEST_F(DenseDepthInputTest, RejectsInconsistentInputsWithANamedReason) {
   ExpectRejected(s.burst, s.camera, s.poses, s.sparse_inverse_depths, "discontinuity_parallax",
                  options);
   options = {};
+  options.raw_discontinuity_radius = -1;
+  ExpectRejected(s.burst, s.camera, s.poses, s.sparse_inverse_depths, "raw_discontinuity_radius",
+                 options);
+  options = {};
   options.coarse_shiftable_radius = -1;
   ExpectRejected(s.burst, s.camera, s.poses, s.sparse_inverse_depths, "shiftable radii", options);
   options = {};
