@@ -16,7 +16,7 @@ namespace {
 struct Case {
   int width, height, frames, jpeg_quality;
   double max_abs_rel, min_within_5, min_coverage;
-  double max_filled_abs_rel;  // depth_filled.tiff, every pixel
+  double max_filled_abs_rel;  // depth_filled.tiff, every textured pixel
 };
 
 class DenseAccuracyTest : public ::testing::TestWithParam<Case> {};

@@ -52,6 +52,11 @@ void ValidateInputs(const Burst& burst, const CameraModel& camera, const std::ve
     Require(poses[i].R.allFinite() && poses[i].T.allFinite(),
             "pose " + std::to_string(i) + " is not finite");
   }
+  // The fill reads the reference in colour (or its gray frame when empty).
+  const cv::Mat& color = burst.reference_color;
+  Require(color.empty() || ((color.type() == CV_8UC1 || color.type() == CV_8UC3) &&
+                            color.cols == burst.width() && color.rows == burst.height()),
+          "reference_color is not 8-bit gray or BGR of the burst's size");
   Require(options.coarse_scale >= 0, "coarse_scale must be >= 0 (0: from the image width)");
   Require(options.coarse_planes == 0 || options.coarse_planes >= 2,
           "coarse_planes must be 0 (all planes) or >= 2");
@@ -158,7 +163,8 @@ DenseDepth ComputeDenseDepth(const Burst& input, const CameraModel& camera,
       frames[n] = Prefiltered(burst.gray[others[n]], options.prefilter_sigma);
   });
   // From here on the sweeps read `frames`; of the high-passed burst only the
-  // reference is read again (the guide of the refinement and of the fill).
+  // reference is read again (the guide of the refinement, and of the fill
+  // where the burst has no colour).
   for (int i = 0; i < burst.size(); ++i)
     if (i != burst.reference()) burst.gray[i].release();
   timer.Lap("prepare");
@@ -354,7 +360,7 @@ DenseDepth ComputeDenseDepth(const Burst& input, const CameraModel& camera,
     // Breaks among the raw winners and among the refined ones, both found
     // among the same measured pixels.
     cv::Mat raw_weight;
-    if (options.raw_discontinuity_radius > 0) {
+    if (options.guided_radius > 0 && options.raw_discontinuity_radius > 0) {
       raw_weight = weight.clone();
       InvalidateAlongDiscontinuities(raw_plane, options.raw_discontinuity_radius, breaks,
                                      raw_weight);
@@ -387,9 +393,10 @@ DenseDepth ComputeDenseDepth(const Burst& input, const CameraModel& camera,
   if (options.fill_holes && result.valid_fraction < 1.0) {
     // Measured pixels weigh in with their confidence, which is 0 at every
     // pixel without a depth (the discontinuity bands too are holes).
-    // The fill follows the reference's colour edges where it has colour.
+    // The fill follows the reference's colour edges where it has colour (as
+    // captured: the high-pass is for matching, an edge is an edge).
     const cv::Mat& color = burst.reference_color;
-    const bool has_color = color.type() == CV_8UC3 && color.size() == plane.size();
+    const bool has_color = color.type() == CV_8UC3;  // size checked up front
     const cv::Mat filled =
         FillHoles(plane, result.confidence, has_color ? color : burst.gray[burst.reference()],
                   options.completion);

@@ -116,11 +116,11 @@ struct DenseOptions {
   // than discontinuity_parallax get no depth. 0: off.
   double edge_guard_parallax = 0.2;
   int discontinuity_radius = 2;
-  // ... and pixels within raw_discontinuity_radius of which the raw winners
-  // (before the refinement) span such a break: there the refinement hands a
-  // pixel one side's depth, at a depth edge the nearer surface's on the
-  // farther one's pixels, and the fill does better (docs/dense.md, "Breaks
-  // among the raw winners"). 0: off.
+  // ... and, where the refinement is on (guided_radius > 0), pixels within
+  // raw_discontinuity_radius of which the raw winners (before it) span such a
+  // break: there the refinement hands a pixel one side's depth, at a depth
+  // edge the nearer surface's on the farther one's pixels, and the fill does
+  // better (docs/dense.md, "Breaks among the raw winners"). 0: off.
   int raw_discontinuity_radius = 4;
   double discontinuity_parallax = 0.6;
   // ... and more than this fraction of the larger inverse depth.

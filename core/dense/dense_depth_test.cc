@@ -231,6 +231,10 @@ TEST_F(DenseDepthInputTest, RejectsInconsistentInputsWithANamedReason) {
   Burst color = s.burst;
   cv::cvtColor(color.gray[1], color.gray[1], cv::COLOR_GRAY2BGR);
   ExpectRejected(color, s.camera, s.poses, s.sparse_inverse_depths, "frame 1");
+  Burst small_color = s.burst;
+  cv::cvtColor(s.burst.gray[0](cv::Rect(0, 0, 320, 240)), small_color.reference_color,
+               cv::COLOR_GRAY2BGR);
+  ExpectRejected(small_color, s.camera, s.poses, s.sparse_inverse_depths, "reference_color");
   DenseOptions options;
   options.planes = 1;
   ExpectRejected(s.burst, s.camera, s.poses, s.sparse_inverse_depths, "planes", options);

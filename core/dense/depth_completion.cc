@@ -9,9 +9,9 @@
 namespace dfsm {
 namespace {
 
-// A hole whose smoothed weight stays below this (of a measured pixel's
-// confidence, at most 1) lies in a region no measurement reaches: it keeps
-// the push-pull fill.
+// A hole whose smoothed weight stays below this (in the units of a measured
+// pixel's weight, its confidence to confidence_power, at most 1) lies in a
+// region no measurement reaches: it keeps the push-pull fill.
 constexpr float kMinSpreadWeight = 1e-4f;
 
 // The 2x2 sums of a level (odd sizes: the last row/column sums what exists).
@@ -24,9 +24,10 @@ cv::Mat SumDown(const cv::Mat& level) {
 }
 
 // Every pixel from the measured ones: the push-pull pyramid, then the guided
-// pass over the holes (steps 1-2 of depth_completion.h). w0: the weights, >= 0.
-cv::Mat PushPull(const cv::Mat& values, const cv::Mat& w0, const cv::Mat& guide,
-                 const DepthCompletionOptions& options) {
+// pass over the holes (steps 1-2 of depth_completion.h). w0: the weights, >= 0;
+// measured: where a pixel has a measurement (8-bit mask).
+cv::Mat PushPull(const cv::Mat& values, const cv::Mat& w0, const cv::Mat& measured,
+                 const cv::Mat& guide, const DepthCompletionOptions& options) {
   // Push: levels of (sum of value x weight, sum of weight) until no hole.
   std::vector<cv::Mat> value_weight{values.mul(w0)}, weights{w0};
   while (weights.back().rows > 1 || weights.back().cols > 1) {
@@ -58,11 +59,11 @@ cv::Mat PushPull(const cv::Mat& values, const cv::Mat& w0, const cv::Mat& guide,
     if (guide.channels() == 3) cv::cvtColor(guide, gray, cv::COLOR_BGR2GRAY);
     gray.convertTo(gray01, CV_32F, 1.0 / 255.0);
     cv::Mat pass_weight = w0.clone();
-    pass_weight.setTo(options.filled_weight, w0 <= 0.0f);
+    pass_weight.setTo(options.filled_weight, ~measured);
     const cv::Mat smoothed =
         WeightedGuidedFilter(gray01, filled, pass_weight, options.guided_radius, options.guided_eps,
                              nullptr, guide.cols > 1000 ? 2 : 1);
-    smoothed.copyTo(filled, w0 <= 0.0f);
+    smoothed.copyTo(filled, ~measured);
   }
   return filled;
 }
@@ -86,11 +87,14 @@ cv::Mat FillHoles(const cv::Mat& values, const cv::Mat& weight, const cv::Mat& g
   CV_Assert(values.size() == weight.size() && values.size() == guide.size());
   cv::Mat w0;
   cv::max(weight, 0.0f, w0);
-  if (cv::countNonZero(w0) == 0) return {};
+  // What is measured is decided before the power, which may underflow a
+  // small positive confidence to 0.
+  const cv::Mat measured = w0 > 0.0f;
+  if (cv::countNonZero(measured) == 0) return {};
   if (options.confidence_power != 1.0) cv::pow(w0, options.confidence_power, w0);
 
   // The holes the spread along the image's regions does not reach.
-  cv::Mat filled, unreached = w0 <= 0.0f;
+  cv::Mat filled, unreached = ~measured;
   if (options.smoother.lambda > 0.0) {
     cv::Mat value = values.mul(w0), spread_weight = w0.clone();
     SmoothAlongEdges(guide, {&value, &spread_weight}, options.smoother);
@@ -98,13 +102,13 @@ cv::Mat FillHoles(const cv::Mat& values, const cv::Mat& weight, const cv::Mat& g
     unreached &= spread_weight < kMinSpreadWeight;
   }
   if (cv::countNonZero(unreached) > 0) {
-    const cv::Mat pushed = PushPull(values, w0, guide, options);
+    const cv::Mat pushed = PushPull(values, w0, measured, guide, options);
     if (filled.empty())
       filled = pushed;
     else
       pushed.copyTo(filled, unreached);
   }
-  values.copyTo(filled, w0 > 0.0f);  // measured pixels exactly as they were
+  values.copyTo(filled, measured);  // measured pixels exactly as they were
   return filled;
 }
 

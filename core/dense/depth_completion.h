@@ -29,7 +29,7 @@ namespace dfsm {
 struct DepthCompletionOptions {
   // The fallback's guided pass (pixels of the guide); 0: push-pull only.
   int guided_radius = 8;
-  float guided_eps = 1e-3f;  // on a [0, 1] guide
+  float guided_eps = 1e-3f;  // on the grey reference scaled to [0, 1]
   // Weight of a filled pixel in the guided pass, relative to a measured one
   // of confidence 1: small, so the measurements steer and the fill follows.
   float filled_weight = 0.05f;
@@ -39,8 +39,7 @@ struct DepthCompletionOptions {
   // confident interior of a surface outweighs its fringe: the pixels that
   // border a hole carry the lowest confidence there and, at a depth edge,
   // often the nearer surface's depth (the window reaches across the edge).
-  // 1 / 2 / 4: 7.27 / 7.24 / 7.22 % over generated bursts, TUM 6.5 / 6.4 /
-  // 6.4 % (docs/dense.md).
+  // Measured in docs/dense.md, "The fill guided by colour".
   double confidence_power = 2.0;
 
   // Throws std::invalid_argument naming the option out of range.

@@ -37,7 +37,7 @@ TEST(DepthCompletionTest, FillsEveryHoleAndKeepsEveryMeasurement) {
 }
 
 TEST(DepthCompletionTest, AHoleInARegionTakesTheDepthOfItsOutline) {
-  // TUM's black monitor: a dark square (guide 0.05) in a bright scene (0.8),
+  // TUM's black monitor: a dark square (guide 12) in a bright scene (200),
   // measured only along its outline (depth 2) and everywhere outside (depth 8).
   cv::Mat values(80, 80, CV_32FC1, cv::Scalar(8.0f)), guide(80, 80, CV_8UC1, cv::Scalar(200));
   const cv::Rect square(20, 20, 40, 40);

@@ -29,8 +29,8 @@ struct GlobalSmootherOptions {
   // The same for a three-channel (colour) guide, on the largest difference of
   // its channels: an edge between two colours of one brightness (an orange
   // wall behind a grey photo) stops the spread there too. Wider than sigma
-  // because the largest of three channels' noise exceeds the grey's; on
-  // generated bursts sigma 2 / 3 / 4 scored 7.32 / 7.27 / 7.31 % (docs/dense.md).
+  // because the largest of three channels' noise exceeds the grey's
+  // (docs/dense.md, "The fill guided by colour").
   double color_sigma = 3.0;
   // Row-and-column passes. One scores as well as three on TUM and on
   // generated bursts (docs/dense.md) but leaves streaks along the last

@@ -62,6 +62,19 @@ TEST(GlobalSmootherTest, AColourGuideStopsTheSpreadAtAnyChannelsEdge) {
   EXPECT_NEAR(spread.at<float>(20, 30), 9.0f, 1e-3f);
 }
 
+TEST(GlobalSmootherTest, AColourGuideReadsColorSigma) {
+  // The same edge with a colour sigma far above its 123 levels: the values
+  // blend, whatever the grey sigma.
+  cv::Mat guide(40, 60, CV_8UC3, cv::Scalar(30, 140, 225));
+  guide.colRange(30, 60).setTo(cv::Scalar(153, 153, 153));
+  GlobalSmootherOptions options;
+  options.sigma = 0.01;
+  options.color_sigma = 1000.0;
+  const cv::Mat spread = SpreadTwoColumns(guide, options);
+  EXPECT_GT(spread.at<float>(20, 30), 5.5f);
+  EXPECT_LT(spread.at<float>(20, 30), 8.5f);
+}
+
 TEST(GlobalSmootherTest, RefusesOptionsOutOfRange) {
   GlobalSmootherOptions options;
   options.sigma = 0.0;
