@@ -52,11 +52,11 @@ void ValidateInputs(const Burst& burst, const CameraModel& camera, const std::ve
     Require(poses[i].R.allFinite() && poses[i].T.allFinite(),
             "pose " + std::to_string(i) + " is not finite");
   }
-  // The fill reads the reference in colour (or its gray frame when empty).
+  // The fill reads the reference in colour where it is 8-bit BGR (and the
+  // gray frame otherwise).
   const cv::Mat& color = burst.reference_color;
-  Require(color.empty() || ((color.type() == CV_8UC1 || color.type() == CV_8UC3) &&
-                            color.cols == burst.width() && color.rows == burst.height()),
-          "reference_color is not 8-bit gray or BGR of the burst's size");
+  Require(color.empty() || (color.cols == burst.width() && color.rows == burst.height()),
+          "reference_color is not of the burst's size");
   Require(options.coarse_scale >= 0, "coarse_scale must be >= 0 (0: from the image width)");
   Require(options.coarse_planes == 0 || options.coarse_planes >= 2,
           "coarse_planes must be 0 (all planes) or >= 2");
@@ -396,7 +396,7 @@ DenseDepth ComputeDenseDepth(const Burst& input, const CameraModel& camera,
     // The fill follows the reference's colour edges where it has colour (as
     // captured: the high-pass is for matching, an edge is an edge).
     const cv::Mat& color = burst.reference_color;
-    const bool has_color = color.type() == CV_8UC3;  // size checked up front
+    const bool has_color = color.type() == CV_8UC3;  // its size is checked up front
     const cv::Mat filled =
         FillHoles(plane, result.confidence, has_color ? color : burst.gray[burst.reference()],
                   options.completion);
