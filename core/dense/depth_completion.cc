@@ -76,6 +76,8 @@ void DepthCompletionOptions::Check() const {
   if (!(filled_weight > 0.0f && filled_weight <= 1.0f))
     throw std::invalid_argument("filled_weight must be in (0, 1]");
   if (!(confidence_power > 0.0)) throw std::invalid_argument("confidence_power must be > 0");
+  if (guide_median < 0 || (guide_median > 1 && guide_median % 2 == 0))
+    throw std::invalid_argument("guide_median must be 0, 1 or odd");
   smoother.Check();
 }
 
@@ -97,7 +99,13 @@ cv::Mat FillHoles(const cv::Mat& values, const cv::Mat& weight, const cv::Mat& g
   cv::Mat filled, unreached = ~measured;
   if (options.smoother.lambda > 0.0) {
     cv::Mat value = values.mul(w0), spread_weight = w0.clone();
-    SmoothAlongEdges(guide, {&value, &spread_weight}, options.smoother);
+    // A new image: the caller's guide (shared data) stays as it is.
+    cv::Mat edges;
+    if (options.guide_median > 1)
+      cv::medianBlur(guide, edges, options.guide_median);
+    else
+      edges = guide;
+    SmoothAlongEdges(edges, {&value, &spread_weight}, options.smoother);
     cv::divide(value, cv::max(spread_weight, kMinSpreadWeight), filled);
     unreached &= spread_weight < kMinSpreadWeight;
   }

@@ -41,6 +41,12 @@ struct DepthCompletionOptions {
   // often the nearer surface's depth (the window reaches across the edge).
   // Measured in docs/dense.md, "The fill guided by colour".
   double confidence_power = 2.0;
+  // The spread reads the guide after a median of this size (odd; 0 or 1:
+  // none): a webcam's noisy, blocky chroma (4:2:0, JPEG) otherwise stops it
+  // inside a surface, and a median, unlike a blur, leaves an edge a step
+  // instead of a ramp the spread crosses (docs/dense.md, "A median of the
+  // fill's guide").
+  int guide_median = 3;
 
   // Throws std::invalid_argument naming the option out of range.
   void Check() const;

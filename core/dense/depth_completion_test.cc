@@ -87,6 +87,26 @@ TEST(DepthCompletionTest, AColourEdgeOfOneBrightnessStopsTheFill) {
   EXPECT_LT(FillHoles(values, weight, gray).at<float>(20, 42), 3.0f);
 }
 
+TEST(DepthCompletionTest, TheGuidesMedianLetsTheFillThroughNoiseButNotAcrossAnEdge) {
+  // A wall (depth 4) measured at its left end and crossed by one-pixel lines
+  // 60 levels off (the streaks of chroma noise and JPEG), and a photo (depth
+  // 1) beyond a clean edge at x = 60. Without the median every line stops
+  // the spread and the wall's hole is filled from its surroundings, the
+  // photo nearest; with it the wall's depth reaches the hole's far end and
+  // still stops at the photo's edge.
+  cv::Mat guide(40, 80, CV_8UC3, cv::Scalar(40, 120, 200));
+  guide.colRange(60, 80).setTo(cv::Scalar(150, 150, 150));
+  for (int x = 14; x < 58; x += 4) guide.col(x).setTo(cv::Scalar(100, 120, 200));
+  cv::Mat values(guide.size(), CV_32FC1, cv::Scalar(4.0f));
+  values.colRange(60, 80).setTo(1.0f);
+  cv::Mat weight(guide.size(), CV_32FC1, cv::Scalar(1.0f));
+  weight.colRange(10, 60).setTo(0.0f);  // the wall's hole
+  DepthCompletionOptions without;
+  without.guide_median = 0;
+  EXPECT_NEAR(FillHoles(values, weight, guide).at<float>(20, 57), 4.0f, 0.1f);
+  EXPECT_LT(FillHoles(values, weight, guide, without).at<float>(20, 57), 3.5f);
+}
+
 TEST(DepthCompletionTest, TheConfidentInteriorOutweighsAFringe) {
   // One region of even brightness: its confident interior (depth 10,
   // confidence 0.9) and, between it and a hole, a fringe of low confidence
@@ -116,6 +136,9 @@ TEST(DepthCompletionTest, NothingToFillFrom) {
   EXPECT_THROW(bad.Check(), std::invalid_argument);
   bad = {};
   bad.confidence_power = 0.0;
+  EXPECT_THROW(bad.Check(), std::invalid_argument);
+  bad = {};
+  bad.guide_median = 4;
   EXPECT_THROW(bad.Check(), std::invalid_argument);
 }
 
