@@ -257,8 +257,10 @@ def page_tests(driver, dfsmd, out, burst, work):
         raise Failure(f'progress bar of the succeeded job is {progress}, not 1')
     log(f'job {job_id} succeeded after {time.monotonic() - clicked:.1f} s')
 
-    # 4. The result.
-    find(item).click()
+    # 4. The result. The list is re-rendered whenever an event arrives, so the
+    # item found may be replaced before the click lands (a stale element):
+    # find it again and retry until one click reaches a live element.
+    wait(f'a click on job {job_id} in the list', lambda: find(item).click() or True, 10, 0.1)
     wait('the result panel to finish loading', lambda: find('#result-panel').get_attribute('data-ready') == 'true', 60)
     if find('#result-id').text != job_id:
         raise Failure(f'result panel shows {find("#result-id").text!r}, not {job_id}')
