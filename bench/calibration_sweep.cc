@@ -2,6 +2,7 @@
 // burst, then the summary line. Measures whether sigma_f, the distortion sigma
 // and the verdict are honest over the settings a user meets.
 //   calibration_sweep [--bursts N] [--seed S] [--no-weak-prior]
+//                     [--only I] (burst I of the sweep alone)
 #include "core/pipeline/calibration_sweep.h"
 
 #include <algorithm>
@@ -19,6 +20,7 @@ int main(int argc, char** argv) {
   uint64_t seed = 1;
   SparseOptions options;
   double cell_scale = 1.0;
+  int only = -1;                 // every burst
   std::string camera = "ideal";  // camera effects preset of the generated bursts  // feature cell
                                  // against the default (0.5: four times the cells)
   for (int i = 1; i < argc; ++i) {
@@ -34,16 +36,26 @@ int main(int argc, char** argv) {
       cell_scale = std::atof(argv[++i]);
     else if (!std::strcmp(argv[i], "--camera") && i + 1 < argc)
       camera = argv[++i];
+    else if (!std::strcmp(argv[i], "--only") && i + 1 < argc)
+      only = std::atoi(argv[++i]);
     else {
       std::fprintf(stderr,
                    "usage: calibration_sweep [--bursts N] [--seed S] [--no-weak-prior]\n"
                    "                         [--lens-prior SIGMA] [--cell-scale S]\n"
-                   "                         [--camera ideal|webcam|phone]\n");
+                   "                         [--camera ideal|webcam|phone]\n"
+                   "                         [--only I]\n");
       return 2;
     }
   }
   std::vector<SweepOutcome> outcomes;
-  for (SynthOptions settings : CalibrationSweepSettings(bursts, seed)) {
+  std::vector<SynthOptions> sweep = CalibrationSweepSettings(bursts, seed);
+  if (only >= static_cast<int>(sweep.size())) {
+    std::fprintf(stderr, "--only %d: the sweep has %zu bursts (0-%zu)\n", only, sweep.size(),
+                 sweep.size() - 1);
+    return 2;
+  }
+  if (only >= 0) sweep = {sweep[only]};
+  for (SynthOptions settings : sweep) {
     settings.effects = CameraEffects::Preset(camera);
     SparseOptions burst_options = options;
     if (cell_scale != 1.0)  // the default cell of this size, scaled

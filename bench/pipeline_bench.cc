@@ -46,8 +46,10 @@ double PeakRssMb() {
 // Writing 5 to clear_refs resets VmHWM to the current RSS (Linux >= 4.0).
 void ResetPeakRss() { std::ofstream("/proc/self/clear_refs") << "5"; }
 
-void RunWholePipeline(benchmark::State& state, int width, int height) {
-  const Burst& burst = Rendered(width, height, static_cast<int>(state.range(0))).burst;
+void RunWholePipeline(benchmark::State& state, int width, int height,
+                      const std::string& camera = "ideal", double rotation_deg = 0.0) {
+  const Burst& burst =
+      Rendered(width, height, static_cast<int>(state.range(0)), camera, rotation_deg).burst;
   PipelineOptions options;
   options.dense.planes = static_cast<int>(state.range(1));
   ResetPeakRss();
@@ -79,6 +81,20 @@ BENCHMARK(BM_Pipeline1080p)
     ->ArgNames({"frames", "planes"})
     ->Args({10, 128})
     ->Args({15, 128})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->MinTime(3.0);
+
+// A phone's burst (the generator's phone preset: rolling shutter, exposure
+// drift, blur, JPEG 90; 1 deg of tremor): what a phone user waits for.
+// Beside BM_Pipeline1080p's ideal burst the bundle adjustment is the stage
+// that grows (docs/sparse.md, "The adjustment that measures the readout").
+void BM_PipelinePhone1080p(benchmark::State& state) {
+  RunWholePipeline(state, 1920, 1080, "phone", 1.0);
+}
+BENCHMARK(BM_PipelinePhone1080p)
+    ->ArgNames({"frames", "planes"})
+    ->Args({10, 128})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime()
     ->MinTime(3.0);
