@@ -8,6 +8,7 @@
 
 #include "core/camera/rolling_shutter.h"
 #include "core/sparse/intrinsics_prior.h"
+#include "core/sparse/rolling_shutter_cost_function.h"
 #include "core/sparse/rolling_shutter_reprojection_error.h"
 #include "core/sparse/undistorted_reprojection_error.h"
 
@@ -46,8 +47,7 @@ class Reprojection {
     blocks.push_back(inverse_depth);
     blocks.push_back(readout);
     return problem->AddResidualBlock(
-        RollingShutterReprojectionError::Create(Error(sides, reference, observed), shared), loss,
-        blocks);
+        new RollingShutterCostFunction(Error(sides, reference, observed), shared), loss, blocks);
   }
 
   // The residual at the given parameters, with the reference pixel of track j

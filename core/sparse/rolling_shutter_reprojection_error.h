@@ -83,12 +83,16 @@ class RollingShutterReprojectionError {
   }
 
   // The cost function for the parameter blocks {intrinsics, pose, neighbour,
-  // [reference_neighbour,] inverse_depth, readout}: the reference neighbour's
-  // block only with kOwnBlock.
-  static ceres::CostFunction* Create(const RollingShutterReprojectionError& error,
-                                     ReferenceNeighbour shared);
+  // [reference_neighbour,] inverse_depth, readout}, the reference neighbour's
+  // block only with kOwnBlock, differentiated by Ceres' autodiff: the
+  // reference that RollingShutterCostFunction's hand-written Jacobian (what
+  // the adjustment runs) is tested against.
+  static ceres::CostFunction* CreateAutoDiff(const RollingShutterReprojectionError& error,
+                                             ReferenceNeighbour shared);
 
  private:
+  friend class RollingShutterCostFunction;
+
   Eigen::Vector2d reference_;
   Eigen::Vector2d observed_;
   double cx_, cy_;
@@ -119,7 +123,7 @@ struct RollingShutterSharedBlock {
   }
 };
 
-inline ceres::CostFunction* RollingShutterReprojectionError::Create(
+inline ceres::CostFunction* RollingShutterReprojectionError::CreateAutoDiff(
     const RollingShutterReprojectionError& error, ReferenceNeighbour shared) {
   using Frame = RollingShutterSharedBlock<ReferenceNeighbour::kFrame>;
   using FrameNeighbour = RollingShutterSharedBlock<ReferenceNeighbour::kFrameNeighbour>;
