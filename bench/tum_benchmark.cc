@@ -15,50 +15,19 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
-#include <map>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
-#include <sstream>
 #include <string>
 #include <vector>
 
 #include "bench/tum_pictures.h"
+#include "bench/tum_sequence.h"
 #include "core/export/calibration_import.h"
 #include "core/pipeline/evaluation.h"
 #include "core/pipeline/pipeline.h"
 
 namespace dfsm {
 namespace {
-
-struct Stamped {
-  double time;
-  std::string file;
-};
-
-std::vector<Stamped> ReadList(const std::string& path) {
-  std::vector<Stamped> list;
-  std::ifstream in(path);
-  for (std::string line; std::getline(in, line);) {
-    if (line.empty() || line[0] == '#') continue;
-    std::istringstream fields(line);
-    Stamped s;
-    if (fields >> s.time >> s.file) list.push_back(s);
-  }
-  return list;
-}
-
-// Kinect depth in metres (16-bit PNG / 5000, 0 = none) of the depth frame
-// nearest in time to `time`.
-cv::Mat KinectDepth(const std::string& dataset, const std::vector<Stamped>& depths, double time) {
-  const auto nearest = std::min_element(depths.begin(), depths.end(), [&](auto& a, auto& b) {
-    return std::abs(a.time - time) < std::abs(b.time - time);
-  });
-  const cv::Mat raw = cv::imread(dataset + "/" + nearest->file, cv::IMREAD_UNCHANGED);
-  cv::Mat metres;
-  raw.convertTo(metres, CV_32F, 1.0 / 5000.0);
-  return metres;
-}
 
 // --semi-global off (winner-take-all coarse seeds) or P1:P2 (the penalties).
 void ParseSemiGlobal(const std::string& text, DenseOptions* dense) {
@@ -72,23 +41,6 @@ void ParseSemiGlobal(const std::string& text, DenseOptions* dense) {
   dense->semi_global.small_step_penalty = std::stof(text.substr(0, colon));
   dense->semi_global.large_step_penalty = std::stof(text.substr(colon + 1));
   dense->semi_global.Check();
-}
-
-Burst Window(const std::string& dataset, const std::vector<Stamped>& rgb, int first, int frames) {
-  Burst burst;
-  burst.manifest.width = 640;
-  burst.manifest.height = 480;
-  burst.manifest.reference = frames / 2;  // the reference in the middle
-  for (int i = 0; i < frames; ++i) {
-    const cv::Mat frame = cv::imread(dataset + "/" + rgb[first + i].file, cv::IMREAD_COLOR);
-    if (frame.empty()) throw std::runtime_error("cannot read " + rgb[first + i].file);
-    burst.gray.push_back(ToGray8(frame));
-    if (i == frames / 2) burst.reference_color = frame;
-    BurstFrameInfo info;
-    info.file = rgb[first + i].file;
-    burst.manifest.frames.push_back(info);
-  }
-  return burst;
 }
 
 }  // namespace
@@ -118,9 +70,8 @@ int main(int argc, char** argv) {
     else if (!std::strcmp(argv[i], "--semi-global"))
       ParseSemiGlobal(argv[i + 1], &dense);
   }
-  const std::vector<Stamped> rgb = ReadList(dataset + "/rgb.txt");
-  const std::vector<Stamped> depths = ReadList(dataset + "/depth.txt");
-  if (rgb.size() < 3 || depths.empty()) {
+  const TumSequence sequence(dataset);
+  if (sequence.empty()) {
     std::fprintf(stderr, "tum_benchmark: no TUM sequence at %s (rgb.txt, depth.txt)\n",
                  dataset.c_str());
     return 77;
@@ -139,9 +90,9 @@ int main(int argc, char** argv) {
     bool confirmed = false;
   };
   std::vector<Row> rows;
-  for (int first = 0; first + frames <= static_cast<int>(rgb.size()); first += step) {
-    const Burst burst = Window(dataset, rgb, first, frames);
-    const cv::Mat truth = KinectDepth(dataset, depths, rgb[first + frames / 2].time);
+  for (int first = 0; first + frames <= sequence.frames(); first += step) {
+    const Burst burst = sequence.Window(first, frames);
+    const cv::Mat truth = sequence.ReferenceDepth(first, frames);
     const cv::Mat constant(truth.size(), CV_32FC1, cv::Scalar(1.0f));
     std::vector<cv::Mat> picture_rows;
     for (const std::string mode : {"known", "self"}) {
