@@ -9,7 +9,6 @@
 //   tum_benchmark [--dataset DIR] [--frames N] [--step S] [--calibration FILE]
 //                 [--rolling-shutter global|estimate|R] [--pictures DIR]
 //                 [--semi-global off|P1:P2]
-#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -49,7 +48,7 @@ void ParseSemiGlobal(const std::string& text, DenseOptions* dense) {
 int main(int argc, char** argv) {
   using namespace dfsm;
   std::string dataset = "../shared/data/tum_fr1_xyz";
-  std::string calibration_file = std::string(DFSM_SOURCE_DIR) + "/bench/data/tum_freiburg1.yaml";
+  std::string calibration_file = TumFreiburg1CalibrationFile();
   std::string pictures;
   int frames = 10, step = 3;
   RollingShutterOptions rolling_shutter;
@@ -170,12 +169,6 @@ int main(int argc, char** argv) {
         100.0 * r.score.within_25_percent, 100.0 * r.score.coverage, 100.0 * r.filled.abs_rel,
         100.0 * r.filled.within_25_percent, 100.0 * r.filled.coverage, 100.0 * r.constant.abs_rel,
         r.confirmed ? "confirmed" : "warned", 100.0 * r.disagreement);
-  // The median of an even count is the mean of the two middle values.
-  const auto median = [](std::vector<double> values) {
-    std::sort(values.begin(), values.end());
-    const size_t n = values.size();
-    return n == 0 ? 0.0 : 0.5 * (values[(n - 1) / 2] + values[n / 2]);
-  };
   for (const std::string mode : {"known", "self"}) {
     std::vector<double> abs_rel, filled, filled_within_25;
     for (const Row& r : rows)
@@ -186,8 +179,8 @@ int main(int argc, char** argv) {
       }
     if (!abs_rel.empty())
       std::printf("median, %s: AbsRel %.1f %%; filled: AbsRel %.1f %%, within 25 %% %.1f %%\n",
-                  mode.c_str(), 100.0 * median(abs_rel), 100.0 * median(filled),
-                  100.0 * median(filled_within_25));
+                  mode.c_str(), 100.0 * WindowMedian(abs_rel), 100.0 * WindowMedian(filled),
+                  100.0 * WindowMedian(filled_within_25));
   }
   return 0;
 }

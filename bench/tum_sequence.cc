@@ -9,6 +9,16 @@
 
 namespace dfsm {
 
+std::string TumFreiburg1CalibrationFile() {
+  return std::string(DFSM_SOURCE_DIR) + "/bench/data/tum_freiburg1.yaml";
+}
+
+double WindowMedian(std::vector<double> values) {
+  std::sort(values.begin(), values.end());
+  const size_t n = values.size();
+  return n == 0 ? 0.0 : 0.5 * (values[(n - 1) / 2] + values[n / 2]);
+}
+
 TumSequence::TumSequence(std::string dataset)
     : dataset_(std::move(dataset)),
       rgb_(ReadList(dataset_ + "/rgb.txt")),

@@ -11,6 +11,14 @@
 
 namespace dfsm {
 
+// The published calibration of the Freiburg 1 sequences (fr1/xyz among them),
+// fitted to ha2016-d2u: bench/data/tum_freiburg1.yaml.
+std::string TumFreiburg1CalibrationFile();
+
+// The median over windows as the benchmark reports it and the tests bound
+// it: with an even count, the mean of the two middle values (0 when empty).
+double WindowMedian(std::vector<double> values);
+
 class TumSequence {
  public:
   // Reads the two lists; empty() when either is missing or too short.

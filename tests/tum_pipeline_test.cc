@@ -6,7 +6,6 @@
 // depth", with room for the machine-to-machine drift of the tracks.
 #include <gtest/gtest.h>
 
-#include <algorithm>
 #include <string>
 #include <vector>
 
@@ -30,8 +29,7 @@ struct WindowScore {
 // Every window of the sequence through the pipeline, with the published
 // calibration held fixed (`known`) or self-calibrated.
 std::vector<WindowScore> ScoreWindows(const TumSequence& sequence, bool known) {
-  const std::string calibration_file =
-      std::string(DFSM_SOURCE_DIR) + "/bench/data/tum_freiburg1.yaml";
+  const std::string calibration_file = TumFreiburg1CalibrationFile();
   PipelineOptions options;
   if (known) {
     KnownCalibration fixed;
@@ -56,12 +54,6 @@ std::vector<WindowScore> ScoreWindows(const TumSequence& sequence, bool known) {
     scores.push_back(score);
   }
   return scores;
-}
-
-double Median(std::vector<double> values) {
-  std::sort(values.begin(), values.end());
-  const size_t n = values.size();
-  return n == 0 ? 0.0 : 0.5 * (values[(n - 1) / 2] + values[n / 2]);
 }
 
 #define DFSM_REQUIRE_TUM(sequence)                                    \
@@ -105,9 +97,9 @@ TEST(TumPipeline, PublishedCalibrationMediansAndWindowsBetterThanAConstantDepth)
     filled_within_25.push_back(s.filled.within_25_percent);
     clearly_better += s.measured.abs_rel < 0.5 * s.constant.abs_rel;
   }
-  EXPECT_LT(Median(measured), 0.05);
-  EXPECT_LT(Median(filled), 0.075);
-  EXPECT_GT(Median(filled_within_25), 0.93);
+  EXPECT_LT(WindowMedian(measured), 0.05);
+  EXPECT_LT(WindowMedian(filled), 0.075);
+  EXPECT_GT(WindowMedian(filled_within_25), 0.93);
   EXPECT_GE(clearly_better, 9);
 }
 
