@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <opencv2/core/hal/intrin.hpp>
 #include <opencv2/imgproc.hpp>
 
 namespace dfsm {
@@ -13,13 +14,6 @@ namespace {
 struct RowSamples {
   explicit RowSamples(int cols) : px(cols), py(cols), usable(cols) {}
   std::vector<float> px, py, usable;
-};
-
-// Per-worker row buffers of the gather: positions clamped inside the frame
-// and the validity of each sample.
-struct GatherScratch {
-  explicit GatherScratch(int cols) : x(cols), y(cols), valid(cols) {}
-  std::vector<float> x, y, valid;
 };
 
 // Projects reference row y onto `frame` at inverse depth w[x]: homography,
@@ -58,59 +52,97 @@ inline void ProjectRow(const SweepLevel& level, int frame, int y, const float* w
   }
 }
 
-// Positions of the samples of one row, clamped for the gather, and their
-// validity: usable and inside the frame. `t` interpolates between two
-// projections of the row (samples b unused when t == 0).
-inline void BoundRow(const RowSamples& a, const RowSamples& b, float t, int cols,
-                     const cv::Mat& image, GatherScratch* out) {
-  // Bilinear needs (x0 + 1, y0 + 1) inside: clamp to just below the last pixel.
-  const float max_x = image.cols - 1.001f, max_y = image.rows - 1.001f;
+#if CV_SIMD128
+// The pixels at offset[lane] and offset[lane] + 1 of `data` for every lane,
+// as two vectors. A pair is one 64-bit load (v_lut_pairs): half the loads of
+// four single lookups; the zips then sort the pairs' members into lanes.
+inline void LoadNeighbours(const float* data, const int* offset, cv::v_float32x4* left,
+                           cv::v_float32x4* right) {
+  // a = [l0 r0 l1 r1], b = [l2 r2 l3 r3]; zipped: [l0 l2 r0 r2], [l1 l3 r1 r3];
+  // zipped again: [l0 l1 l2 l3], [r0 r1 r2 r3].
+  const cv::v_float32x4 a = cv::v_lut_pairs(data, offset), b = cv::v_lut_pairs(data, offset + 2);
+  cv::v_float32x4 c, d;
+  cv::v_zip(a, b, c, d);
+  cv::v_zip(c, d, *left, *right);
+}
+#endif
+
+// Adds, for every pixel of reference row y, the truncated absolute
+// difference between the reference and the bilinear sample of `image` to
+// sum/count, where the sample is valid: usable in both projections and inside
+// the frame. The sample lies a fraction `t` of the way from projection a to
+// projection b of the row (b unread when t == 0). Positions are clamped, so
+// the gather needs no branch.
+//
+// The sweeps spend most of their time here. Loads from computed addresses
+// keep a compiler from vectorizing the loop, so it is written in OpenCV's
+// universal intrinsics (SSE2 on x86-64, NEON on arm64): positions, weights
+// and the cost in lanes, the four neighbours loaded through lookups. Each
+// lane evaluates the scalar tail's expressions in the same order, so the two
+// give the same bits (unless the compiler contracts to fused multiply-adds).
+inline void GatherRow(const SweepLevel& level, const cv::Mat& image, int y, const RowSamples& a,
+                      const RowSamples& b, float t, float truncation, float* sum, float* count) {
+  const int cols = level.reference.cols;
+  const float* ref = level.reference.ptr<float>(y);
   const float* ax = a.px.data();
   const float* ay = a.py.data();
   const float* au = a.usable.data();
-  const float* bx = b.px.data();
-  const float* by = b.py.data();
-  const float* bu = b.usable.data();
-  float* sx = out->x.data();
-  float* sy = out->y.data();
-  float* valid = out->valid.data();
-  if (t == 0.0f) {
-    bx = ax;
-    by = ay;
-    bu = au;
+  const float* bx = t == 0.0f ? ax : b.px.data();
+  const float* by = t == 0.0f ? ay : b.py.data();
+  const float* bu = t == 0.0f ? au : b.usable.data();
+  const float* data = image.ptr<float>(0);
+  const int stride = static_cast<int>(image.step1());
+  // Bilinear needs (x0 + 1, y0 + 1) inside: clamp to just below the last pixel.
+  const float max_x = image.cols - 1.001f, max_y = image.rows - 1.001f;
+  int x = 0;
+#if CV_SIMD128
+  constexpr int kLanes = cv::v_float32x4::nlanes;
+  const cv::v_float32x4 v_t = cv::v_setall_f32(t), v_truncation = cv::v_setall_f32(truncation);
+  const cv::v_float32x4 zero = cv::v_setzero_f32(), one = cv::v_setall_f32(1.0f);
+  const cv::v_float32x4 v_max_x = cv::v_setall_f32(max_x), v_max_y = cv::v_setall_f32(max_y);
+  const cv::v_int32x4 v_stride = cv::v_setall_s32(stride);
+  alignas(64) int offset[kLanes];
+  for (; x + kLanes <= cols; x += kLanes) {
+    const cv::v_float32x4 ax_ = cv::v_load(ax + x), ay_ = cv::v_load(ay + x);
+    const cv::v_float32x4 px = ax_ + v_t * (cv::v_load(bx + x) - ax_);
+    const cv::v_float32x4 py = ay_ + v_t * (cv::v_load(by + x) - ay_);
+    const cv::v_float32x4 inside = (cv::v_load(au + x) * cv::v_load(bu + x) > zero) & (px >= zero) &
+                                   (py >= zero) & (px <= v_max_x) & (py <= v_max_y);
+    const cv::v_float32x4 valid = one & inside;
+    const cv::v_float32x4 sx = cv::v_min(cv::v_max(px, zero), v_max_x);
+    const cv::v_float32x4 sy = cv::v_min(cv::v_max(py, zero), v_max_y);
+    const cv::v_int32x4 x0 = cv::v_trunc(sx), y0 = cv::v_trunc(sy);
+    const cv::v_float32x4 fx = sx - cv::v_cvt_f32(x0), fy = sy - cv::v_cvt_f32(y0);
+    cv::v_store_aligned(offset, y0 * v_stride + x0);
+    cv::v_float32x4 p0, p1, q0, q1;
+    LoadNeighbours(data, offset, &p0, &p1);
+    LoadNeighbours(data + stride, offset, &q0, &q1);
+    const cv::v_float32x4 top = p0 + fx * (p1 - p0);
+    const cv::v_float32x4 bottom = q0 + fx * (q1 - q0);
+    const cv::v_float32x4 value = top + fy * (bottom - top);
+    const cv::v_float32x4 difference =
+        cv::v_min(cv::v_abs(value - cv::v_load(ref + x)), v_truncation);
+    cv::v_store(sum + x, cv::v_load(sum + x) + valid * difference);
+    cv::v_store(count + x, cv::v_load(count + x) + valid);
   }
-  for (int x = 0; x < cols; ++x) {
+#endif
+  for (; x < cols; ++x) {
     const float px = ax[x] + t * (bx[x] - ax[x]), py = ay[x] + t * (by[x] - ay[x]);
+    // Bitwise & (no short circuit) keeps the loop free of branches.
     const bool inside =
         (au[x] * bu[x] > 0.0f) & (px >= 0.0f) & (py >= 0.0f) & (px <= max_x) & (py <= max_y);
-    valid[x] = inside ? 1.0f : 0.0f;
-    sx[x] = std::min(std::max(px, 0.0f), max_x);
-    sy[x] = std::min(std::max(py, 0.0f), max_y);
-  }
-}
-
-// Adds the truncated absolute difference between the reference row y and the
-// bilinear samples of `image` to sum/count: the gather, branch-free on
-// clamped coordinates.
-inline void GatherRow(const SweepLevel& level, const cv::Mat& image, int y,
-                      const GatherScratch& samples, float truncation, float* sum, float* count) {
-  const int cols = level.reference.cols;
-  const float* ref = level.reference.ptr<float>(y);
-  const float* sx = samples.x.data();
-  const float* sy = samples.y.data();
-  const float* valid = samples.valid.data();
-  const float* data = image.ptr<float>(0);
-  const size_t stride = image.step1();
-  for (int x = 0; x < cols; ++x) {
-    const int x0 = static_cast<int>(sx[x]), y0 = static_cast<int>(sy[x]);
-    const float fx = sx[x] - x0, fy = sy[x] - y0;
+    const float valid = inside ? 1.0f : 0.0f;
+    const float sx = std::min(std::max(px, 0.0f), max_x);
+    const float sy = std::min(std::max(py, 0.0f), max_y);
+    const int x0 = static_cast<int>(sx), y0 = static_cast<int>(sy);
+    const float fx = sx - x0, fy = sy - y0;
     const float* p = data + y0 * stride + x0;
     const float* q = p + stride;
     const float top = p[0] + fx * (p[1] - p[0]);
     const float bottom = q[0] + fx * (q[1] - q[0]);
     const float value = top + fy * (bottom - top);
-    sum[x] += valid[x] * std::min(std::abs(value - ref[x]), truncation);
-    count[x] += valid[x];
+    sum[x] += valid * std::min(std::abs(value - ref[x]), truncation);
+    count[x] += valid;
   }
 }
 
@@ -298,7 +330,6 @@ void SweepEveryPlane(const SweepLevel& level, const InverseDepthLattice& lattice
     for (size_t k = 0; k < projected.size(); ++k)
       std::fill(w[k].begin(), w[k].end(), static_cast<float>(lattice.At(projected[k])));
     std::vector<RowSamples> samples(projected.size(), RowSamples(size.width));
-    GatherScratch scratch(size.width);
     BandSlices slices(planes, band_size);
     for (int j = 0; j < band.rows(); ++j) {
       const int y = band.Row(j);
@@ -306,10 +337,9 @@ void SweepEveryPlane(const SweepLevel& level, const InverseDepthLattice& lattice
         for (size_t k = 0; k < projected.size(); ++k)
           ProjectRow(level, i, y, w[k].data(), &samples[k]);
         for (int p = 0; p < planes; ++p) {
-          BoundRow(samples[segment[p]], samples[segment[p] + 1], along[p], size.width,
-                   level.frames[i], &scratch);
-          GatherRow(level, level.frames[i], y, scratch, options.truncation,
-                    slices.sums[p].ptr<float>(j), slices.counts[p].ptr<float>(j));
+          GatherRow(level, level.frames[i], y, samples[segment[p]], samples[segment[p] + 1],
+                    along[p], options.truncation, slices.sums[p].ptr<float>(j),
+                    slices.counts[p].ptr<float>(j));
         }
       }
     }
@@ -359,7 +389,6 @@ PlaneSelection SweepPlaneWindow(const SweepLevel& level, const InverseDepthLatti
     const cv::Size band_size(size.width, band.rows());
     std::vector<float> w_first(size.width), w_last(size.width);
     RowSamples first_samples(size.width), last_samples(size.width);
-    GatherScratch scratch(size.width);
     BandSlices slices(count, band_size);
     // The window's planes are evenly spaced in w, and along them a sample
     // moves on a straight line to within ~0.02 pixel: the homography is
@@ -380,9 +409,9 @@ PlaneSelection SweepPlaneWindow(const SweepLevel& level, const InverseDepthLatti
         ProjectRow(level, i, y, w_first.data(), &first_samples);
         if (count > 1) ProjectRow(level, i, y, w_last.data(), &last_samples);
         for (int k = 0; k < count; ++k) {
-          BoundRow(first_samples, last_samples, k * last_t, size.width, level.frames[i], &scratch);
-          GatherRow(level, level.frames[i], y, scratch, options.truncation,
-                    slices.sums[k].ptr<float>(j), slices.counts[k].ptr<float>(j));
+          GatherRow(level, level.frames[i], y, first_samples, last_samples, k * last_t,
+                    options.truncation, slices.sums[k].ptr<float>(j),
+                    slices.counts[k].ptr<float>(j));
         }
       }
     }
