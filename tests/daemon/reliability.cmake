@@ -10,7 +10,6 @@
 #  - device_gone_test: capture device unplugged under the REST API (fake V4L2
 #    driver, in process; label daemon).
 #  - dfsmd_soak_test: 1000 triggers; skips unless DFSM_TEST_SOAK=1 (label soak).
-set(_dfsm_reliability_common ${PROJECT_SOURCE_DIR}/tests/daemon/fault_helpers.cc)
 foreach(test dfsmd_fault_test dfsmd_kill_test dfsmd_amplification_test dfsmd_memory_budget_test
     dfsmd_soak_test)
   if(test STREQUAL "dfsmd_soak_test")
@@ -19,8 +18,8 @@ foreach(test dfsmd_fault_test dfsmd_kill_test dfsmd_amplification_test dfsmd_mem
     set(_labels daemon)
   endif()
   dfsm_add_test(${test}
-    SOURCES ${PROJECT_SOURCE_DIR}/tests/daemon/${test}.cc ${_dfsm_reliability_common}
-    LIBS dfsm_daemon dfsm_dfsmd_process dfsm_synth dfsm_pipeline dfsm_tar_files
+    SOURCES ${PROJECT_SOURCE_DIR}/tests/daemon/${test}.cc
+    LIBS dfsm_daemon dfsm_dfsmd_process dfsm_fault_helpers dfsm_synth dfsm_pipeline dfsm_tar_files
     LABELS ${_labels})
   target_compile_definitions(${test} PRIVATE DFSMD_BINARY="$<TARGET_FILE:dfsmd>")
   add_dependencies(${test} dfsmd)
