@@ -8,19 +8,19 @@
 # in build-asan and build-tsan (DFSM_ASAN_BUILD_DIR, DFSM_TSAN_BUILD_DIR move them).
 #
 #   asan  build-asan: -O1 -g1, -fsanitize=address,undefined (errors are
-#         fatal: -fno-sanitize-recover=all), every target but the benchmarks;
-#         runs the default run but the labels long, vm, soak, e2e, daemon and
-#         browser, i.e. unit (the API, the daemon's service and dfsmd's routes
-#         in process, the hostile clients, the fuzz corpus replays). Leak
-#         checking on. Left out, each run once elsewhere: the e2e accuracy
-#         suites (3-5 min each under ASan, the same code as the unit tests on
-#         larger images; the release stage asserts their accuracy), and the
-#         dfsmd process tests (daemon, browser: the same routes and jobs the
-#         in-process tests drive, here through a child process; they run in
-#         the release stage and under TSan, where their threads matter).
+#         fatal: -fno-sanitize-recover=all), only the target asan_tests (the
+#         test binaries labelled unit or hostile); runs those labels: the API,
+#         the daemon's service and dfsmd's routes in process, the hostile
+#         clients, the fuzz corpus replays. Leak checking on. Left out, each
+#         run once elsewhere: the e2e accuracy suites (3-5 min each under ASan,
+#         the same code as the unit tests on larger images; the release stage
+#         asserts their accuracy), and the dfsmd process tests (daemon,
+#         browser: the same routes and jobs the in-process tests drive, here
+#         through a child process; they run in the release stage and under
+#         TSan, where their threads matter). Their binaries are not built.
 #   tsan  build-tsan: -O2 -g1, -fsanitize=thread, only the target
 #         tsan_tests (the test binaries labelled daemon or tsan, and dfsmd);
-#         runs ctest -L '^(daemon|tsan)$': every dfsmd end-to-end test and the
+#         runs those labels: every dfsmd end-to-end test and the
 #         unit tests of daemon/capture, daemon/service and api. OpenCV runs
 #         serially in this build (cmake/tsan_serial_opencv.cc: its TBB pool is
 #         invisible to TSan); the few third-party false positives left are
@@ -54,13 +54,13 @@ check_reports() {
   return 1
 }
 
-# run_stage NAME BUILD_DIR CMAKE_SANITIZE OPTIMIZATION BUILD_TARGET CTEST_ARGS...:
-# configure, build, run, check the reports; prints the duration of the build and
-# the tests. -g1 (line tables) is what a sanitizer report needs: full -g made
+# run_stage NAME BUILD_DIR CMAKE_SANITIZE OPTIMIZATION: configure, build the
+# target NAME_tests, run the tests of its labels (the ctest -L expression CMake
+# writes to <build>/NAME_tests.labels; CMakeLists.txt declares the labels),
+# check the reports; prints the duration of the build and the tests. -g1 (line tables) is what a sanitizer report needs: full -g made
 # the Eigen/Ceres-heavy objects several times larger and their links slow.
 run_stage() {
-  local name="$1" build="$2" sanitize="$3" opt="$4" target="$5"
-  shift 5
+  local name="$1" build="$2" sanitize="$3" opt="$4" target="$1_tests"
   local start="$SECONDS"
   cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
     -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="$opt -DNDEBUG" -DCMAKE_C_FLAGS_RELWITHDEBINFO="$opt -DNDEBUG" \
@@ -71,7 +71,10 @@ run_stage() {
   rm -rf "$reports"
   mkdir -p "$reports"
   local status=0
-  (cd "$build" && ctest --output-on-failure --timeout 900 -j "$jobs" "$@") || status=$?
+  local labels
+  labels="$(cat "$build/$target.labels")"
+  echo "== $name: ctest -L '$labels'"
+  (cd "$build" && ctest --output-on-failure --timeout 900 -j "$jobs" -L "$labels") || status=$?
   check_reports "$reports" || status=1
   echo "== $name: build $((built - start)) s, tests $((SECONDS - built)) s"
   return "$status"
@@ -86,15 +89,15 @@ export DFSM_KILL_ROUNDS="${DFSM_KILL_ROUNDS:-8}"
 for stage in "${stages[@]}"; do
   case "$stage" in
     asan)
-      echo "== address + undefined-behaviour sanitizers: the unit tests (every label but long, vm, soak, e2e, daemon, browser)"
+      echo "== address + undefined-behaviour sanitizers: the unit tests (labels unit, hostile)"
       ASAN_OPTIONS="detect_leaks=1:abort_on_error=1:log_path=$asan_build/sanitizer-reports/asan" \
         UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1:log_path=$asan_build/sanitizer-reports/ubsan" \
-        run_stage asan "$asan_build" address,undefined "-O1 -g1" all -LE '^(long|vm|soak|e2e|daemon|browser)$' || status=1
+        run_stage asan "$asan_build" address,undefined "-O1 -g1" || status=1
       ;;
     tsan)
       echo "== thread sanitizer: capture, service and API unit tests, dfsmd end to end"
       TSAN_OPTIONS="suppressions=$root/scripts/tsan.supp:second_deadlock_stack=1:log_path=$tsan_build/sanitizer-reports/tsan" \
-        run_stage tsan "$tsan_build" thread "-O2 -g1" tsan_tests -L '^(daemon|tsan)$' || status=1
+        run_stage tsan "$tsan_build" thread "-O2 -g1" || status=1
       ;;
     *)
       echo "unknown sanitizer stage '$stage' (asan or tsan)" >&2
