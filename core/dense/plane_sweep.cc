@@ -54,13 +54,17 @@ inline void ProjectRow(const SweepLevel& level, int frame, int y, const float* w
 
 #if CV_SIMD128
 // The pixels at offset[lane] and offset[lane] + 1 of `data` for every lane,
-// as two vectors. A pair is one 64-bit load (v_lut_pairs): half the loads of
-// four single lookups; the zips then sort the pairs' members into lanes.
+// as two vectors. A pair is one 64-bit load: half the loads of four single
+// lookups; the zips then sort the pairs' members into lanes. v_load_halves,
+// not v_lut_pairs: SSE's v_lut_pairs dereferences an int64_t pointer, which
+// UBSan rightly reports at the odd offsets a pair starts at; v_load_halves
+// loads through the unaligned intrinsics (movq on SSE2, vld1 on NEON).
 inline void LoadNeighbours(const float* data, const int* offset, cv::v_float32x4* left,
                            cv::v_float32x4* right) {
   // a = [l0 r0 l1 r1], b = [l2 r2 l3 r3]; zipped: [l0 l2 r0 r2], [l1 l3 r1 r3];
   // zipped again: [l0 l1 l2 l3], [r0 r1 r2 r3].
-  const cv::v_float32x4 a = cv::v_lut_pairs(data, offset), b = cv::v_lut_pairs(data, offset + 2);
+  const cv::v_float32x4 a = cv::v_load_halves(data + offset[0], data + offset[1]);
+  const cv::v_float32x4 b = cv::v_load_halves(data + offset[2], data + offset[3]);
   cv::v_float32x4 c, d;
   cv::v_zip(a, b, c, d);
   cv::v_zip(c, d, *left, *right);
