@@ -57,8 +57,9 @@ check_reports() {
 # run_stage NAME BUILD_DIR CMAKE_SANITIZE OPTIMIZATION: configure, build the
 # target NAME_tests, run the tests of its labels (the ctest -L expression CMake
 # writes to <build>/NAME_tests.labels; CMakeLists.txt declares the labels),
-# check the reports; prints the duration of the build and the tests. -g1 (line tables) is what a sanitizer report needs: full -g made
-# the Eigen/Ceres-heavy objects several times larger and their links slow.
+# check the reports; prints the duration of the build and the tests. -g1 (line
+# tables) is what a sanitizer report needs: full -g made the Eigen/Ceres-heavy
+# objects several times larger and their links slow.
 run_stage() {
   local name="$1" build="$2" sanitize="$3" opt="$4" target="$1_tests"
   local start="$SECONDS"
