@@ -1,13 +1,10 @@
 #!/usr/bin/env bash
 # The test command: installs what is missing, builds with warnings as errors and
 # runs every test that belongs in the default run, then the sanitizer stages
-# (scripts/run-sanitizers.sh): the whole default run again under
+# (scripts/run-sanitizers.sh): the unit and hostile-client tests under
 # AddressSanitizer + UndefinedBehaviorSanitizer (build-asan), and the daemon,
 # capture, scheduler and API tests under ThreadSanitizer (build-tsan).
-# Measured on 2 cores shared with other builds (the CI's are not shared):
-# ASan build ~35 CPU-min, tests 15.4 min (206 tests; the 1080p sparse and
-# pipeline tests 3-5 min each); TSan build ~11 CPU-min, tests 13.3 min (119
-# tests; the 24-round kill -9 test alone 9 min).
+# README.md ("The two commands") has each stage's measured duration.
 #
 #   DFSM_TEST_LONG=1   also run the suites labelled "long"
 #   DFSM_SANITIZE=0    skip both sanitizer stages (=asan or =tsan: only that one)
@@ -49,7 +46,7 @@ stage_done "architecture"
 
 echo "== release build, -Werror"
 BUILD_DIR="$root/build" "$root/scripts/build.sh" \
-  -DDFSM_WERROR=ON -DDFSM_BUILD_TESTS=ON -DDFSM_BUILD_BENCH=ON
+  -DDFSM_WERROR=ON -DDFSM_BUILD_TESTS=ON -DDFSM_BUILD_BENCH=ON -DDFSM_TEST_CODE_FLAGS=-O2
 stage_done "release build"
 (cd "$root/build" && ctest --output-on-failure --timeout 900 -j "$jobs" "${exclude[@]}")
 stage_done "release tests"

@@ -19,8 +19,8 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 using Clock = std::chrono::steady_clock;
 
-// 24 rounds, or DFSM_KILL_ROUNDS: the sanitizer stages run 8, since one
-// sanitized round takes ~20 s (TSan) and the rounds test the same paths.
+// 24 rounds, or DFSM_KILL_ROUNDS: the TSan stage runs 4, since one sanitized
+// round takes ~18 s there and the rounds walk the same paths.
 int Rounds() {
   const char* text = std::getenv("DFSM_KILL_ROUNDS");
   const int rounds = text ? std::atoi(text) : 0;
