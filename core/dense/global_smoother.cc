@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <opencv2/core/hal/intrin.hpp>
 #include <stdexcept>
 #include <vector>
 
@@ -82,27 +83,118 @@ void SolveColumns(const cv::Mat& affinity, float lambda, const std::vector<cv::M
   });
 }
 
-// The same along every row: the recursion runs along x, rows in parallel.
+// Rows of a strip of the lattice, interleaved x-major: strip[x * kLanes + k] is
+// row k at x. Lanes of no row (a strip past the image's last row) hold 0.
+constexpr int kLanes = 8;
+
+// Copies the first `width` values of `lanes` rows into a strip, four columns of
+// four rows at a time through a 4x4 transpose where the strip is full.
+void Interleave(const float* const* rows, int lanes, int width, float* strip) {
+  int x = 0;
+#if CV_SIMD128
+  if (lanes == kLanes) {
+    for (; x + 4 <= width; x += 4) {
+      for (int k = 0; k < kLanes; k += 4) {
+        cv::v_float32x4 c0, c1, c2, c3;
+        cv::v_transpose4x4(cv::v_load(rows[k] + x), cv::v_load(rows[k + 1] + x),
+                           cv::v_load(rows[k + 2] + x), cv::v_load(rows[k + 3] + x), c0, c1, c2,
+                           c3);
+        cv::v_store(strip + x * kLanes + k, c0);
+        cv::v_store(strip + (x + 1) * kLanes + k, c1);
+        cv::v_store(strip + (x + 2) * kLanes + k, c2);
+        cv::v_store(strip + (x + 3) * kLanes + k, c3);
+      }
+    }
+  }
+#endif
+  for (; x < width; ++x) {
+    for (int k = 0; k < lanes; ++k) strip[x * kLanes + k] = rows[k][x];
+    for (int k = lanes; k < kLanes; ++k) strip[x * kLanes + k] = 0.0f;
+  }
+}
+
+// The inverse of Interleave: the strip's lanes back into their rows.
+void Deinterleave(const float* strip, int lanes, int width, float* const* rows) {
+  int x = 0;
+#if CV_SIMD128
+  if (lanes == kLanes) {
+    for (; x + 4 <= width; x += 4) {
+      for (int k = 0; k < kLanes; k += 4) {
+        cv::v_float32x4 r0, r1, r2, r3;
+        cv::v_transpose4x4(cv::v_load(strip + x * kLanes + k),
+                           cv::v_load(strip + (x + 1) * kLanes + k),
+                           cv::v_load(strip + (x + 2) * kLanes + k),
+                           cv::v_load(strip + (x + 3) * kLanes + k), r0, r1, r2, r3);
+        cv::v_store(rows[k] + x, r0);
+        cv::v_store(rows[k + 1] + x, r1);
+        cv::v_store(rows[k + 2] + x, r2);
+        cv::v_store(rows[k + 3] + x, r3);
+      }
+    }
+  }
+#endif
+  for (; x < width; ++x)
+    for (int k = 0; k < lanes; ++k) rows[k][x] = strip[x * kLanes + k];
+}
+
+// The same along every row. There the recursion runs along x: one row is a
+// chain of dependent divisions, which no loop across x can vectorize. So
+// kLanes rows go through it together, interleaved in a strip, and every step is
+// a loop across the lanes, which the compiler vectorizes. Each lane does the
+// arithmetic of one row alone, in the same order: the result is identical.
+// Lanes of no row solve zeros and are never written back.
 void SolveRows(const cv::Mat& affinity, float lambda, const std::vector<cv::Mat*>& images) {
   const int rows = images.front()->rows, cols = images.front()->cols;
   if (cols < 2) return;
-  cv::parallel_for_(cv::Range(0, rows), [&](const cv::Range& range) {
-    std::vector<float> upper(cols), inverse(cols);
-    for (int y = range.start; y < range.end; ++y) {
-      const float* a = affinity.ptr<float>(y);  // a[x]: between x and x + 1
-      float c_prev = 0.0f, a_prev = 0.0f;
-      for (int x = 0; x < cols; ++x) {
-        const float a_next = x + 1 < cols ? lambda * a[x] : 0.0f;
-        inverse[x] = 1.0f / (1.0f + a_prev + a_next + a_prev * c_prev);
-        upper[x] = -a_next * inverse[x];
-        c_prev = upper[x];
-        a_prev = a_next;
+  const int strips = (rows + kLanes - 1) / kLanes;
+  cv::parallel_for_(cv::Range(0, strips), [&](const cv::Range& range) {
+    const size_t size = static_cast<size_t>(cols) * kLanes;
+    // pull(x): lambda a between x and x + 1 (0 at the last x); upper: c'(x);
+    // inverse: 1 / m(x); d: the right-hand side, then the solution.
+    std::vector<float> pull(size), upper(size), inverse(size), d(size);
+    std::vector<const float*> affinity_rows(kLanes);
+    std::vector<float*> lane_rows(kLanes);
+    for (int strip = range.start; strip < range.end; ++strip) {
+      const int y0 = strip * kLanes, lanes = std::min(kLanes, rows - y0);
+      for (int k = 0; k < lanes; ++k) affinity_rows[k] = affinity.ptr<float>(y0 + k);
+      Interleave(affinity_rows.data(), lanes, cols - 1, pull.data());
+      for (size_t i = 0; i + kLanes < size; ++i) pull[i] *= lambda;
+      std::fill(pull.end() - kLanes, pull.end(), 0.0f);
+      // Forward elimination of the matrix (x = 0 has no left neighbour).
+      for (int k = 0; k < kLanes; ++k) {
+        inverse[k] = 1.0f / (1.0f + pull[k]);
+        upper[k] = -pull[k] * inverse[k];
+      }
+      for (int x = 1; x < cols; ++x) {
+        const float* a_prev = &pull[(x - 1) * kLanes];
+        const float* c_prev = &upper[(x - 1) * kLanes];
+        const float* a_next = &pull[x * kLanes];
+        float* inv = &inverse[x * kLanes];
+        float* c = &upper[x * kLanes];
+        for (int k = 0; k < kLanes; ++k) {
+          inv[k] = 1.0f / (1.0f + a_prev[k] + a_next[k] + a_prev[k] * c_prev[k]);
+          c[k] = -a_next[k] * inv[k];
+        }
       }
       for (cv::Mat* image : images) {
-        float* d = image->ptr<float>(y);
-        d[0] *= inverse[0];
-        for (int x = 1; x < cols; ++x) d[x] = (d[x] + lambda * a[x - 1] * d[x - 1]) * inverse[x];
-        for (int x = cols - 2; x >= 0; --x) d[x] -= upper[x] * d[x + 1];
+        for (int k = 0; k < lanes; ++k) lane_rows[k] = image->ptr<float>(y0 + k);
+        Interleave(lane_rows.data(), lanes, cols, d.data());
+        // Forward substitution, then back substitution, in place.
+        for (int k = 0; k < kLanes; ++k) d[k] *= inverse[k];
+        for (int x = 1; x < cols; ++x) {
+          const float* a = &pull[(x - 1) * kLanes];
+          const float* d_prev = &d[(x - 1) * kLanes];
+          const float* inv = &inverse[x * kLanes];
+          float* dx = &d[x * kLanes];
+          for (int k = 0; k < kLanes; ++k) dx[k] = (dx[k] + a[k] * d_prev[k]) * inv[k];
+        }
+        for (int x = cols - 2; x >= 0; --x) {
+          const float* c = &upper[x * kLanes];
+          const float* d_next = &d[(x + 1) * kLanes];
+          float* dx = &d[x * kLanes];
+          for (int k = 0; k < kLanes; ++k) dx[k] -= c[k] * d_next[k];
+        }
+        Deinterleave(d.data(), lanes, cols, lane_rows.data());
       }
     }
   });
