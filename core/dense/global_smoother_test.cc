@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 namespace dfsm {
 namespace {
 
@@ -73,6 +75,50 @@ TEST(GlobalSmootherTest, AColourGuideReadsColorSigma) {
   const cv::Mat spread = SpreadTwoColumns(guide, options);
   EXPECT_GT(spread.at<float>(20, 30), 5.5f);
   EXPECT_LT(spread.at<float>(20, 30), 8.5f);
+}
+
+TEST(GlobalSmootherTest, OneRowSolvesItsTridiagonalSystem) {
+  // One row, one pass: (1 + a(x-1) + a(x)) u(x) - a(x-1) u(x-1) - a(x) u(x+1)
+  // = f(x), a(x) = lambda_0 exp(-|g(x+1) - g(x)| / sigma), lambda_0 = lambda / 2
+  // (the schedule of one iteration). 37 columns: not a multiple of the lanes.
+  GlobalSmootherOptions options;
+  options.iterations = 1;
+  options.lambda = 50.0;
+  cv::Mat guide(1, 37, CV_32FC1), f(1, 37, CV_32FC1);
+  cv::randu(guide, 0.0f, 8.0f);
+  cv::randu(f, 0.0f, 10.0f);
+  cv::Mat u = f.clone();
+  SmoothAlongEdges(guide, {&u}, options);
+  auto a = [&](int x) {
+    if (x < 0 || x + 1 >= guide.cols) return 0.0;
+    return options.lambda / 2.0 *
+           std::exp(-std::abs(guide.at<float>(0, x + 1) - guide.at<float>(0, x)) / options.sigma);
+  };
+  for (int x = 0; x < guide.cols; ++x) {
+    double lhs = (1.0 + a(x - 1) + a(x)) * u.at<float>(0, x);
+    if (x > 0) lhs -= a(x - 1) * u.at<float>(0, x - 1);
+    if (x + 1 < guide.cols) lhs -= a(x) * u.at<float>(0, x + 1);
+    EXPECT_NEAR(lhs, f.at<float>(0, x), 1e-3) << "x " << x;
+  }
+}
+
+TEST(GlobalSmootherTest, EveryRowIsSolvedAsIfItWereAlone) {
+  // The row pass solves rows eight at a time, interleaved: each of 13 rows (one
+  // whole group and a partial one) of 37 columns must come out as it does
+  // alone. Odd rows of the guide are 200 levels brighter, so no value crosses
+  // between rows (a pull of exp(-100)) and the columns pass changes nothing.
+  cv::Mat guide(13, 37, CV_8UC1), image(13, 37, CV_32FC1);
+  cv::randu(guide, 0, 12);
+  for (int y = 1; y < guide.rows; y += 2) guide.row(y) += 200;
+  cv::randu(image, 0.0f, 10.0f);
+  const cv::Mat original = image.clone();
+  SmoothAlongEdges(guide, {&image}, {});
+  for (int y = 0; y < image.rows; ++y) {
+    cv::Mat lone = original.row(y).clone();
+    SmoothAlongEdges(guide.row(y).clone(), {&lone}, {});
+    for (int x = 0; x < image.cols; ++x)
+      EXPECT_NEAR(image.at<float>(y, x), lone.at<float>(0, x), 1e-6) << "row " << y << ", x " << x;
+  }
 }
 
 TEST(GlobalSmootherTest, RefusesOptionsOutOfRange) {
