@@ -52,13 +52,14 @@ check_reports() {
   return 1
 }
 
-# run_stage NAME BUILD_DIR CMAKE_SANITIZE OPTIMIZATION TEST_CODE_FLAGS: configure, build the
-# target NAME_tests, run the tests of its labels (the ctest -L expression CMake
-# writes to <build>/NAME_tests.labels; CMakeLists.txt declares the labels),
-# check the reports; prints the duration of the build and the tests. -g1 (line
-# tables) is what a sanitizer report needs: full -g made the Eigen/Ceres-heavy
-# objects several times larger and their links slow. TEST_CODE_FLAGS are
-# DFSM_TEST_CODE_FLAGS (CMakeLists.txt says why the test code has its own).
+# run_stage NAME BUILD_DIR CMAKE_SANITIZE OPTIMIZATION TEST_CODE_FLAGS:
+# configure, build the target NAME_tests, run the tests of its labels (the ctest
+# -L expression CMake writes to <build>/NAME_tests.labels; CMakeLists.txt
+# declares the labels), check the reports; prints the duration of the build and
+# the tests. -g1 (line tables) is what a sanitizer report needs: full -g made
+# the Eigen/Ceres-heavy objects several times larger and their links slow.
+# TEST_CODE_FLAGS are DFSM_TEST_CODE_FLAGS (CMakeLists.txt says why the test
+# code has its own).
 run_stage() {
   local name="$1" build="$2" sanitize="$3" opt="$4" test_code="$5" target="$1_tests"
   local start="$SECONDS"
