@@ -83,7 +83,7 @@ void SolveColumns(const cv::Mat& affinity, float lambda, const std::vector<cv::M
   });
 }
 
-// Rows of a strip of the lattice, interleaved x-major: strip[x * kLanes + k] is
+// Rows of an image in strips, interleaved x-major: strip[x * kLanes + k] is
 // row k at x. Lanes of no row (a strip past the image's last row) hold 0.
 constexpr int kLanes = 8;
 
