@@ -17,23 +17,19 @@ foreach(test dfsmd_fault_test dfsmd_kill_test dfsmd_amplification_test dfsmd_mem
   else()
     set(_labels daemon)
   endif()
+  # The kill -9 test is the longest of the daemon tests (~75 s under TSan):
+  # started first, the others run beside it.
+  set(_cost)
+  if(test STREQUAL "dfsmd_kill_test")
+    set(_cost COST 1000)
+  endif()
   dfsm_add_test(${test}
     SOURCES ${PROJECT_SOURCE_DIR}/tests/daemon/${test}.cc
     LIBS dfsm_daemon dfsm_dfsmd_process dfsm_fault_helpers dfsm_synth dfsm_pipeline dfsm_tar_files
-    LABELS ${_labels})
+    LABELS ${_labels} ${_cost})
   target_compile_definitions(${test} PRIVATE DFSMD_BINARY="$<TARGET_FILE:dfsmd>")
   add_dependencies(${test} dfsmd)
 endforeach()
-# The kill -9 test is the longest of the daemon tests (~75 s under TSan): ctest
-# starts the tests of higher COST first, so the others run beside it instead of
-# after it. A script ctest reads after the discovered tests, as in dfsm_add_test.
-if(TARGET dfsmd_kill_test)
-  set(_cost_script "${CMAKE_CURRENT_BINARY_DIR}/dfsmd_kill_test_cost.cmake")
-  file(WRITE "${_cost_script}" "if(dfsmd_kill_test_TESTS)\n"
-             "  set_tests_properties(\${dfsmd_kill_test_TESTS} PROPERTIES COST 1000)\n"
-             "endif()\n")
-  set_property(DIRECTORY APPEND PROPERTY TEST_INCLUDE_FILES "${_cost_script}")
-endif()
 if(TARGET dfsm_capture_fake)
   dfsm_add_test(device_gone_test SOURCES ${PROJECT_SOURCE_DIR}/tests/daemon/device_gone_test.cc
     LIBS dfsm_daemon dfsm_capture_fake LABELS daemon)
