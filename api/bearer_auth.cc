@@ -4,26 +4,12 @@
 #include <openssl/evp.h>
 
 #include <array>
-#include <cctype>
 #include <memory>
 
 #include "api/problem.h"
+#include "api/request_head.h"
 
 namespace dfsm::api {
-namespace {
-
-bool EqualsIgnoringCase(std::string_view a, std::string_view b) {
-  if (a.size() != b.size()) return false;
-  for (size_t i = 0; i < a.size(); ++i) {
-    if (std::tolower(static_cast<unsigned char>(a[i])) !=
-        std::tolower(static_cast<unsigned char>(b[i]))) {
-      return false;
-    }
-  }
-  return true;
-}
-
-}  // namespace
 
 bool ConstantTimeEquals(std::string_view presented, std::string_view expected) {
   // Both sides hashed to 32 bytes, compared by OpenSSL's constant-time

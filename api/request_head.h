@@ -70,6 +70,11 @@ size_t FindHeadEnd(std::string_view bytes);
 //       "PRI * HTTP/2.0".
 RequestHead ParseRequestHead(std::string_view head);
 
+// ASCII case-insensitive equality: field names, connection options, transfer
+// codings and auth schemes are case-insensitive (RFC 9110 sections 5.1, 7.6.1,
+// 11.1).
+bool EqualsIgnoringCase(std::string_view a, std::string_view b);
+
 // The host part of a Host field value: "[::1]:8080" -> "::1",
 // "Example.org:80" -> "example.org" (lower-cased).
 std::string HostName(std::string_view host_field);

@@ -66,7 +66,7 @@ run_stage() {
   cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
     -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="$opt -DNDEBUG" -DCMAKE_C_FLAGS_RELWITHDEBINFO="$opt -DNDEBUG" \
     -DDFSM_SANITIZE="$sanitize" -DDFSM_WERROR=ON -DDFSM_BUILD_TESTS=ON -DDFSM_BUILD_BENCH=OFF \
-    -DDFSM_TEST_CODE_FLAGS="$test_code"
+    -DDFSM_TEST_CODE_FLAGS="$test_code" -DDFSM_UNITY_BUILD=ON
   cmake --build "$build" --parallel "$jobs" --target "$target"
   local built="$SECONDS"
   local reports="$build/sanitizer-reports"

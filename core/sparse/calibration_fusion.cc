@@ -4,12 +4,12 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
 #include "core/sparse/calibration_uncertainty.h"
+#include "core/sparse/fixed_text.h"
 
 namespace dfsm {
 namespace {
@@ -26,12 +26,6 @@ double LogGammaOfHalfPlusOne(int k) {
   double log_gamma = k % 2 == 0 ? 0.0 : 0.5 * std::log(std::acos(-1.0));
   for (double a = k % 2 == 0 ? 1.0 : 0.5; a <= 0.5 * k; a += 1.0) log_gamma += std::log(a);
   return log_gamma;
-}
-
-std::string Format(double value, const char* format = "%.2f") {
-  char text[64];
-  std::snprintf(text, sizeof(text), format, value);
-  return text;
 }
 
 Eigen::Vector3d Theta(const CameraModel& camera) { return {camera.f, camera.k1, camera.k2}; }
@@ -81,7 +75,7 @@ std::string Unusable(const CalibrationSample& sample, Eigen::Matrix3d* covarianc
 
 std::string Geometry(const CameraModel& c) {
   return std::to_string(c.width) + "x" + std::to_string(c.height) + " with principal point (" +
-         Format(c.cx, "%.3f") + ", " + Format(c.cy, "%.3f") + ")";
+         FixedText(c.cx, 3) + ", " + FixedText(c.cy, 3) + ")";
 }
 
 }  // namespace
@@ -182,9 +176,9 @@ FusionOutcome CalibrationFusion::Add(const CalibrationSample& sample, std::strin
     // The fused estimate does not contain this burst, so the difference's
     // covariance is the sum of both.
     chi2 = Chi2(theta - Mean(), C + covariance());
-    const std::string test = "chi2 " + Format(chi2) + (chi2 <= gate_ ? " <= " : " > ") +
-                             Format(gate_) + " against the fusion of " + std::to_string(bursts_) +
-                             (bursts_ == 1 ? " burst" : " bursts");
+    const std::string test = "chi2 " + FixedText(chi2) + (chi2 <= gate_ ? " <= " : " > ") +
+                             FixedText(gate_) + " against the fusion of " +
+                             std::to_string(bursts_) + (bursts_ == 1 ? " burst" : " bursts");
     // Likewise against the pending outlier, itself never fused.
     const double chi2_pending =
         pending_ ? Chi2(theta - Theta(pending_->camera), C + pending_->covariance) : kNaN;
@@ -195,7 +189,7 @@ FusionOutcome CalibrationFusion::Add(const CalibrationSample& sample, std::strin
       ++counts_.fused;
       why = test;
     } else if (chi2_pending <= gate_) {
-      why = test + ", but chi2 " + Format(chi2_pending) + " against the previous outlier (" +
+      why = test + ", but chi2 " + FixedText(chi2_pending) + " against the previous outlier (" +
             pending_->job + "): the camera changed, the fusion restarts from both";
       information_.setZero();
       information_vector_.setZero();
@@ -207,7 +201,7 @@ FusionOutcome CalibrationFusion::Add(const CalibrationSample& sample, std::strin
       ++counts_.restarts;
     } else {
       why = test + ": left out" +
-            (pending_ ? " (and chi2 " + Format(chi2_pending) + " against the previous outlier)"
+            (pending_ ? " (and chi2 " + FixedText(chi2_pending) + " against the previous outlier)"
                       : std::string());
       pending_ = sample;
       pending_->covariance = C;

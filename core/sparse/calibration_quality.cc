@@ -1,18 +1,13 @@
 #include "core/sparse/calibration_quality.h"
 
 #include <cmath>
-#include <cstdio>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
+#include "core/sparse/fixed_text.h"
+
 namespace dfsm {
 namespace {
-
-std::string Format(double value, int digits = 2) {
-  char text[64];
-  std::snprintf(text, sizeof text, "%.*f", digits, value);
-  return text;
-}
 
 void Require(bool condition, const char* what) {
   if (!condition) throw std::invalid_argument(std::string("calibration quality: ") + what);
@@ -73,43 +68,44 @@ CalibrationVerdict JudgeCalibration(const CameraModel& camera,
   }
   double fold_px = 0.0;
   if (!RadialModelIsMonotone(camera, &fold_px))
-    degenerate.push_back("lens model folds: the distortion (k1 " + Format(camera.k1, 4) + ", k2 " +
-                         Format(camera.k2, 4) + ") maps the image over itself " +
-                         Format(fold_px, 0) + " px from the centre");
+    degenerate.push_back("lens model folds: the distortion (k1 " + FixedText(camera.k1, 4) +
+                         ", k2 " + FixedText(camera.k2, 4) + ") maps the image over itself " +
+                         FixedText(fold_px, 0) + " px from the centre");
   const double f_ratio = camera.f / std::max(camera.width, camera.height);
   if (!(f_ratio >= options.min_f_ratio && f_ratio <= options.max_f_ratio))
-    degenerate.push_back("implausible focal length: f " + Format(camera.f, 1) + " px is " +
-                         Format(f_ratio) + " x the image size (expected " +
-                         Format(options.min_f_ratio) + "-" + Format(options.max_f_ratio) + ")");
+    degenerate.push_back("implausible focal length: f " + FixedText(camera.f, 1) + " px is " +
+                         FixedText(f_ratio) + " x the image size (expected " +
+                         FixedText(options.min_f_ratio) + "-" + FixedText(options.max_f_ratio) +
+                         ")");
   if (!uncertainty.available) {
     degenerate.push_back("no uncertainty: " + uncertainty.unavailable_reason);
   } else {
     const double sigma_f = uncertainty.sigma_f_percent(camera.f);
     if (sigma_f > options.max_sigma_f_percent)
-      degenerate.push_back("focal length not observed: sigma_f " + Format(sigma_f) + " % > " +
-                           Format(options.max_sigma_f_percent, 1) +
+      degenerate.push_back("focal length not observed: sigma_f " + FixedText(sigma_f) + " % > " +
+                           FixedText(options.max_sigma_f_percent, 1) +
                            " % (the prior, not the burst, sets f)");
     else if (sigma_f > options.max_reliable_sigma_f_percent)
-      uncertain.push_back("weak focal length: sigma_f " + Format(sigma_f) + " % > " +
-                          Format(options.max_reliable_sigma_f_percent) + " %");
+      uncertain.push_back("weak focal length: sigma_f " + FixedText(sigma_f) + " % > " +
+                          FixedText(options.max_reliable_sigma_f_percent) + " %");
     if (uncertainty.distortion_sigma_px > options.max_reliable_distortion_sigma_px)
-      uncertain.push_back("weak distortion: sigma " + Format(uncertainty.distortion_sigma_px) +
-                          " px > " + Format(options.max_reliable_distortion_sigma_px) + " px");
+      uncertain.push_back("weak distortion: sigma " + FixedText(uncertainty.distortion_sigma_px) +
+                          " px > " + FixedText(options.max_reliable_distortion_sigma_px) + " px");
     const double correlation = std::abs(uncertainty.correlation(0, 1));
     if (correlation > options.max_reliable_correlation)
-      uncertain.push_back("f and k1 strongly correlated: |corr| " + Format(correlation, 4) + " > " +
-                          Format(options.max_reliable_correlation, 4));
+      uncertain.push_back("f and k1 strongly correlated: |corr| " + FixedText(correlation, 4) +
+                          " > " + FixedText(options.max_reliable_correlation, 4));
   }
   if (evidence.tracks < options.min_reliable_tracks)
     uncertain.push_back("few tracks: " + std::to_string(evidence.tracks) + " < " +
                         std::to_string(options.min_reliable_tracks));
   if (evidence.rms_reprojection_px > options.max_reliable_rms_px)
-    uncertain.push_back("high residual: RMS " + Format(evidence.rms_reprojection_px) + " px > " +
-                        Format(options.max_reliable_rms_px) + " px");
+    uncertain.push_back("high residual: RMS " + FixedText(evidence.rms_reprojection_px) + " px > " +
+                        FixedText(options.max_reliable_rms_px) + " px");
   if (evidence.median_track_motion_px < options.min_reliable_parallax_px)
     uncertain.push_back("little parallax: median track motion " +
-                        Format(evidence.median_track_motion_px) + " px < " +
-                        Format(options.min_reliable_parallax_px) + " px");
+                        FixedText(evidence.median_track_motion_px) + " px < " +
+                        FixedText(options.min_reliable_parallax_px) + " px");
   verdict.quality = !degenerate.empty()  ? CalibrationQuality::kDegenerate
                     : !uncertain.empty() ? CalibrationQuality::kUncertain
                                          : CalibrationQuality::kReliable;

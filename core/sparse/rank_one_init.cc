@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/sparse/robust_sigma.h"
+
 namespace dfsm {
 namespace {
 
@@ -181,12 +183,6 @@ int RefineBilinear(const DerotatedFlow& flow, Factors* f, const std::vector<bool
     f->w[j] = den > 0.0 ? num / den : 0.0;
   }
   return iteration;
-}
-
-double RobustSigma(std::vector<double> values) {
-  if (values.empty()) return 0.0;
-  std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
-  return 1.4826 * values[values.size() / 2];
 }
 
 }  // namespace

@@ -5,26 +5,14 @@
 #include <cmath>
 #include <opencv2/imgproc.hpp>
 #include <random>
-#include <sstream>
 
 #include "core/io/stage_timer.h"
+#include "core/sparse/fixed_text.h"
+#include "core/sparse/robust_sigma.h"
 #include "core/sparse/rolling_shutter_rectification.h"
 
 namespace dfsm {
 namespace {
-
-std::string Format(double value, int precision = 2) {
-  std::ostringstream out;
-  out.setf(std::ios::fixed);
-  out.precision(precision);
-  out << value;
-  return out.str();
-}
-
-double RobustSigma(std::vector<double> values) {
-  std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
-  return 1.4826 * values[values.size() / 2];
-}
 
 // Contrast of the scene, not of the sensor: the grey-level spread of the
 // reference frame after a blur that averages sensor noise away (noise of
@@ -71,12 +59,12 @@ ReconstructionError TooFewTracks(const cv::Mat& reference, const SparseReconstru
   const GridedFeatureStats& stats = sparse.feature_stats;
   const double contrast = SceneContrast(reference);
   const std::string need = " (need >= " + std::to_string(options.min_tracks) + ")";
-  const std::string measured = "; scene contrast " + Format(contrast, 1) + " grey levels";
+  const std::string measured = "; scene contrast " + FixedText(contrast, 1) + " grey levels";
   if (contrast < kMinSceneContrast || stats.corners == 0)
     return ReconstructionError("too few tracks: no texture: " + std::to_string(stats.corners) +
                                " of " + std::to_string(stats.cells) + " cells hold a corner, " +
                                std::to_string(stats.tracks) + " tracked" + need + measured +
-                               " (need >= " + Format(kMinSceneContrast, 1) + ")");
+                               " (need >= " + FixedText(kMinSceneContrast, 1) + ")");
   if (stats.corners < options.min_tracks)
     return ReconstructionError(
         "too few tracks: too little texture: " + std::to_string(stats.corners) + " of " +
@@ -136,8 +124,8 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
   if (tracked < options.min_tracks) throw TooFewTracks(frames[reference], sparse, options);
   const double parallax = sparse.tracks.MedianMaxDisplacement();
   if (parallax < options.min_parallax_px)
-    throw ReconstructionError("insufficient parallax: median track motion " + Format(parallax) +
-                              " px (need >= " + Format(options.min_parallax_px) + " px)");
+    throw ReconstructionError("insufficient parallax: median track motion " + FixedText(parallax) +
+                              " px (need >= " + FixedText(options.min_parallax_px) + " px)");
 
   // A known calibration starts (and, fixed, stays) where the file puts it; it
   // also makes the rotations of the initialization exact instead of assuming
@@ -330,7 +318,7 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
                               std::to_string(std::count(use.begin(), use.end(), true)) +
                               " in front of the camera, need >= " +
                               std::to_string(options.min_tracks) + " (median track motion " +
-                              Format(parallax) + " px: too little baseline to separate depths)");
+                              FixedText(parallax) + " px: too little baseline to separate depths)");
   sparse.bundle_adjustment.init = InitModeName(options.init);
   sparse.inliers = use;
   // The covariance once, at the final state and tracks: an adjustment of no
@@ -359,7 +347,7 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
   std::string unusable;
   double fold_px = 0.0;
   if (!RadialModelIsMonotone(state.camera, &fold_px))
-    unusable = "folds the image over itself " + Format(fold_px, 0) + " px from the centre";
+    unusable = "folds the image over itself " + FixedText(fold_px, 0) + " px from the centre";
   else if (options.camera_usable && !options.camera_usable(state.camera, &unusable))
     unusable = unusable.empty() ? "is refused by the dense stage" : unusable;
   if (!unusable.empty()) {
@@ -376,9 +364,9 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
       refit.refine_distortion = false;
       sparse.calibration_used = "fallback-k0";
     }
-    sparse.warnings.push_back("the estimated calibration (f " + Format(state.camera.f, 1) +
-                              " px, k1 " + Format(state.camera.k1, 4) + ", k2 " +
-                              Format(state.camera.k2, 4) + ") " + unusable + "; " +
+    sparse.warnings.push_back("the estimated calibration (f " + FixedText(state.camera.f, 1) +
+                              " px, k1 " + FixedText(state.camera.k1, 4) + ", k2 " +
+                              FixedText(state.camera.k2, 4) + ") " + unusable + "; " +
                               (options.known ? "the known calibration was used instead"
                                              : "refitted with k1 = k2 = 0 instead") +
                               ", and depth was computed with that camera");
@@ -405,7 +393,7 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
   const double median = inverse_depths[inverse_depths.size() / 2];
   if (!(median > 0.0) || !std::isfinite(state.camera.f) || state.camera.f <= 0.0)
     throw ReconstructionError("bundle adjustment diverged (median inverse depth " +
-                              Format(median, 6) + ", f " + Format(state.camera.f) + ")");
+                              FixedText(median, 6) + ", f " + FixedText(state.camera.f) + ")");
   for (double& w : state.inverse_depths) w /= median;
   for (Pose& pose : state.poses) pose.T *= median;
   return sparse;

@@ -42,6 +42,12 @@ struct FrameSlot {
   bool discontinuity = false;
 };
 
+// FrameSlot::timestamp_ns of a steady_clock time: steady_clock is
+// CLOCK_MONOTONIC on Linux with libstdc++, the clock of the drivers' timestamps.
+inline int64_t MonotonicNs(std::chrono::steady_clock::time_point t) {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(t.time_since_epoch()).count();
+}
+
 // What the source negotiated; the service copies it into Status() and into the
 // provenance of every burst.
 struct SourceDescription {

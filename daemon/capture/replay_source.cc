@@ -14,11 +14,6 @@ namespace {
 
 constexpr int64_t kDefaultIntervalNs = 1000000000 / 30;
 
-int64_t MonotonicNs(std::chrono::steady_clock::time_point t) {
-  // steady_clock is CLOCK_MONOTONIC on Linux with libstdc++.
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(t.time_since_epoch()).count();
-}
-
 }  // namespace
 
 const char* ReplayLoopName(ReplayLoop loop) {

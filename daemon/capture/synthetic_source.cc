@@ -7,14 +7,6 @@
 
 namespace dfsm::capture {
 
-namespace {
-
-int64_t MonotonicNs(std::chrono::steady_clock::time_point t) {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(t.time_since_epoch()).count();
-}
-
-}  // namespace
-
 SyntheticSource::SyntheticSource(const CaptureConfig& config, int frames)
     : config_(config), frame_count_(frames) {}
 
