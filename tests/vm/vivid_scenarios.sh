@@ -75,10 +75,13 @@ kill $load
 wait $load 2>/dev/null
 
 # 3. A burst grabbed and recorded (colour, webcam input), then 4. replayed and
-#    recorded again: the two recordings must be identical.
+#    recorded again: the two recordings must be identical. What is checked is
+#    the recording, not the frame rate: 20 s (not 5) to find 10 consecutive
+#    frames, as an emulated guest on a busy host drops some (once in CI: 28
+#    sequence gaps, 3 consecutive frames in 5 s).
 v4l2-ctl -d $device --set-input 0 >/dev/null
 timed burst-v4l2 "$capture" --source v4l2:$device --width 640 --height 480 --fps 25 --duration 1 \
-  --burst 10 --when last --out "$out/burst-v4l2" --report "$out/burst-v4l2.json"
+  --burst 10 --when last --timeout-ms 20000 --out "$out/burst-v4l2" --report "$out/burst-v4l2.json"
 timed burst-replayed "$capture" --source replay:"$out/burst-v4l2" --fps -1 --ring 32 \
   --burst 10 --when next --out "$out/burst-replayed" --report "$out/burst-replayed.json"
 
