@@ -14,7 +14,7 @@
 namespace dfsm {
 namespace {
 
-cv::Mat Texture(int width, int height, uint64_t seed) {
+cv::Mat SmoothTexture(int width, int height, uint64_t seed) {
   return RandomTexture(width, height, seed, 2.0);
 }
 
@@ -49,7 +49,7 @@ TEST(GainBiasAlignment, OptionsCheck) {
 }
 
 TEST(GainBiasAlignment, RecoversTheShiftUnderAGainAndABias) {
-  const cv::Mat reference = Texture(320, 240, 5);
+  const cv::Mat reference = SmoothTexture(320, 240, 5);
   const cv::Mat frame = ShiftAndRelight(reference, 0.375, -0.625, 0.8, 0.8, 12.0);
   const GainBiasAligner aligner(reference, {});
   int aligned = 0;
@@ -79,7 +79,7 @@ TEST(GainBiasAlignment, RecoversTheShiftUnderAGainAndABias) {
 }
 
 TEST(GainBiasAlignment, RefusesWhatAGainCannotExplain) {
-  const cv::Mat bright = Texture(320, 240, 6);
+  const cv::Mat bright = SmoothTexture(320, 240, 6);
   const cv::Mat dim = bright / 3;
   const GainBiasAligner aligner(dim, {});
   const cv::Point2f corner(160.0f, 120.0f);
@@ -99,7 +99,7 @@ TEST(GainBiasAlignment, RefusesWhatAGainCannotExplain) {
 // The tracker as the pipeline runs it: KLT alone is pulled by a brightness
 // field that changes between frames; the gain-and-bias realignment is not.
 TEST(GainBiasAlignment, TracksUnderABrightnessFieldThatKltAloneMisreads) {
-  const cv::Mat reference = Texture(640, 480, 7);
+  const cv::Mat reference = SmoothTexture(640, 480, 7);
   std::vector<cv::Mat> frames = {reference};
   std::vector<cv::Point2d> shifts = {{0, 0}};
   for (int i = 1; i < 5; ++i) {
@@ -142,7 +142,7 @@ TEST(GainBiasAlignment, TracksUnderABrightnessFieldThatKltAloneMisreads) {
 
 // The window may reach the last pixel but one (bilinear reads x0 + 1).
 TEST(GainBiasAlignment, WindowsAtTheFramesEdges) {
-  const cv::Mat reference = Texture(320, 240, 8);
+  const cv::Mat reference = SmoothTexture(320, 240, 8);
   const GainBiasAligner aligner(reference, {});
   const float half = static_cast<float>(GainBiasAlignmentOptions{}.window / 2);
   GainBiasAligner::Patch patch;

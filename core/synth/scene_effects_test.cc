@@ -37,7 +37,7 @@ cv::Mat Gray(const cv::Mat& frame) {
 // where the ground truth (through the rendered lens) says each reference pixel
 // moved, `shift` pixels added to the prediction: the geometry holds when the
 // unshifted prediction matches far better than the shifted one.
-double WarpError(const SynthBurst& burst, int i, double shift) {
+double WarpErrorWithEffects(const SynthBurst& burst, int i, double shift) {
   const CameraModel& camera = burst.truth.camera;
   const Pose& pose = burst.truth.poses[i];
   const cv::Mat reference = Gray(burst.frames[0]), frame = Gray(burst.frames[i]);
@@ -137,9 +137,9 @@ TEST(SceneEffects, LensTermsBeyondTheModelAreRenderedAndRecorded) {
   // The depth is that seen through the rendered lens, and the frames follow it.
   EXPECT_GT(cv::norm(plain.truth.depth, lens.truth.depth, cv::NORM_INF), 0.0);
   for (int i = 1; i < 3; ++i) {
-    const double aligned = WarpError(lens, i, 0.0);
+    const double aligned = WarpErrorWithEffects(lens, i, 0.0);
     EXPECT_LT(aligned, 4.0) << "frame " << i;
-    EXPECT_LT(aligned * 2.0, WarpError(lens, i, 1.5)) << "frame " << i;
+    EXPECT_LT(aligned * 2.0, WarpErrorWithEffects(lens, i, 1.5)) << "frame " << i;
   }
   // The camera stays the model the pipeline estimates; the extra terms go beside it.
   EXPECT_EQ(lens.truth.camera.k1, plain.truth.camera.k1);
@@ -267,9 +267,9 @@ TEST(SceneEffects, CurvedSurfacesHaveExactNonPlanarDepth) {
   }
   // The frames follow that depth.
   for (int i = 1; i < 3; ++i) {
-    const double aligned = WarpError(curved, i, 0.0);
+    const double aligned = WarpErrorWithEffects(curved, i, 0.0);
     EXPECT_LT(aligned, 4.0) << "frame " << i;
-    EXPECT_LT(aligned * 2.0, WarpError(curved, i, 1.5)) << "frame " << i;
+    EXPECT_LT(aligned * 2.0, WarpErrorWithEffects(curved, i, 1.5)) << "frame " << i;
   }
 }
 
