@@ -10,7 +10,7 @@ namespace dfsm {
 namespace {
 
 // A 1x1 cost volume from a cost curve.
-std::vector<cv::Mat> Volume(const std::vector<float>& curve) {
+std::vector<cv::Mat> VolumeOfCurve(const std::vector<float>& curve) {
   std::vector<cv::Mat> costs;
   for (const float c : curve) costs.push_back(cv::Mat(1, 1, CV_32FC1, cv::Scalar(c)));
   return costs;
@@ -20,7 +20,7 @@ TEST(PlaneSelectionTest, ParabolaRecoversTheSubPlaneMinimum) {
   // Samples of (k - 5.3)^2 + 1: the parabola through the three best is exact.
   std::vector<float> curve;
   for (int k = 0; k < 12; ++k) curve.push_back(static_cast<float>((k - 5.3) * (k - 5.3) + 1.0));
-  const PlaneSelection selection = SelectPlanes(Volume(curve));
+  const PlaneSelection selection = SelectPlanes(VolumeOfCurve(curve));
   EXPECT_NEAR(selection.plane.at<float>(0, 0), 5.3f, 1e-4f);
   EXPECT_GT(selection.confidence.at<float>(0, 0), 0.9f);
   EXPECT_EQ(selection.at_edge.at<uchar>(0, 0), 0);
@@ -29,7 +29,7 @@ TEST(PlaneSelectionTest, ParabolaRecoversTheSubPlaneMinimum) {
 TEST(PlaneSelectionTest, WindowOffsetAndStrideMapBackToTheLattice) {
   std::vector<float> curve = {5.0f, 2.0f, 1.0f, 2.0f, 5.0f};  // minimum at slice 2
   const cv::Mat first(1, 1, CV_32SC1, cv::Scalar(40));
-  const PlaneSelection selection = SelectPlanes(Volume(curve), first, 3);
+  const PlaneSelection selection = SelectPlanes(VolumeOfCurve(curve), first, 3);
   EXPECT_FLOAT_EQ(selection.plane.at<float>(0, 0), 46.0f);  // 40 + 2 * 3
 }
 
@@ -41,8 +41,8 @@ PlaneSelection SelectNearSeed(const std::vector<float>& curve, int first, int st
   SeedPrior prior;
   prior.seed = cv::Mat(1, 1, CV_32FC1, cv::Scalar(seed));
   prior.weight = weight;
-  SelectPlanesNearSeedInto(Volume(curve), cv::Mat(1, 1, CV_32SC1, cv::Scalar(first)), stride, prior,
-                           &selection);
+  SelectPlanesNearSeedInto(VolumeOfCurve(curve), cv::Mat(1, 1, CV_32SC1, cv::Scalar(first)), stride,
+                           prior, &selection);
   return selection;
 }
 
@@ -83,27 +83,28 @@ TEST(PlaneSelectionTest, RivalValleyLowersTheConfidence) {
   // Two valleys of nearly equal depth (a repetitive texture): low confidence.
   const std::vector<float> ambiguous = {9, 5, 2.0f, 5, 9, 5, 2.1f, 5, 9};
   const std::vector<float> unique = {9, 8, 7, 5, 2.0f, 5, 7, 8, 9};
-  const float low = SelectPlanes(Volume(ambiguous)).confidence.at<float>(0, 0);
-  const float high = SelectPlanes(Volume(unique)).confidence.at<float>(0, 0);
+  const float low = SelectPlanes(VolumeOfCurve(ambiguous)).confidence.at<float>(0, 0);
+  const float high = SelectPlanes(VolumeOfCurve(unique)).confidence.at<float>(0, 0);
   EXPECT_LT(low, 0.1f);
   EXPECT_GT(high, 0.7f);
 }
 
 TEST(PlaneSelectionTest, MinimumOnTheFirstSliceIsFlaggedAndNoCostGivesNoPlane) {
-  const PlaneSelection edge = SelectPlanes(Volume({1, 2, 3, 4}));
+  const PlaneSelection edge = SelectPlanes(VolumeOfCurve({1, 2, 3, 4}));
   EXPECT_EQ(edge.at_edge.at<uchar>(0, 0), 255);
   EXPECT_FLOAT_EQ(edge.plane.at<float>(0, 0), 0.0f);
-  const PlaneSelection none = SelectPlanes(Volume({kNoCost, kNoCost, kNoCost}));
+  const PlaneSelection none = SelectPlanes(VolumeOfCurve({kNoCost, kNoCost, kNoCost}));
   EXPECT_LT(none.plane.at<float>(0, 0), 0.0f);
   EXPECT_EQ(none.confidence.at<float>(0, 0), 0.0f);
 }
 
 TEST(PlaneSelectionTest, ConfidenceOfAGivenWinnerIsThatOfItsValleysMinimum) {
   const std::vector<float> curve = {9, 8, 7, 5, 2.0f, 5, 7, 8, 9};  // minimum at 4
-  const float own = SelectPlanes(Volume(curve)).confidence.at<float>(0, 0);
+  const float own = SelectPlanes(VolumeOfCurve(curve)).confidence.at<float>(0, 0);
   ASSERT_GT(own, 0.5f);
   const auto at = [&](float plane, int reach) {
-    return ConfidenceOfPlanes(Volume(curve), cv::Mat(1, 1, CV_32FC1, cv::Scalar(plane)), reach)
+    return ConfidenceOfPlanes(VolumeOfCurve(curve), cv::Mat(1, 1, CV_32FC1, cv::Scalar(plane)),
+                              reach)
         .at<float>(0, 0);
   };
   EXPECT_FLOAT_EQ(at(4.0f, 0), own);
@@ -119,18 +120,18 @@ TEST(PlaneSelectionTest, AWinnerInAnotherValleyGetsThatValleysConfidence) {
   // beaten by the other (2), so the photo-consistency does not support it.
   const std::vector<float> curve = {9, 5, 2.0f, 5, 9, 5, 4.0f, 5, 9};
   const cv::Mat plane(1, 1, CV_32FC1, cv::Scalar(6.0f));
-  EXPECT_FLOAT_EQ(ConfidenceOfPlanes(Volume(curve), plane, 1).at<float>(0, 0), 0.0f);
+  EXPECT_FLOAT_EQ(ConfidenceOfPlanes(VolumeOfCurve(curve), plane, 1).at<float>(0, 0), 0.0f);
   const cv::Mat best(1, 1, CV_32FC1, cv::Scalar(2.0f));
-  EXPECT_NEAR(ConfidenceOfPlanes(Volume(curve), best, 1).at<float>(0, 0), 1.0f - 2.0f / 4.0f,
+  EXPECT_NEAR(ConfidenceOfPlanes(VolumeOfCurve(curve), best, 1).at<float>(0, 0), 1.0f - 2.0f / 4.0f,
               1e-6f);
 }
 
 TEST(PlaneSelectionTest, ConfidenceOfPlanesGivesTheValleysCost) {
   const std::vector<float> curve = {9, 5, 2.0f, 5, 9, 5, 4.0f, 5, 9};
   cv::Mat cost;
-  ConfidenceOfPlanes(Volume(curve), cv::Mat(1, 1, CV_32FC1, cv::Scalar(1.0f)), 1, &cost);
+  ConfidenceOfPlanes(VolumeOfCurve(curve), cv::Mat(1, 1, CV_32FC1, cv::Scalar(1.0f)), 1, &cost);
   EXPECT_FLOAT_EQ(cost.at<float>(0, 0), 2.0f);  // walked down to slice 2
-  ConfidenceOfPlanes(Volume(curve), cv::Mat(1, 1, CV_32FC1, cv::Scalar(-1.0f)), 1, &cost);
+  ConfidenceOfPlanes(VolumeOfCurve(curve), cv::Mat(1, 1, CV_32FC1, cv::Scalar(-1.0f)), 1, &cost);
   EXPECT_FLOAT_EQ(cost.at<float>(0, 0), kNoCost);  // no winner
 }
 

@@ -7,7 +7,7 @@
 namespace dfsm {
 namespace {
 
-cv::Mat Noise(int type) {
+cv::Mat NoiseOfType(int type) {
   cv::Mat image(37, 53, type);  // odd sizes: no row padding assumed
   cv::RNG rng(11);
   rng.fill(image, cv::RNG::UNIFORM, 0, image.depth() == CV_16U ? 65536 : 256);
@@ -25,8 +25,8 @@ void ExpectRoundTrip(const cv::Mat& image, PngCompression compression) {
 TEST(PngEncode, BothCompressionsAreLosslessForEveryFrameType) {
   for (int type : {CV_8UC1, CV_8UC3, CV_16UC1, CV_16UC3}) {
     SCOPED_TRACE(type);
-    ExpectRoundTrip(Noise(type), PngCompression::kCompact);
-    ExpectRoundTrip(Noise(type), PngCompression::kStored);
+    ExpectRoundTrip(NoiseOfType(type), PngCompression::kCompact);
+    ExpectRoundTrip(NoiseOfType(type), PngCompression::kStored);
   }
 }
 

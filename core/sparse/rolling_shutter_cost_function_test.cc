@@ -21,7 +21,7 @@ struct Parameters {
   double inverse_depth[1], readout[1];
 };
 
-Parameters Draw(std::mt19937* rng, double readout) {
+Parameters DrawParameters(std::mt19937* rng, double readout) {
   std::uniform_real_distribution<double> unit(-1.0, 1.0);
   Parameters q;
   q.intrinsics[0] = 1500.0 + 300.0 * unit(*rng);
@@ -56,7 +56,7 @@ TEST(RollingShutterCostFunction, MatchesTheAutodiffOfTheResidual) {
           const RollingShutterReprojectionError error({column(rng), row(rng)},
                                                       {column(rng), row(rng)}, 960.0, 540.0, 1080,
                                                       reference_sign, draw % 2 ? 1.0 : -1.0);
-          Parameters q = Draw(&rng, readout);
+          Parameters q = DrawParameters(&rng, readout);
           const std::vector<double*> blocks = Blocks(&q, shared);
           const RollingShutterCostFunction analytic(error, shared);
           const std::unique_ptr<ceres::CostFunction> autodiff(
@@ -97,7 +97,7 @@ TEST(RollingShutterCostFunction, SkipsTheJacobiansOfConstantBlocks) {
   std::mt19937 rng(3);
   const RollingShutterReprojectionError error({300.0, 200.0}, {310.0, 205.0}, 960.0, 540.0, 1080,
                                               1.0, -1.0);
-  Parameters q = Draw(&rng, 0.6);
+  Parameters q = DrawParameters(&rng, 0.6);
   const std::vector<double*> blocks = Blocks(&q, Shared::kOwnBlock);
   const RollingShutterCostFunction analytic(error, Shared::kOwnBlock);
   double pose_jacobian[12] = {};

@@ -11,7 +11,7 @@
 namespace dfsm::service {
 namespace {
 
-std::string ErrorOf(const std::function<void()>& body) {
+std::string ConfigErrorOf(const std::function<void()>& body) {
   try {
     body();
   } catch (const ConfigError& e) {
@@ -58,30 +58,31 @@ state_dir = "/tmp/x"
 
 TEST(ConfigTest, ErrorsNameTheKeyAndTheProblem) {
   DaemonConfig config;
-  EXPECT_EQ(ErrorOf([&] { ApplyToml("[server]\nprot = 1\n", "f", &config); }),
+  EXPECT_EQ(ConfigErrorOf([&] { ApplyToml("[server]\nprot = 1\n", "f", &config); }),
             "server.prot: unknown key (see dfsmd --help)");
-  EXPECT_EQ(ErrorOf([&] { ApplyToml("[server]\nport = \"80\"\n", "f", &config); }),
+  EXPECT_EQ(ConfigErrorOf([&] { ApplyToml("[server]\nport = \"80\"\n", "f", &config); }),
             "server.port: expected an integer, got string");
-  EXPECT_EQ(ErrorOf([&] { ApplyToml("port = 80\n", "f", &config); }),
+  EXPECT_EQ(ConfigErrorOf([&] { ApplyToml("port = 80\n", "f", &config); }),
             "port: expected a [section], got a value");
-  EXPECT_NE(ErrorOf([&] { ApplyToml("[server\n", "f.toml", &config); }).find("f.toml:1"),
+  EXPECT_NE(ConfigErrorOf([&] { ApplyToml("[server\n", "f.toml", &config); }).find("f.toml:1"),
             std::string::npos);
   config.jobs.queue = 0;
-  EXPECT_EQ(ErrorOf([&] { Validate(config); }), "jobs.queue: must be in [1, 100000], got 0");
+  EXPECT_EQ(ConfigErrorOf([&] { Validate(config); }), "jobs.queue: must be in [1, 100000], got 0");
   config = DaemonConfig();
   config.capture.source = "usb:0";
-  EXPECT_NE(ErrorOf([&] { Validate(config); }).find("capture.source: 'usb:0' is not"),
+  EXPECT_NE(ConfigErrorOf([&] { Validate(config); }).find("capture.source: 'usb:0' is not"),
             std::string::npos);
   config = DaemonConfig();
   config.pipeline.frames = 100;  // more than the ring holds
-  EXPECT_NE(ErrorOf([&] { Validate(config); }).find("pipeline.frames"), std::string::npos);
-  EXPECT_EQ(ErrorOf([&] { ApplyToml("[pipeline]\nwhen = \"now\"\n", "f", &config); }),
+  EXPECT_NE(ConfigErrorOf([&] { Validate(config); }).find("pipeline.frames"), std::string::npos);
+  EXPECT_EQ(ConfigErrorOf([&] { ApplyToml("[pipeline]\nwhen = \"now\"\n", "f", &config); }),
             "pipeline.when: must be \"last\" or \"next\", got \"now\"");
   config = DaemonConfig();
   config.pipeline.rolling_shutter = "fast";
-  EXPECT_NE(
-      ErrorOf([&] { Validate(config); }).find("pipeline.rolling_shutter: rolling shutter must be"),
-      std::string::npos);
+  EXPECT_NE(ConfigErrorOf([&] {
+              Validate(config);
+            }).find("pipeline.rolling_shutter: rolling shutter must be"),
+            std::string::npos);
 }
 
 TEST(ConfigTest, FlagsWinOverTheFileWhereverTheyStand) {
@@ -97,25 +98,25 @@ TEST(ConfigTest, FlagsWinOverTheFileWhereverTheyStand) {
 }
 
 TEST(ConfigTest, BadFlagsAreNamed) {
-  EXPECT_EQ(ErrorOf([] {
+  EXPECT_EQ(ConfigErrorOf([] {
               ParseCommandLine({"--server.port", "eighty"});
             }),
             "server.port: expected an integer, got 'eighty'");
-  EXPECT_EQ(ErrorOf([] {
+  EXPECT_EQ(ConfigErrorOf([] {
               ParseCommandLine({"--sever.port", "80"});
             }),
             "--sever.port: unknown option (see dfsmd --help)");
-  EXPECT_NE(ErrorOf([] { ParseCommandLine({"--server.port"}); }).find("--server.port"),
+  EXPECT_NE(ConfigErrorOf([] { ParseCommandLine({"--server.port"}); }).find("--server.port"),
             std::string::npos);
-  EXPECT_EQ(ErrorOf([] {
+  EXPECT_EQ(ConfigErrorOf([] {
               ParseCommandLine({"--config", "/nonexistent/dfsmd.toml"});
             }),
             "--config: cannot read '/nonexistent/dfsmd.toml'");
-  EXPECT_EQ(ErrorOf([] {
+  EXPECT_EQ(ConfigErrorOf([] {
               ParseCommandLine({"--pipeline.dense", "maybe"});
             }),
             "pipeline.dense: expected true or false, got 'maybe'");
-  EXPECT_NE(ErrorOf([] { ParseCommandLine({"stray"}); }).find("unexpected argument"),
+  EXPECT_NE(ConfigErrorOf([] { ParseCommandLine({"stray"}); }).find("unexpected argument"),
             std::string::npos);
 }
 
@@ -130,11 +131,12 @@ TEST(ConfigTest, TheTableHoldsTheRangesAndChoices) {
       DaemonConfig config;
       config.capture.ring_frames = ConfigKeyNamed("capture.ring_frames").max;
       key.SetFromText(std::to_string(key.max), &config);
-      EXPECT_EQ(ErrorOf([&] { Validate(config); }).find(key.name + ":"), std::string::npos)
+      EXPECT_EQ(ConfigErrorOf([&] { Validate(config); }).find(key.name + ":"), std::string::npos)
           << key.name << " refuses its own maximum";
       if (key.max < std::numeric_limits<int64_t>::max()) {
         key.SetFromText(std::to_string(key.max + 1), &config);
-        EXPECT_EQ(ErrorOf([&] { Validate(config); }).rfind(key.name + ":", 0), 0u) << key.name;
+        EXPECT_EQ(ConfigErrorOf([&] { Validate(config); }).rfind(key.name + ":", 0), 0u)
+            << key.name;
       }
     }
     if (key.type == KeyType::kChoice) {
@@ -146,7 +148,7 @@ TEST(ConfigTest, TheTableHoldsTheRangesAndChoices) {
     }
   }
   // --check-config and start-up once disagreed on device_buffers (64 and 32).
-  EXPECT_EQ(ErrorOf([] {
+  EXPECT_EQ(ConfigErrorOf([] {
               ParseCommandLine({"--capture.device_buffers", "33"});
             }),
             "capture.device_buffers: must be in [4, 32], got 33");

@@ -20,7 +20,7 @@ nlohmann::json StoredRecord(const std::string& when, const std::string& init) {
       "keep_burst":true,"calibration":"auto"}})");
 }
 
-std::string ErrorOf(const nlohmann::json& record) {
+std::string RecordErrorOf(const nlohmann::json& record) {
   try {
     JobFromJson(record);
   } catch (const std::invalid_argument& e) {
@@ -63,19 +63,19 @@ TEST(JobTest, StoredRecordsLoadAndRoundTrip) {
 }
 
 TEST(JobTest, AnUnknownStoredOptionIsNamedWithItsValue) {
-  const std::string when = ErrorOf(StoredRecord("soon", "rank1"));
+  const std::string when = RecordErrorOf(StoredRecord("soon", "rank1"));
   EXPECT_NE(when.find("options.when"), std::string::npos) << when;
   EXPECT_NE(when.find("\"soon\""), std::string::npos) << when;
-  const std::string init = ErrorOf(StoredRecord("last", "rank2"));
+  const std::string init = RecordErrorOf(StoredRecord("last", "rank2"));
   EXPECT_NE(init.find("options.init"), std::string::npos) << init;
   EXPECT_NE(init.find("\"rank2\""), std::string::npos) << init;
 
   nlohmann::json number = StoredRecord("last", "rank1");
   number["options"]["init"] = 1;
-  EXPECT_EQ(ErrorOf(number), "options.init must be a string, got 1");
+  EXPECT_EQ(RecordErrorOf(number), "options.init must be a string, got 1");
   nlohmann::json missing = StoredRecord("last", "rank1");
   missing["options"].erase("init");
-  EXPECT_EQ(ErrorOf(missing), "options.init is missing");
+  EXPECT_EQ(RecordErrorOf(missing), "options.init is missing");
 }
 
 }  // namespace

@@ -8,8 +8,8 @@
 namespace dfsm::service {
 namespace {
 
-std::string ErrorOf(TarPolicy* policy, const std::string& name, mode_t type,
-                    bool hard_link = false) {
+std::string PolicyErrorOf(TarPolicy* policy, const std::string& name, mode_t type,
+                          bool hard_link = false) {
   try {
     policy->Admit(name, type, hard_link, 0);
   } catch (const TarError& e) {
@@ -23,19 +23,20 @@ TEST(TarPolicyTest, NormalizesNamesAndSkipsTheTop) {
   EXPECT_EQ(policy.Admit("./", S_IFDIR, false, 0), "");
   EXPECT_EQ(policy.Admit("./burst/", S_IFDIR, false, 0), "burst");
   EXPECT_EQ(policy.Admit("burst//frames/./0.png", S_IFREG, false, 3), "burst/frames/0.png");
-  EXPECT_NE(ErrorOf(&policy, "burst/frames/0.png/", S_IFDIR).find("duplicate"), std::string::npos);
+  EXPECT_NE(PolicyErrorOf(&policy, "burst/frames/0.png/", S_IFDIR).find("duplicate"),
+            std::string::npos);
 }
 
 TEST(TarPolicyTest, RefusesEverythingButFilesAndDirectoriesByName) {
   TarPolicy policy({});
-  EXPECT_EQ(ErrorOf(&policy, "dev/sda", S_IFBLK),
+  EXPECT_EQ(PolicyErrorOf(&policy, "dev/sda", S_IFBLK),
             "tar entry 'dev/sda': device files are not allowed");
-  EXPECT_NE(ErrorOf(&policy, "tty", S_IFCHR).find("device files"), std::string::npos);
-  EXPECT_NE(ErrorOf(&policy, "s", S_IFLNK).find("links are not allowed"), std::string::npos);
-  EXPECT_NE(ErrorOf(&policy, "h", 0, true).find("links are not allowed"), std::string::npos);
-  EXPECT_NE(ErrorOf(&policy, "p", S_IFIFO).find("not a regular file or directory"),
+  EXPECT_NE(PolicyErrorOf(&policy, "tty", S_IFCHR).find("device files"), std::string::npos);
+  EXPECT_NE(PolicyErrorOf(&policy, "s", S_IFLNK).find("links are not allowed"), std::string::npos);
+  EXPECT_NE(PolicyErrorOf(&policy, "h", 0, true).find("links are not allowed"), std::string::npos);
+  EXPECT_NE(PolicyErrorOf(&policy, "p", S_IFIFO).find("not a regular file or directory"),
             std::string::npos);
-  EXPECT_NE(ErrorOf(&policy, "o", S_IFSOCK).find("not a regular file or directory"),
+  EXPECT_NE(PolicyErrorOf(&policy, "o", S_IFSOCK).find("not a regular file or directory"),
             std::string::npos);
   EXPECT_THROW(policy.Finish(), TarError);  // nothing was admitted
 }
@@ -44,9 +45,10 @@ TEST(TarPolicyTest, RefusesEverythingButFilesAndDirectoriesByName) {
 TEST(TarPolicyTest, NothingLiesBelowAFile) {
   TarPolicy policy({});
   policy.Admit("a/b/c", S_IFREG, false, 1);
-  EXPECT_NE(ErrorOf(&policy, "a/b", S_IFREG).find("'a/b/c' lies below it"), std::string::npos);
+  EXPECT_NE(PolicyErrorOf(&policy, "a/b", S_IFREG).find("'a/b/c' lies below it"),
+            std::string::npos);
   EXPECT_EQ(policy.Admit("a/b", S_IFDIR, false, 0), "a/b");
-  EXPECT_NE(ErrorOf(&policy, "a/b/c/d", S_IFREG).find("lies below the file 'a/b/c'"),
+  EXPECT_NE(PolicyErrorOf(&policy, "a/b/c/d", S_IFREG).find("lies below the file 'a/b/c'"),
             std::string::npos);
   EXPECT_NO_THROW(policy.Finish());
 }
