@@ -60,7 +60,8 @@ rm -f "$work"/*.deb "$work"/*.ddeb "$work"/*.buildinfo "$work"/*.changes
 if [ "$arch" = amd64 ]; then
   [ "$(dpkg --print-architecture)" = amd64 ] || { echo "build-deb: amd64 builds natively on amd64 only" >&2; exit 1; }
   (cd "$work/dfsm" && dpkg-checkbuilddeps) || {
-    echo "build-deb: install the missing build dependencies (scripts/install-deps.sh installs them all)" >&2
+    echo "build-deb: install the missing build dependencies (scripts/install-deps.sh: the libraries;" \
+      "apt-get install debhelper dpkg-dev lintian: the packaging tools, docs/packaging.md)" >&2
     exit 1
   }
   (cd "$work/dfsm" && nice -n 19 dpkg-buildpackage -b -us -uc)
