@@ -57,6 +57,12 @@ DepthCheck CheckDepthAgainstTracks(const SparseReconstruction& sparse, const Den
     check.warnings.push_back("depth outliers: " + Percent(dense.outlier_fraction) +
                              " of the pixels match no depth of a still scene (something moved, "
                              "or reflections); they have no depth");
+  check.relief_sigma = sparse.uncertainty.relief_sigma;
+  if (check.relief_sigma > options.max_relief_sigma)
+    check.warnings.push_back(
+        "depth relief uncertain: the camera's uncertainty (poses, focal length, distortion, "
+        "readout) leaves relative depths uncertain by " +
+        Percent(check.relief_sigma) + " (1 sigma); a higher resolution measures the poses better");
   if (dense.valid_fraction < options.min_valid_fraction)
     check.warnings.push_back("depth sparse: " + Percent(dense.valid_fraction) +
                              " of the pixels have a depth");
@@ -69,6 +75,7 @@ nlohmann::json ToJson(const DepthCheck& check) {
           {"median_disagreement", check.median_disagreement},
           {"within_10_percent", check.within_10_percent},
           {"outlier_fraction", check.outlier_fraction},
+          {"relief_sigma", check.relief_sigma},
           {"confirmed", check.warnings.empty()}};
 }
 

@@ -31,6 +31,13 @@ struct DepthCheckOptions {
   // generated bursts of a still scene, 0.1-0.5 % on TUM fr1/xyz, 3.5-6 % with a
   // moving object).
   double max_outlier_fraction = 0.02;
+  // Warn when the camera's uncertainty leaves the relief more uncertain than
+  // this (CalibrationUncertainty::relief_sigma, 1 sigma: the relative depth
+  // error the tracks share, which agreeing with them cannot reveal).
+  // docs/sparse.md, "The relief's uncertainty": 2.9-4.9 % on generated 1080p
+  // and phone VGA bursts that score 2.0-3.2 % AbsRel, 6-24 % on those that
+  // score 3.4-12 % (VGA with 2 deg tremor, webcams, 320x240), 0.5-4 % on TUM.
+  double max_relief_sigma = 0.05;
 };
 
 struct DepthCheck {
@@ -39,6 +46,7 @@ struct DepthCheck {
   double median_disagreement = 0.0;   // median |w_dense / w_track - 1|
   double within_10_percent = 0.0;     // share of the compared tracks
   double outlier_fraction = 0.0;      // DenseDepth::outlier_fraction
+  double relief_sigma = -1.0;         // CalibrationUncertainty::relief_sigma
   std::vector<std::string> warnings;  // empty: nothing to say
 };
 

@@ -267,6 +267,7 @@ BundleAdjustmentSummary RunBundleAdjustment(const FeatureTracks& tracks,
       jacobians.reference_jacobians.push_back(B);
     }
     jacobians.noise_inflation = options.uncertainty_inflation;
+    jacobians.inverse_depths = inverse_depths;
     *uncertainty = MarginalIntrinsicsCovariance(jacobians);
     PropagateToDistortion(state->camera, uncertainty);
   }

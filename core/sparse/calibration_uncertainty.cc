@@ -33,10 +33,8 @@ CalibrationUncertainty MarginalIntrinsicsCovariance(const AdjustmentJacobians& j
   CalibrationUncertainty result;
   const ceres::CRSMatrix& J = jacobians.reprojection;
   const int c = jacobians.camera_columns;
-  if (jacobians.intrinsics_columns == 0) {
+  if (jacobians.intrinsics_columns == 0)
     result.unavailable_reason = "the intrinsics were held fixed";
-    if (jacobians.readout_column < 0) return result;
-  }
   result.degrees_of_freedom = J.num_rows - J.num_cols;
   if (result.degrees_of_freedom <= 0) {
     Unavailable(&result, "fewer residuals than parameters");
@@ -59,8 +57,16 @@ CalibrationUncertainty MarginalIntrinsicsCovariance(const AdjustmentJacobians& j
   Eigen::RowVector2d q = Eigen::RowVector2d::Zero();
   double h = 0.0, reference_share = 0.0;
   int track = -1, depth_seen = -1;
+  // Per track, m = v / (h w): the relative inverse depth error is -m^T dc
+  // for a camera error dc (the track's own least squares given the camera).
+  const bool with_relief = with_reference && !jacobians.inverse_depths.empty() && c > 0;
+  std::vector<Eigen::VectorXd> relief_rows;
   const auto close_track = [&]() {
     if (h > 0.0) S.noalias() -= v * v.transpose() / h;
+    if (with_relief && track >= 0 && track < static_cast<int>(jacobians.inverse_depths.size()) &&
+        jacobians.inverse_depths[track] > 0.0)
+      relief_rows.push_back(h > 0.0 ? Eigen::VectorXd(v / (h * jacobians.inverse_depths[track]))
+                                    : Eigen::VectorXd::Zero(c));
     if (with_reference) {
       const Eigen::MatrixXd P = h > 0.0 ? Eigen::MatrixXd(Q - v * q / h) : Q;
       N.noalias() += P * P.transpose();
@@ -155,6 +161,20 @@ CalibrationUncertainty MarginalIntrinsicsCovariance(const AdjustmentJacobians& j
                 "the information matrix is singular: the burst does not observe the camera");
     return result;
   }
+  const Eigen::MatrixXd normalized_score =
+      scale.cwiseInverse().asDiagonal() * score * scale.cwiseInverse().asDiagonal();
+  if (relief_rows.size() >= 2) {
+    // The relief: rows m_j centred (the global scale is free), through the
+    // whole camera covariance A^-1 score A^-1 (equilibrated: m scaled alike).
+    Eigen::MatrixXd M(relief_rows.size(), c);
+    for (size_t j = 0; j < relief_rows.size(); ++j) M.row(j) = relief_rows[j].transpose();
+    M.rowwise() -= M.colwise().mean();
+    M = M * scale.cwiseInverse().asDiagonal();
+    const Eigen::MatrixXd X = ldlt.solve(M.transpose());  // A^-1 M^T, c x n
+    const double sum = (X.transpose() * normalized_score).cwiseProduct(X.transpose()).sum();
+    result.relief_sigma = std::sqrt(std::max(0.0, sum / static_cast<double>(M.rows())));
+  }
+  if (jacobians.intrinsics_columns == 0 && jacobians.readout_column < 0) return result;
   // A^-1 score A^-1, in the equilibrated variables; only the rows of the
   // intrinsics and of the readout.
   const int n = jacobians.intrinsics_columns;
@@ -165,8 +185,6 @@ CalibrationUncertainty MarginalIntrinsicsCovariance(const AdjustmentJacobians& j
   Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(c, k);
   for (int i = 0; i < k; ++i) rhs(wanted[i], i) = 1.0;
   const Eigen::MatrixXd columns = ldlt.solve(rhs);  // c x k of A^-1 (normalized)
-  const Eigen::MatrixXd normalized_score =
-      scale.cwiseInverse().asDiagonal() * score * scale.cwiseInverse().asDiagonal();
   const Eigen::MatrixXd block = columns.transpose() * normalized_score * columns;
   for (int a = 0; a < n; ++a)
     for (int b = 0; b < n; ++b)

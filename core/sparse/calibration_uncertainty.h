@@ -45,6 +45,16 @@ struct CalibrationUncertainty {
   // estimated or the information matrix is singular. Computed with the
   // intrinsics held fixed as well (`available` then stays false).
   double sigma_readout = -1.0;
+  // What the camera's uncertainty (intrinsics, poses, readout) does to the
+  // relief of the depth: the RMS over the tracks of the standard deviation of
+  // their relative inverse depth error after one global scale, the error
+  // every tracked point shares with its neighbours (a rotation error shifts
+  // all inverse depths by one offset: the small-motion ambiguity between
+  // rotation and inverse depth), which no dense matching repairs. Each
+  // track's own noise is left out: the dense stage measures its pixels
+  // afresh. A fraction (0.05: 5 %); -1 where the information matrix is
+  // singular. Available also where the intrinsics were held fixed.
+  double relief_sigma = -1.0;
 
   double sigma_f_px() const;
   double sigma_f_percent(double f) const;
@@ -76,6 +86,9 @@ struct AdjustmentJacobians {
   // its track, so its noise is shared by them: the covariance counts it.
   std::vector<int> block_track;
   std::vector<Eigen::Matrix2d> reference_jacobians;
+  // Every track's inverse depth (indexed by track, like block_track), for
+  // relief_sigma; empty: not computed.
+  std::vector<double> inverse_depths;
   // The tracking noise is taken as this many times what the residuals show
   // (model error: BundleAdjustmentOptions::uncertainty_inflation). It scales
   // the data's share only, not the priors'.

@@ -1,0 +1,57 @@
+#include "core/pipeline/depth_check.h"
+
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+namespace dfsm {
+namespace {
+
+// Four inlier tracks on a dense map that agrees with them everywhere: only
+// what the test changes can warn.
+struct AgreeingBurst {
+  SparseReconstruction sparse;
+  DenseDepth dense;
+
+  AgreeingBurst() {
+    sparse.tracks.reference = 0;
+    Eigen::Matrix2Xd pixels(2, 4);
+    pixels << 2, 10, 17, 5, 3, 12, 8, 16;
+    sparse.tracks.pixels = {pixels, pixels};
+    sparse.inliers = {true, true, true, true};
+    sparse.state.inverse_depths = {0.5, 0.5, 0.5, 0.5};
+    dense.depth = cv::Mat(20, 20, CV_32FC1, cv::Scalar(2.0f));
+    dense.valid_fraction = 1.0;
+  }
+};
+
+TEST(DepthCheck, AReliefTheCameraLeavesUncertainWarnsWithItsSigma) {
+  AgreeingBurst burst;
+  DepthCheckOptions options;
+  burst.sparse.uncertainty.relief_sigma = 0.02;
+  DepthCheck check = CheckDepthAgainstTracks(burst.sparse, burst.dense, options);
+  EXPECT_TRUE(check.warnings.empty()) << check.warnings.front();
+  EXPECT_EQ(check.compared, 4);
+  EXPECT_DOUBLE_EQ(check.relief_sigma, 0.02);
+
+  burst.sparse.uncertainty.relief_sigma = 0.08;
+  check = CheckDepthAgainstTracks(burst.sparse, burst.dense, options);
+  ASSERT_EQ(check.warnings.size(), 1u);
+  EXPECT_NE(check.warnings[0].find("depth relief uncertain"), std::string::npos);
+  EXPECT_NE(check.warnings[0].find("by 8 %"), std::string::npos) << check.warnings[0];
+  const nlohmann::json json = ToJson(check);
+  EXPECT_DOUBLE_EQ(json.at("relief_sigma").get<double>(), 0.08);
+  EXPECT_FALSE(json.at("confirmed").get<bool>());
+}
+
+// Where the covariance could not be formed (-1) there is nothing to warn of.
+TEST(DepthCheck, AnUnknownReliefSigmaDoesNotWarn) {
+  AgreeingBurst burst;
+  burst.sparse.uncertainty.relief_sigma = -1.0;
+  const DepthCheck check = CheckDepthAgainstTracks(burst.sparse, burst.dense);
+  EXPECT_TRUE(check.warnings.empty());
+  EXPECT_TRUE(ToJson(check).at("confirmed").get<bool>());
+}
+
+}  // namespace
+}  // namespace dfsm
