@@ -119,6 +119,7 @@ int main(int argc, char** argv) {
         row.confirmed = check.value("confirmed", false);
         line["depth_check"] = check;
         line["warnings"] = output.result.warnings;
+        line["known_fit"] = output.result.calibration_detail.value("known_fit", nlohmann::json());
         line.update({{"depth", ToJson(row.score)},
                      {"f", row.f},
                      {"rolling_shutter",

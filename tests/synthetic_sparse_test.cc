@@ -165,6 +165,47 @@ TEST(SyntheticSparseCalibration, AKnownCalibrationIsHeldOrUsedAsAPrior) {
   }
 }
 
+// A known calibration held fixed is checked against the burst calibrated
+// alone: the true camera fits (the same tracks, the same error), a focal
+// length 15 % off does not, and says so in a warning and in the verdict.
+TEST(SyntheticSparseCalibration, AKnownCalibrationThatDoesNotFitTheBurstIsFlagged) {
+  const SynthBurst generated = VgaBurst();
+  const Burst burst = ToBurst(generated);
+  KnownCalibration known;
+  known.camera = generated.truth.camera;
+  known.mode = KnownCalibrationMode::kFixed;
+  SparseOptions options;
+  options.known = known;
+  const auto flagged = [](const SparseReconstruction& sparse) {
+    for (const std::string& warning : sparse.warnings)
+      if (warning.find("known calibration does not fit this burst") != std::string::npos)
+        return true;
+    return false;
+  };
+  const SparseReconstruction right = ReconstructSparse(burst.gray, burst.reference(), options);
+  ASSERT_TRUE(right.known_fit.has_value());
+  EXPECT_TRUE(right.known_fit->Fits(options.max_known_fit_ratio))
+      << right.known_fit->known_tracks << " tracks at " << right.known_fit->known_rms_px
+      << " px against " << right.known_fit->free_tracks << " at " << right.known_fit->free_rms_px;
+  EXPECT_FALSE(flagged(right));
+  EXPECT_EQ(right.verdict.quality, CalibrationQuality::kReliable);
+
+  known.camera.f *= 1.15;
+  options.known = known;
+  const SparseReconstruction wrong = ReconstructSparse(burst.gray, burst.reference(), options);
+  ASSERT_TRUE(wrong.known_fit.has_value());
+  EXPECT_FALSE(wrong.known_fit->Fits(options.max_known_fit_ratio));
+  EXPECT_TRUE(flagged(wrong));
+  EXPECT_NE(wrong.verdict.quality, CalibrationQuality::kReliable);
+  EXPECT_EQ(wrong.state.camera.f, known.camera.f);  // still the camera used
+  // The burst alone finds the true focal length again.
+  EXPECT_NEAR(wrong.known_fit->free_camera.f, generated.truth.camera.f,
+              0.03 * generated.truth.camera.f);
+
+  options.max_known_fit_ratio = 0.0;  // no check
+  EXPECT_FALSE(ReconstructSparse(burst.gray, burst.reference(), options).known_fit.has_value());
+}
+
 // The verdict and its uncertainty on a well-conditioned burst: the true f lies
 // within 2 sigma, and the sigma is small enough to be meaningful.
 TEST(SyntheticSparseCalibration, TheTrueFocalLengthLiesWithinTwoSigma) {

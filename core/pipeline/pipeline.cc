@@ -97,6 +97,15 @@ PipelineOutput RunPipeline(const Burst& burst, const PipelineOptions& options,
     if (sparse.rejected_camera)
       result.calibration_detail["rejected"] = ToJson(*sparse.rejected_camera);
     if (sparse_options.known) result.calibration_detail["known"] = sparse_options.known->source;
+    if (sparse.known_fit)
+      result.calibration_detail["known_fit"] = {
+          {"known_tracks", sparse.known_fit->known_tracks},
+          {"known_rms_px", sparse.known_fit->known_rms_px},
+          {"free_tracks", sparse.known_fit->free_tracks},
+          {"free_rms_px", sparse.known_fit->free_rms_px},
+          {"free_camera", ToJson(sparse.known_fit->free_camera)},
+          {"free_quality", CalibrationQualityName(sparse.known_fit->free_quality)},
+          {"fits", sparse.known_fit->Fits(sparse_options.max_known_fit_ratio)}};
     result.calibration_detail["rolling_shutter"] = {
         {"mode", RollingShutterName(sparse_options.rolling_shutter)},
         {"readout", sparse.state.readout}};

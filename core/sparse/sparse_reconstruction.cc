@@ -48,6 +48,22 @@ constexpr double kSameReadoutStart = 0.15;
 // restart follows (docs/sparse.md, "The first adjustment's budget").
 constexpr int kMeasuringIterations = 30;
 
+// The outlier rule of the rounds after the adjustment: the tracks of `use`
+// (and of `use` only, their inverse depths being the adjusted ones) within
+// max(outlier_px, 4 robust sigmas) of the state's reprojection, in front.
+std::vector<bool> KeptTracks(const FeatureTracks& tracks, const SparseState& state,
+                             const std::vector<bool>& use, const SparseOptions& options) {
+  const std::vector<double> errors = TrackReprojectionErrors(tracks, state);
+  std::vector<double> used_errors;
+  for (size_t j = 0; j < errors.size(); ++j)
+    if (use[j]) used_errors.push_back(errors[j]);
+  const double threshold = std::max(options.outlier_px, 4.0 * RobustSigma(used_errors));
+  std::vector<bool> kept(errors.size());
+  for (size_t j = 0; j < errors.size(); ++j)
+    kept[j] = errors[j] <= threshold && state.inverse_depths[j] > 0.0;
+  return kept;
+}
+
 // Below this scene contrast (grey levels) the corners found are sensor noise.
 constexpr double kMinSceneContrast = 2.0;
 
@@ -109,23 +125,16 @@ std::vector<double> SparseReconstruction::InlierInverseDepths() const {
   return inverse_depths;
 }
 
-SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int reference,
-                                       const SparseOptions& options) {
-  if (frames.size() < 3)
-    throw ReconstructionError("a burst needs at least 3 frames, got " +
-                              std::to_string(frames.size()));
-  SparseReconstruction sparse;
-  StageTimer timer(&sparse.timings_ms);
-  const int width = frames[reference].cols, height = frames[reference].rows;
+namespace {
 
-  sparse.tracks = TrackGridedFeatures(frames, reference, options.features, &sparse.feature_stats);
-  timer.Lap("features");
+// Everything after the tracking (`sparse` holds the tracks): the
+// initialization, the adjustment and its outlier rounds, the verdict and any
+// fallback, for a burst of width x height.
+SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int height,
+                                  const SparseOptions& options) {
+  StageTimer timer(&sparse.timings_ms);
   const int tracked = sparse.tracks.num_tracks();
-  if (tracked < options.min_tracks) throw TooFewTracks(frames[reference], sparse, options);
   const double parallax = sparse.tracks.MedianMaxDisplacement();
-  if (parallax < options.min_parallax_px)
-    throw ReconstructionError("insufficient parallax: median track motion " + FixedText(parallax) +
-                              " px (need >= " + FixedText(options.min_parallax_px) + " px)");
 
   // A known calibration starts (and, fixed, stays) where the file puts it; it
   // also makes the rotations of the initialization exact instead of assuming
@@ -168,7 +177,7 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
     use = sparse.rank_one.inliers;
   } else {
     // The reference code's start: no motion, random inverse depths.
-    state.poses.assign(frames.size(), Pose{});
+    state.poses.assign(sparse.tracks.num_frames(), Pose{});
     std::mt19937_64 random(options.naive_seed);
     std::uniform_real_distribution<double> uniform(0.01, 1.0);
     state.inverse_depths.resize(tracked);
@@ -266,14 +275,7 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
   // repeat until the set stops changing.
   const BundleAdjustmentSummary first = sparse.bundle_adjustment;
   for (int round = 0; round < options.outlier_rounds; ++round) {
-    const std::vector<double> errors = TrackReprojectionErrors(sparse.tracks, state);
-    std::vector<double> used_errors;
-    for (int j = 0; j < tracked; ++j)
-      if (use[j]) used_errors.push_back(errors[j]);
-    const double threshold = std::max(options.outlier_px, 4.0 * RobustSigma(used_errors));
-    std::vector<bool> kept(tracked);
-    for (int j = 0; j < tracked; ++j)
-      kept[j] = errors[j] <= threshold && state.inverse_depths[j] > 0.0;
+    const std::vector<bool> kept = KeptTracks(sparse.tracks, state, use, options);
     if (kept == use || std::count(kept.begin(), kept.end(), true) < options.min_tracks) break;
     use = kept;
     run_adjustment(ba_options);
@@ -396,6 +398,74 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
                               FixedText(median, 6) + ", f " + FixedText(state.camera.f) + ")");
   for (double& w : state.inverse_depths) w /= median;
   for (Pose& pose : state.poses) pose.T *= median;
+  return sparse;
+}
+
+}  // namespace
+
+SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int reference,
+                                       const SparseOptions& options) {
+  if (frames.size() < 3)
+    throw ReconstructionError("a burst needs at least 3 frames, got " +
+                              std::to_string(frames.size()));
+  SparseReconstruction tracked;
+  StageTimer timer(&tracked.timings_ms);
+  tracked.tracks = TrackGridedFeatures(frames, reference, options.features, &tracked.feature_stats);
+  timer.Lap("features");
+  if (tracked.tracks.num_tracks() < options.min_tracks)
+    throw TooFewTracks(frames[reference], tracked, options);
+  const double parallax = tracked.tracks.MedianMaxDisplacement();
+  if (parallax < options.min_parallax_px)
+    throw ReconstructionError("insufficient parallax: median track motion " + FixedText(parallax) +
+                              " px (need >= " + FixedText(options.min_parallax_px) + " px)");
+  const int width = frames[reference].cols, height = frames[reference].rows;
+  const bool check_known = options.known && options.known->mode == KnownCalibrationMode::kFixed &&
+                           options.max_known_fit_ratio > 0.0;
+  SparseReconstruction sparse =
+      AdjustTracks(check_known ? tracked : std::move(tracked), width, height, options);
+  if (check_known) {
+    // The same tracks calibrated by the burst alone: a camera that fits them
+    // much better than the known one (more tracks, or a smaller error) says
+    // the known calibration, or the motion model under it, does not hold
+    // here. A geometry wrong as a whole agrees with its own tracks, so
+    // nothing later would notice; a wrong camera also rejects tracks, which
+    // is why the comparison starts from the tracking, not from the known
+    // camera's solution.
+    StageTimer check_timer(&sparse.timings_ms);
+    SparseOptions alone = options;
+    alone.known.reset();
+    SparseReconstruction::KnownFit fit;
+    fit.known_tracks =
+        static_cast<int>(std::count(sparse.inliers.begin(), sparse.inliers.end(), true));
+    fit.known_rms_px = sparse.bundle_adjustment.rms_reprojection_px;
+    try {
+      const SparseReconstruction free = AdjustTracks(std::move(tracked), width, height, alone);
+      fit.free_tracks =
+          static_cast<int>(std::count(free.inliers.begin(), free.inliers.end(), true));
+      fit.free_rms_px = free.bundle_adjustment.rms_reprojection_px;
+      fit.free_camera = free.state.camera;
+      fit.free_quality = free.verdict.quality;
+      sparse.known_fit = fit;
+      if (!fit.Fits(options.max_known_fit_ratio)) {
+        const std::string reason =
+            "known calibration does not fit this burst: under it " +
+            std::to_string(fit.known_tracks) + " tracks fit to " + FixedText(fit.known_rms_px) +
+            " px RMS, calibrated by the burst alone " + std::to_string(fit.free_tracks) +
+            " tracks to " + FixedText(fit.free_rms_px) + " px (f " +
+            FixedText(fit.free_camera.f, 1) + " px)";
+        sparse.warnings.push_back(reason +
+                                  "; the calibration, or the motion model under it, does not "
+                                  "hold here and the depth may be wrong as a whole");
+        // The camera used is no longer one the burst vouches for.
+        if (sparse.verdict.quality == CalibrationQuality::kReliable)
+          sparse.verdict.quality = CalibrationQuality::kUncertain;
+        sparse.verdict.reasons.insert(sparse.verdict.reasons.begin(), reason);
+      }
+    } catch (const ReconstructionError&) {
+      // The burst cannot calibrate itself: nothing to compare the known camera with.
+    }
+    check_timer.Lap("known_fit");
+  }
   return sparse;
 }
 

@@ -66,6 +66,14 @@ struct SparseOptions {
   int outlier_rounds = 3;
   // A known calibration; without one the burst calibrates the camera alone.
   std::optional<KnownCalibration> known;
+  // A known calibration held fixed is checked against the burst: the same
+  // tracks are also calibrated by the burst alone (the whole adjustment once
+  // more, about the sparse stage's time again), and a warning says so when
+  // the known camera's reprojection RMS, or the number of tracks the burst's
+  // own camera keeps, exceeds the other's by more than this factor
+  // (SparseReconstruction::known_fit; docs/sparse.md, "Does the known
+  // calibration fit the burst?"). 0: no check.
+  double max_known_fit_ratio = 1.2;
   // The sensor's readout: global, known or estimated (rolling_shutter.h).
   RollingShutterOptions rolling_shutter;
   CalibrationQualityOptions quality;
@@ -96,6 +104,23 @@ struct SparseReconstruction {
     CalibrationVerdict verdict;
   };
   std::optional<SelfEstimate> self_estimate;
+  // The check of a known calibration held fixed (SparseOptions::
+  // max_known_fit_ratio): the reprojection RMS under it and with the
+  // intrinsics free, and the free camera.
+  struct KnownFit {
+    int known_tracks = 0;  // inliers under the known camera
+    double known_rms_px = 0.0;
+    int free_tracks = 0;  // inliers of the burst calibrated alone, from the same tracks
+    double free_rms_px = 0.0;
+    CameraModel free_camera;
+    CalibrationQuality free_quality = CalibrationQuality::kDegenerate;
+    // The known camera fits when it keeps as many tracks (within the factor)
+    // at an RMS within the factor of the free one's.
+    bool Fits(double max_ratio) const {
+      return known_rms_px <= max_ratio * free_rms_px && free_tracks <= max_ratio * known_tracks;
+    }
+  };
+  std::optional<KnownFit> known_fit;
   // The camera the adjustment estimated, when a fallback replaced it.
   std::optional<CameraModel> rejected_camera;
   // "self" | "known-fixed" | "known-prior" | "fallback-k0" | "fallback-known"
