@@ -2,17 +2,14 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <nlohmann/json.hpp>
+
+#include "core/sparse/fixed_text.h"
 
 namespace dfsm {
 namespace {
 
-std::string Percent(double share) {
-  char text[32];
-  std::snprintf(text, sizeof text, "%.0f %%", 100.0 * share);
-  return text;
-}
+std::string Percent(double share) { return FixedText(100.0 * share, 0) + " %"; }
 
 }  // namespace
 

@@ -1,4 +1,5 @@
-// Numbers in the messages of the sparse stage (warnings, errors, reasons).
+// Numbers in the messages of the sparse stage and of the checks on its
+// results (warnings, errors, reasons).
 #pragma once
 
 #include <cstdio>
