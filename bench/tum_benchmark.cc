@@ -87,6 +87,8 @@ int main(int argc, char** argv) {
     std::string quality;
     double disagreement = 0.0;  // the depth check's median, without ground truth
     bool confirmed = false;
+    double relief_sigma = -1.0;  // the depth check's: the camera's noise on the relief
+    std::string known_fit;       // "fits" | "does not fit" | "" (no fixed calibration)
   };
   std::vector<Row> rows;
   for (int first = 0; first + frames <= sequence.frames(); first += step) {
@@ -106,7 +108,8 @@ int main(int argc, char** argv) {
         options.sparse.known = fixed;
       }
       const PipelineOutput output = RunPipeline(burst, options);
-      Row row{first, mode, {}, EvaluateDepth(constant, truth, cv::Mat()), {}, 0.0, ""};
+      Row row{first, mode, {}, EvaluateDepth(constant, truth, cv::Mat()), {}, 0.0, "", 0.0,
+              false, -1.0, ""};
       nlohmann::json line = {{"first", first}, {"frames", frames}, {"mode", mode}};
       if (output.result.ok && output.dense) {
         row.score = EvaluateDepth(output.dense->depth, truth, cv::Mat());
@@ -117,6 +120,10 @@ int main(int argc, char** argv) {
         const nlohmann::json check = output.result.extra.value("depth_check", nlohmann::json());
         row.disagreement = check.value("median_disagreement", 0.0);
         row.confirmed = check.value("confirmed", false);
+        row.relief_sigma = check.value("relief_sigma", -1.0);
+        const nlohmann::json fit =
+            output.result.calibration_detail.value("known_fit", nlohmann::json());
+        if (fit.is_object()) row.known_fit = fit.value("fits", true) ? "fits" : "does not fit";
         line["depth_check"] = check;
         line["warnings"] = output.result.warnings;
         line["known_fit"] = output.result.calibration_detail.value("known_fit", nlohmann::json());
@@ -159,17 +166,18 @@ int main(int argc, char** argv) {
   std::printf(
       "\n| window | mode | f (px) | verdict | AbsRel | within 5 %% | within 25 %% | coverage | "
       "filled: AbsRel | filled: within 25 %% | filled: coverage | constant AbsRel | depth check "
-      "|\n"
-      "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+      "| relief sigma | known calibration |\n"
+      "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const Row& r : rows)
     std::printf(
         "| %d-%d | %s | %.0f | %s | %.1f %% | %.1f %% | %.1f %% | %.1f %% | %.1f %% | %.1f %% | "
-        "%.1f %% | %.1f %% | %s (%.1f %%) |\n",
+        "%.1f %% | %.1f %% | %s (%.1f %%) | %.1f %% | %s |\n",
         r.first, r.first + frames - 1, r.mode.c_str(), r.f, r.quality.c_str(),
         100.0 * r.score.abs_rel, 100.0 * r.score.within_5_percent,
         100.0 * r.score.within_25_percent, 100.0 * r.score.coverage, 100.0 * r.filled.abs_rel,
         100.0 * r.filled.within_25_percent, 100.0 * r.filled.coverage, 100.0 * r.constant.abs_rel,
-        r.confirmed ? "confirmed" : "warned", 100.0 * r.disagreement);
+        r.confirmed ? "confirmed" : "warned", 100.0 * r.disagreement, 100.0 * r.relief_sigma,
+        r.known_fit.empty() ? "-" : r.known_fit.c_str());
   for (const std::string mode : {"known", "self"}) {
     std::vector<double> abs_rel, filled, filled_within_25;
     for (const Row& r : rows)
