@@ -165,9 +165,10 @@ TEST(SyntheticSparseCalibration, AKnownCalibrationIsHeldOrUsedAsAPrior) {
   }
 }
 
-// A known calibration held fixed is checked against the burst calibrated
-// alone: the true camera fits (the same tracks, the same error), a focal
-// length 15 % off does not, and says so in a warning and in the verdict.
+// A known calibration is checked against the burst calibrated alone: the
+// true camera fits (the same tracks, the same error), a focal length 15 % off
+// does not, held fixed or as a prior, and says so in a warning and in the
+// verdict.
 TEST(SyntheticSparseCalibration, AKnownCalibrationThatDoesNotFitTheBurstIsFlagged) {
   const SynthBurst generated = VgaBurst();
   const Burst burst = ToBurst(generated);
@@ -202,6 +203,21 @@ TEST(SyntheticSparseCalibration, AKnownCalibrationThatDoesNotFitTheBurstIsFlagge
   EXPECT_NEAR(wrong.known_fit->free_camera.f, generated.truth.camera.f,
               0.03 * generated.truth.camera.f);
 
+  // As a prior (1 % on f) the wrong focal length is flagged too; a camera
+  // that asks for no check (the daemon's fused one, EXIF's) gets none.
+  known.mode = KnownCalibrationMode::kPrior;
+  options.known = known;
+  const SparseReconstruction prior = ReconstructSparse(burst.gray, burst.reference(), options);
+  ASSERT_TRUE(prior.known_fit.has_value());
+  EXPECT_FALSE(prior.known_fit->Fits(options.max_known_fit_ratio));
+  EXPECT_TRUE(flagged(prior));
+  known.check_fit = false;
+  options.known = known;
+  EXPECT_FALSE(ReconstructSparse(burst.gray, burst.reference(), options).known_fit.has_value());
+
+  known.check_fit = true;
+  known.mode = KnownCalibrationMode::kFixed;
+  options.known = known;
   options.max_known_fit_ratio = 0.0;  // no check
   EXPECT_FALSE(ReconstructSparse(burst.gray, burst.reference(), options).known_fit.has_value());
 }

@@ -74,6 +74,7 @@ PipelineOutput RunPipeline(const Burst& burst, const PipelineOptions& options,
       exif.f_sigma_percent = options.exif_focal_sigma_percent;
       exif.distortion_sigma_px = 0.0;  // EXIF says nothing of the distortion
       exif.also_self_calibrate = true;
+      exif.check_fit = false;  // a guess the burst may move: its own estimate says it
       exif.source = "exif: " + std::to_string(static_cast<int>(*burst.exif_focal_35mm)) +
                     " mm (35 mm equivalent)";
       sparse_options.known = exif;

@@ -419,8 +419,8 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
     throw ReconstructionError("insufficient parallax: median track motion " + FixedText(parallax) +
                               " px (need >= " + FixedText(options.min_parallax_px) + " px)");
   const int width = frames[reference].cols, height = frames[reference].rows;
-  const bool check_known = options.known && options.known->mode == KnownCalibrationMode::kFixed &&
-                           options.max_known_fit_ratio > 0.0;
+  const bool check_known =
+      options.known && options.known->check_fit && options.max_known_fit_ratio > 0.0;
   SparseReconstruction sparse =
       AdjustTracks(check_known ? tracked : std::move(tracked), width, height, options);
   if (check_known) {

@@ -47,6 +47,11 @@ struct KnownCalibration {
   // on the final tracks, without this prior): what a fusion of bursts may add
   // without counting the prior twice (SparseReconstruction::self_estimate).
   bool also_self_calibrate = false;
+  // Compare it with the burst calibrated alone on the same tracks
+  // (SparseOptions::max_known_fit_ratio; the sparse stage runs twice). Off
+  // where the camera comes from this camera's own bursts (the daemon's fused
+  // calibration) or is a loose guess (EXIF's focal length).
+  bool check_fit = true;
 };
 
 struct SparseOptions {
@@ -66,13 +71,13 @@ struct SparseOptions {
   int outlier_rounds = 3;
   // A known calibration; without one the burst calibrates the camera alone.
   std::optional<KnownCalibration> known;
-  // A known calibration held fixed is checked against the burst: the same
-  // tracks are also calibrated by the burst alone (the whole adjustment once
-  // more, about the sparse stage's time again), and a warning says so when
-  // the known camera's reprojection RMS, or the number of tracks the burst's
-  // own camera keeps, exceeds the other's by more than this factor
-  // (SparseReconstruction::known_fit; docs/sparse.md, "Does the known
-  // calibration fit the burst?"). 0: no check.
+  // A known calibration (with check_fit, held fixed or as a prior) is
+  // checked against the burst: the same tracks are also calibrated by the
+  // burst alone (the whole adjustment once more, about the sparse stage's
+  // time again), and a warning says so when the known camera's reprojection
+  // RMS, or the number of tracks the burst's own camera keeps, exceeds the
+  // other's by more than this factor (SparseReconstruction::known_fit;
+  // docs/sparse.md, "Does the known calibration fit the burst?"). 0: no check.
   double max_known_fit_ratio = 1.2;
   // The sensor's readout: global, known or estimated (rolling_shutter.h).
   RollingShutterOptions rolling_shutter;
@@ -104,9 +109,9 @@ struct SparseReconstruction {
     CalibrationVerdict verdict;
   };
   std::optional<SelfEstimate> self_estimate;
-  // The check of a known calibration held fixed (SparseOptions::
-  // max_known_fit_ratio): the reprojection RMS under it and with the
-  // intrinsics free, and the free camera.
+  // The check of a known calibration (SparseOptions::max_known_fit_ratio,
+  // KnownCalibration::check_fit): the tracks kept and their reprojection RMS
+  // under it and with the burst calibrated alone, and the burst's own camera.
   struct KnownFit {
     int known_tracks = 0;  // inliers under the known camera
     double known_rms_px = 0.0;

@@ -71,6 +71,7 @@ bool CalibrationKeeper::ForJob(const JobOptions& options, int width, int height,
   known->distortion_sigma_px = std::max(fusion_->distortion_sigma_px(), kMinFusedPriorDistortionPx);
   known->source = "fused (" + std::to_string(fusion_->bursts()) + " bursts)";
   known->also_self_calibrate = true;
+  known->check_fit = false;  // made from this camera's own bursts, with their sigma
   return true;
 }
 
