@@ -88,7 +88,7 @@ int main(int argc, char** argv) {
     double disagreement = 0.0;  // the depth check's median, without ground truth
     bool confirmed = false;
     double relief_sigma = -1.0;  // the depth check's: the camera's noise on the relief
-    std::string known_fit;       // "fits" | "does not fit" | "" (no fixed calibration)
+    std::string known_fit;       // "fits" | "does not fit" | "" (no calibration checked)
   };
   std::vector<Row> rows;
   for (int first = 0; first + frames <= sequence.frames(); first += step) {
@@ -126,7 +126,7 @@ int main(int argc, char** argv) {
         if (fit.is_object()) row.known_fit = fit.value("fits", true) ? "fits" : "does not fit";
         line["depth_check"] = check;
         line["warnings"] = output.result.warnings;
-        line["known_fit"] = output.result.calibration_detail.value("known_fit", nlohmann::json());
+        line["known_fit"] = fit;
         line.update({{"depth", ToJson(row.score)},
                      {"f", row.f},
                      {"rolling_shutter",

@@ -7,6 +7,7 @@
 #include <random>
 
 #include "core/sparse/rank_one_init.h"
+#include "core/sparse/rank_one_start_for_tests.h"
 #include "core/sparse/rotation_init.h"
 #include "core/sparse/track_simulator.h"
 
@@ -25,18 +26,6 @@ Errors Compare(const SparseState& state, const TrackSimulation& sim) {
     errors.rotation_deg += RotationErrorDeg(state.poses[i].R, sim.poses[i].R);
   errors.rotation_deg /= sim.poses.size() - 1;
   return errors;
-}
-
-SparseState RankOneStart(const TrackSimulation& sim, std::vector<bool>* use) {
-  SparseState state;
-  state.camera = CameraModel::Initial(sim.camera.width, sim.camera.height);
-  const RankOneResult init =
-      RankOneInit(sim.tracks, state.camera, EstimateRotations(sim.tracks, state.camera));
-  EXPECT_TRUE(init.ok);
-  state.poses = init.poses;
-  state.inverse_depths = init.inverse_depths;
-  *use = init.inliers;
-  return state;
 }
 
 // f is observable in a small-motion burst only through the second-order terms

@@ -10,15 +10,11 @@
 
 #include "core/sparse/bundle_adjustment.h"
 #include "core/sparse/calibration_quality.h"
-#include "core/sparse/rank_one_init.h"
-#include "core/sparse/rotation_init.h"
+#include "core/sparse/rank_one_start_for_tests.h"
 #include "core/sparse/track_simulator.h"
 
 namespace dfsm {
 namespace {
-
-SparseState AdjustWithHeldIntrinsics(const TrackSimulation& sim, bool estimate_readout,
-                                     CalibrationUncertainty* uncertainty);
 
 struct Trial {
   SparseState state;  // adjusted
@@ -30,14 +26,8 @@ struct Trial {
 // initial guess.
 Trial AdjustTracks(const TrackSimulation& sim, const BundleAdjustmentOptions& options) {
   Trial trial;
-  trial.state.camera = CameraModel::Initial(sim.camera.width, sim.camera.height);
-  const RankOneResult init = RankOneInit(sim.tracks, trial.state.camera,
-                                         EstimateRotations(sim.tracks, trial.state.camera));
-  EXPECT_TRUE(init.ok);
-  trial.state.poses = init.poses;
-  trial.state.inverse_depths = init.inverse_depths;
-  trial.inliers = init.inliers;
-  RunBundleAdjustment(sim.tracks, init.inliers, &trial.state, options, &trial.uncertainty);
+  trial.state = RankOneStart(sim, &trial.inliers);
+  RunBundleAdjustment(sim.tracks, trial.inliers, &trial.state, options, &trial.uncertainty);
   return trial;
 }
 
@@ -47,18 +37,39 @@ Trial AdjustSimulation(const TrackSimulatorOptions& options) {
   return AdjustTracks(SimulateTracks(options), bare);
 }
 
-// The covariance is what repeated bursts of the same scene would show: over
-// independent noise draws of one simulated scene, the spread of the estimated
-// f matches the predicted sigma_f, and the normalized errors look like a unit
-// Gaussian. (The scene stays; only the tracking noise changes.)
-TEST(CalibrationUncertainty, PredictedSigmaMatchesTheSpreadOverNoiseDraws) {
+// Adjusts a simulated burst from its rank-1 start with the true intrinsics
+// held fixed (and the readout estimated, if asked); returns the adjusted
+// state and the uncertainty.
+SparseState AdjustWithHeldIntrinsics(const TrackSimulation& sim, bool estimate_readout,
+                                     CalibrationUncertainty* uncertainty) {
+  std::vector<bool> use;
+  SparseState state = RankOneStart(sim, &use, &sim.camera);
+  BundleAdjustmentOptions held;
+  held.fix_intrinsics = true;
+  held.estimate_readout = estimate_readout;
+  RunBundleAdjustment(sim.tracks, use, &state, held, uncertainty);
+  return state;
+}
+
+// The scene of the noise-draw tests: 960x540, f 1050, 150 tracks, 1 deg of
+// tremor.
+TrackSimulatorOptions NoiseDrawScene(double noise_px) {
   TrackSimulatorOptions options;
   options.width = 960;
   options.height = 540;
   options.f = 1050.0;
   options.tracks = 150;
   options.rotation_deg = 1.0;
-  options.noise_px = 0.05;
+  options.noise_px = noise_px;
+  return options;
+}
+
+// The covariance is what repeated bursts of the same scene would show: over
+// independent noise draws of one simulated scene, the spread of the estimated
+// f matches the predicted sigma_f, and the normalized errors look like a unit
+// Gaussian. (The scene stays; only the tracking noise changes.)
+TEST(CalibrationUncertainty, PredictedSigmaMatchesTheSpreadOverNoiseDraws) {
+  TrackSimulatorOptions options = NoiseDrawScene(0.05);
   constexpr int kTrials = 30;
   double sum = 0.0, sum_sq = 0.0, predicted = 0.0, distortion_sigma = 0.0;
   int within_2_sigma = 0;
@@ -101,13 +112,7 @@ TEST(CalibrationUncertainty, PredictedSigmaMatchesTheSpreadOverNoiseDraws) {
 // neighbouring tracks (ordered by inverse depth: the rotation-offset mode
 // moves near and far tracks apart).
 TEST(CalibrationUncertainty, ReliefSigmaMatchesTheSharedSpreadOverNoiseDraws) {
-  TrackSimulatorOptions options;
-  options.width = 960;
-  options.height = 540;
-  options.f = 1050.0;
-  options.tracks = 150;
-  options.rotation_deg = 1.0;
-  options.noise_px = 0.1;
+  TrackSimulatorOptions options = NoiseDrawScene(0.1);
   constexpr int kTrials = 30;
   constexpr size_t kGroup = 15;  // tracks of neighbouring inverse depth
   BundleAdjustmentOptions bare;
@@ -169,13 +174,7 @@ TEST(CalibrationUncertainty, ReliefSigmaUnderHeldIntrinsics) {
 
 // More noise, less rotation: a wider sigma, in proportion.
 TEST(CalibrationUncertainty, SigmaGrowsWithNoiseAndShrinksWithRotation) {
-  TrackSimulatorOptions options;
-  options.width = 960;
-  options.height = 540;
-  options.f = 1050.0;
-  options.tracks = 150;
-  options.noise_px = 0.05;
-  options.rotation_deg = 1.0;
+  TrackSimulatorOptions options = NoiseDrawScene(0.05);
   const double base = AdjustSimulation(options).uncertainty.sigma_f_px();
   options.noise_px = 0.1;
   const double noisier = AdjustSimulation(options).uncertainty.sigma_f_px();
@@ -192,42 +191,20 @@ TEST(CalibrationUncertainty, InflationScalesTheDataShare) {
   TrackSimulatorOptions options;
   options.noise_px = 0.05;
   const TrackSimulation sim = SimulateTracks(options);
-  SparseState start;
-  start.camera = CameraModel::Initial(sim.camera.width, sim.camera.height);
-  const RankOneResult init =
-      RankOneInit(sim.tracks, start.camera, EstimateRotations(sim.tracks, start.camera));
-  start.poses = init.poses;
-  start.inverse_depths = init.inverse_depths;
+  std::vector<bool> use;
+  const SparseState start = RankOneStart(sim, &use);
   BundleAdjustmentOptions options_1, options_3;
   options_1.log_f_prior_sigma = options_3.log_f_prior_sigma = 0.0;  // no prior
   options_1.uncertainty_inflation = 1.0;
   options_3.uncertainty_inflation = 3.0;
   SparseState a = start, b = start;
   CalibrationUncertainty u1, u3;
-  RunBundleAdjustment(sim.tracks, init.inliers, &a, options_1, &u1);
-  RunBundleAdjustment(sim.tracks, init.inliers, &b, options_3, &u3);
+  RunBundleAdjustment(sim.tracks, use, &a, options_1, &u1);
+  RunBundleAdjustment(sim.tracks, use, &b, options_3, &u3);
   ASSERT_TRUE(u1.available && u3.available);
   EXPECT_NEAR(u3.sigma_f_px() / u1.sigma_f_px(), 3.0, 1e-6);
   EXPECT_NEAR(u3.distortion_sigma_px / u1.distortion_sigma_px, 3.0, 1e-6);
   EXPECT_EQ(u3.inflation, 3.0);
-}
-
-// Adjusts a simulated burst from its rank-1 start with the true intrinsics
-// held fixed (and the readout estimated, if asked); returns the adjusted
-// state and the uncertainty.
-SparseState AdjustWithHeldIntrinsics(const TrackSimulation& sim, bool estimate_readout,
-                                     CalibrationUncertainty* uncertainty) {
-  SparseState state;
-  state.camera = sim.camera;
-  const RankOneResult init =
-      RankOneInit(sim.tracks, state.camera, EstimateRotations(sim.tracks, state.camera));
-  state.poses = init.poses;
-  state.inverse_depths = init.inverse_depths;
-  BundleAdjustmentOptions held;
-  held.fix_intrinsics = true;
-  held.estimate_readout = estimate_readout;
-  RunBundleAdjustment(sim.tracks, init.inliers, &state, held, uncertainty);
-  return state;
 }
 
 TEST(CalibrationUncertainty, HeldIntrinsicsHaveNoUncertainty) {
