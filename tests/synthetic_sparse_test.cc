@@ -92,6 +92,34 @@ SynthBurst VgaBurst() {
 // A camera the later stages refuse is replaced, not passed on: the adjustment
 // is refitted without distortion, the result names the camera it rejected and
 // says so in a warning, and the verdict is never reliable.
+// A camera refused for its k2 alone (a wide lens whose k2 went negative to
+// stand in for the higher terms the model lacks) keeps k1: the refit holds
+// k2 at 0 and still estimates f and k1.
+TEST(SyntheticSparseCalibration, ARefusedCameraFallsBackToK1AloneWhenThatIsUsable) {
+  const SynthBurst generated = VgaBurst();
+  const Burst burst = ToBurst(generated);
+  SparseOptions options;
+  options.camera_usable = [](const CameraModel& camera, std::string* why) {
+    *why = "is refused by this test";
+    return camera.k2 == 0.0;
+  };
+  const SparseReconstruction sparse = ReconstructSparse(burst.gray, burst.reference(), options);
+  ASSERT_TRUE(sparse.rejected_camera.has_value());
+  EXPECT_NE(sparse.rejected_camera->k2, 0.0);
+  EXPECT_EQ(sparse.calibration_used, "fallback-k1");
+  EXPECT_EQ(sparse.state.camera.k2, 0.0);
+  // The generated lens is k1 -0.06, k2 0.015: k1 alone stays barrel.
+  EXPECT_LT(sparse.state.camera.k1, 0.0);
+  EXPECT_NEAR(sparse.state.camera.f, generated.truth.camera.f, 0.1 * generated.truth.camera.f);
+  ASSERT_FALSE(sparse.warnings.empty());
+  EXPECT_NE(sparse.warnings[0].find("is refused by this test; refitted with k2 = 0"),
+            std::string::npos)
+      << sparse.warnings[0];
+  ASSERT_TRUE(sparse.uncertainty.available);
+  EXPECT_GT(sparse.uncertainty.sigma_k1(), 0.0);
+  EXPECT_EQ(sparse.uncertainty.sigma_k2(), 0.0);
+}
+
 TEST(SyntheticSparseCalibration, ARefusedCameraFallsBackToNoDistortionAndSaysSo) {
   const SynthBurst generated = VgaBurst();
   const Burst burst = ToBurst(generated);

@@ -3,6 +3,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -69,8 +70,19 @@ RadialInverse::RadialInverse(const CameraModel& camera) {
     t(n) = static_cast<double>(n) / (kNodes - 1);
     ratio(n) = SolveRatio(camera, std::sqrt(t(n) * max_r2), &r_d);
   }
-  // Tolerance on the ratio: 1e-6 of the radius is ~1e-3 pixel at 1080p corners.
+  // The lowest degree that reproduces the inverse to 1e-6 of the radius
+  // (1e-3 px at a 1080p corner, 4e-4 px at a VGA one). Wide-angle lenses near
+  // their fold need more than degree 10 for that; they are taken at the best
+  // degree if it moves no sample by more than kTolerancePx at the largest
+  // radius (an error e of the ratio moves a sample by e * f * r_u pixels):
+  // below the sweep's own approximation of a sample's path along a pixel's
+  // planes (0.01-0.02 px, docs/dense.md, "Interpolated samples"). Refusing
+  // them cost their depth its distortion (docs/dense.md, "The radial
+  // inverse's tolerance").
   constexpr double kTolerance = 1e-6;
+  constexpr double kTolerancePx = 0.01;
+  double best_error = std::numeric_limits<double>::infinity();
+  float best[kMaxDegree + 1] = {};
   for (int degree = 2; degree <= kMaxDegree; ++degree) {
     Eigen::MatrixXd vandermonde(kNodes, degree + 1);
     for (int n = 0; n < kNodes; ++n)
@@ -85,7 +97,14 @@ RadialInverse::RadialInverse(const CameraModel& camera) {
       fit_error_ =
           std::max(fit_error_, std::abs(Ratio(static_cast<float>(t(n) * max_r2)) - ratio(n)));
     if (fit_error_ < kTolerance) return;
+    if (fit_error_ < best_error) {
+      best_error = fit_error_;
+      std::copy(std::begin(coefficients_), std::end(coefficients_), std::begin(best));
+    }
   }
+  fit_error_ = best_error;
+  std::copy(std::begin(best), std::end(best), std::begin(coefficients_));
+  if (best_error * camera.f * std::sqrt(max_r2) < kTolerancePx) return;
   throw std::invalid_argument("dense: the inverse of the radial model (k1 " +
                               std::to_string(camera.k1) + ", k2 " + std::to_string(camera.k2) +
                               ") is not smooth enough over the image (fit error " +

@@ -134,9 +134,10 @@ AdjustmentJacobians EvaluateJacobians(ceres::Problem* problem, double* intrinsic
   if (!problem->IsParameterBlockConstant(intrinsics)) {
     evaluate.parameter_blocks.push_back(intrinsics);
     jacobians.intrinsics_columns = problem->ParameterBlockTangentSize(intrinsics);
-    // SubsetManifold(3, {1, 2}) keeps f alone.
-    jacobians.intrinsics_indices =
-        jacobians.intrinsics_columns == 3 ? std::vector<int>{0, 1, 2} : std::vector<int>{0};
+    // The refined terms come first: f, then k1 and k2 as distortion_terms
+    // leaves them free (SubsetManifold keeps the order of the others).
+    for (int column = 0; column < jacobians.intrinsics_columns; ++column)
+      jacobians.intrinsics_indices.push_back(column);
   }
   for (size_t i = 0; i < poses->size(); ++i)
     if (static_cast<int>(i) != reference) evaluate.parameter_blocks.push_back((*poses)[i].data());
@@ -226,7 +227,9 @@ BundleAdjustmentSummary RunBundleAdjustment(const FeatureTracks& tracks,
   problem.SetParameterBlockConstant(&inverse_depths[anchor]);
   if (options.fix_intrinsics)
     problem.SetParameterBlockConstant(intrinsics);
-  else if (!options.refine_distortion)
+  else if (options.distortion_terms == 1)
+    problem.SetManifold(intrinsics, new ceres::SubsetManifold(3, {2}));
+  else if (options.distortion_terms == 0)
     problem.SetManifold(intrinsics, new ceres::SubsetManifold(3, {1, 2}));
 
   ceres::Solver::Options solver_options;

@@ -18,7 +18,10 @@ struct BundleAdjustmentOptions {
   // Ceres' relative cost decrease under which it declares CONVERGENCE.
   double function_tolerance = 1e-6;
   int num_threads = 1;
-  bool refine_distortion = true;
+  // Radial terms refined: 2 (k1, k2), 1 (k1; k2 held at the state's value)
+  // or 0 (both held). A lens the dense stage cannot invert is refitted with
+  // fewer terms (sparse_reconstruction.h).
+  int distortion_terms = 2;
   // The weak intrinsics prior (intrinsics_prior.h): sigma of log(f / max(w, h))
   // and of the distortion's shift of the image corner, as a fraction of the
   // corner's distance from the centre. 0 disables the prior.

@@ -78,7 +78,7 @@ struct AdjustmentJacobians {
   // adjustment estimated it; -1 otherwise.
   int readout_column = -1;
   // Which of (f, k1, k2) each intrinsics column is, in order (a subset manifold
-  // that keeps k1, k2 constant leaves {0}).
+  // that holds k2 leaves {0, 1}; one that holds k1 and k2, {0}).
   std::vector<int> intrinsics_indices;
   // Per residual block of `reprojection` (2 rows each, in order): its track,
   // and the derivative of its residual with respect to the track's reference

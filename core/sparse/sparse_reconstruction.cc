@@ -354,29 +354,56 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
     unusable = unusable.empty() ? "is refused by the dense stage" : unusable;
   if (!unusable.empty()) {
     sparse.rejected_camera = state.camera;
-    BundleAdjustmentOptions refit = ba_options;
-    CameraModel fallback = CameraModel::Initial(width, height);
+    const SparseState estimated = state;
+    const std::vector<bool> estimated_use = use;
+    // The fallbacks in order: the known calibration where there is one; else
+    // k1 alone (k2 = 0: most of a wide lens's distortion, whose k2 went
+    // negative to stand in for higher terms the model lacks), then none.
+    // Each is refitted from the estimate, and the first the dense stage can
+    // use is kept.
+    struct Fallback {
+      CameraModel camera;
+      BundleAdjustmentOptions options;
+      const char* name;
+      const char* what;
+    };
+    std::vector<Fallback> fallbacks;
     if (options.known) {
-      fallback = options.known->camera;
-      refit.fix_intrinsics = true;
-      sparse.calibration_used = "fallback-known";
+      fallbacks.push_back({options.known->camera, ba_options, "fallback-known",
+                           "the known calibration was used instead"});
+      fallbacks.back().options.fix_intrinsics = true;
     } else {
-      fallback.f =
-          state.camera.f > 0.0 && std::isfinite(state.camera.f) ? state.camera.f : fallback.f;
-      refit.refine_distortion = false;
-      sparse.calibration_used = "fallback-k0";
+      CameraModel start = CameraModel::Initial(width, height);
+      if (estimated.camera.f > 0.0 && std::isfinite(estimated.camera.f))
+        start.f = estimated.camera.f;
+      CameraModel k1_only = start;
+      if (std::isfinite(estimated.camera.k1)) k1_only.k1 = estimated.camera.k1;
+      fallbacks.push_back({k1_only, ba_options, "fallback-k1", "refitted with k2 = 0 instead"});
+      fallbacks.back().options.distortion_terms = std::min(1, ba_options.distortion_terms);
+      fallbacks.push_back({start, ba_options, "fallback-k0", "refitted with k1 = k2 = 0 instead"});
+      fallbacks.back().options.distortion_terms = 0;
     }
-    sparse.warnings.push_back("the estimated calibration (f " + FixedText(state.camera.f, 1) +
-                              " px, k1 " + FixedText(state.camera.k1, 4) + ", k2 " +
-                              FixedText(state.camera.k2, 4) + ") " + unusable + "; " +
-                              (options.known ? "the known calibration was used instead"
-                                             : "refitted with k1 = k2 = 0 instead") +
-                              ", and depth was computed with that camera");
-    state.camera = fallback;
-    run_adjustment(refit);
-    settle_sign();
-    sparse.inliers = use;
-    estimate_uncertainty(refit);
+    for (size_t n = 0; n < fallbacks.size(); ++n) {
+      const Fallback& fallback = fallbacks[n];
+      state = estimated;
+      use = estimated_use;
+      state.camera = fallback.camera;
+      run_adjustment(fallback.options);
+      settle_sign();
+      std::string refused;
+      const bool last = n + 1 == fallbacks.size();
+      if (!last && (!RadialModelIsMonotone(state.camera, &fold_px) ||
+                    (options.camera_usable && !options.camera_usable(state.camera, &refused))))
+        continue;
+      sparse.calibration_used = fallback.name;
+      sparse.warnings.push_back("the estimated calibration (f " + FixedText(estimated.camera.f, 1) +
+                                " px, k1 " + FixedText(estimated.camera.k1, 4) + ", k2 " +
+                                FixedText(estimated.camera.k2, 4) + ") " + unusable + "; " +
+                                fallback.what + ", and depth was computed with that camera");
+      sparse.inliers = use;
+      estimate_uncertainty(fallback.options);
+      break;
+    }
     if (std::count(use.begin(), use.end(), true) < options.min_tracks)
       throw ReconstructionError(
           "too few consistent tracks after refitting without the "

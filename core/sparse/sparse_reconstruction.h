@@ -128,7 +128,8 @@ struct SparseReconstruction {
   std::optional<KnownFit> known_fit;
   // The camera the adjustment estimated, when a fallback replaced it.
   std::optional<CameraModel> rejected_camera;
-  // "self" | "known-fixed" | "known-prior" | "fallback-k0" | "fallback-known"
+  // "self" | "known-fixed" | "known-prior" | "fallback-known" | "fallback-k1" |
+  // "fallback-k0"
   std::string calibration_used = "self";
   std::vector<std::string> warnings;
   RankOneResult rank_one;  // diagnostics of the initialization (rank1 mode)
