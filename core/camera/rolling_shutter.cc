@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <optional>
 #include <stdexcept>
+#include <string>
 
 namespace dfsm {
 namespace {
@@ -82,12 +83,25 @@ std::string RollingShutterName(const RollingShutterOptions& options) {
   return text;
 }
 
-Neighbour NeighbourOnSide(int frame, double dt, int frames) {
-  const bool later = dt >= 0.0 ? frame + 1 < frames : frame == 0;
-  return later ? Neighbour{frame + 1, 1.0} : Neighbour{frame - 1, -1.0};
+void CheckFrameTimes(const std::vector<double>& times, int frames) {
+  if (times.empty()) return;
+  if (static_cast<int>(times.size()) != frames)
+    throw std::invalid_argument("frame times: " + std::to_string(times.size()) + " times for " +
+                                std::to_string(frames) + " frames");
+  for (size_t i = 0; i < times.size(); ++i)
+    if (!std::isfinite(times[i]) || (i > 0 && !(times[i] > times[i - 1])))
+      throw std::invalid_argument("frame times: time " + std::to_string(i) +
+                                  " is not finite or not after the one before");
 }
 
-PoseSteps::PoseSteps(const std::vector<Pose>& poses) {
+Neighbour NeighbourOnSide(int frame, double dt, int frames, const std::vector<double>& times) {
+  const bool later = dt >= 0.0 ? frame + 1 < frames : frame == 0;
+  const int neighbour = later ? frame + 1 : frame - 1;
+  if (times.empty()) return {neighbour, later ? 1.0 : -1.0};
+  return {neighbour, 1.0 / (times[neighbour] - times[frame])};
+}
+
+PoseSteps::PoseSteps(const std::vector<Pose>& poses, const std::vector<double>& times) {
   const int n = static_cast<int>(poses.size());
   std::vector<PoseParameters> p(n);
   for (int i = 0; i < n; ++i) p[i] = ToPoseParameters(poses[i]);
@@ -97,14 +111,16 @@ PoseSteps::PoseSteps(const std::vector<Pose>& poses) {
   // Both sides are derivatives per frame interval, so a row's pose is
   // p[i] + dt * step whatever the sign of dt.
   for (int i = 0; i < n; ++i) {
-    const Neighbour after = NeighbourOnSide(i, 1.0, n), before = NeighbourOnSide(i, -1.0, n);
-    after_[i] = after.sign * (p[after.frame] - p[i]);
-    before_[i] = before.sign * (p[before.frame] - p[i]);
+    const Neighbour after = NeighbourOnSide(i, 1.0, n, times),
+                    before = NeighbourOnSide(i, -1.0, n, times);
+    after_[i] = after.rate * (p[after.frame] - p[i]);
+    before_[i] = before.rate * (p[before.frame] - p[i]);
   }
 }
 
-RowPoses::RowPoses(const std::vector<Pose>& poses, double readout, int height)
-    : steps_(poses), readout_(readout), height_(height) {
+RowPoses::RowPoses(const std::vector<Pose>& poses, double readout, int height,
+                   const std::vector<double>& times)
+    : steps_(poses, times), readout_(readout), height_(height) {
   for (const Pose& pose : poses) poses_.push_back(ToPoseParameters(pose));
 }
 

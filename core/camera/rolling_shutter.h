@@ -10,6 +10,11 @@
 // frame's pose, a row above it toward the previous frame's. The first and last
 // frames extrapolate their one neighbour. `readout` 0 is a global shutter; 1
 // is a sensor that reads out for the whole frame interval.
+//
+// Frames are taken one frame interval apart unless `times` (the capture time
+// of each frame in frame intervals, increasing; io/frame_times.h reads them
+// from a burst) says otherwise: a camera that dropped a frame leaves a gap of
+// two intervals, over which the path moves twice as far.
 #pragma once
 
 #include <Eigen/Core>
@@ -30,21 +35,27 @@ inline double RowTime(double readout, double v, int height) {
   return readout * ((v + 0.5) / height - 0.5);
 }
 
+// Throws std::invalid_argument unless `times` is empty or holds one finite,
+// strictly increasing time per frame of a burst of `frames`.
+void CheckFrameTimes(const std::vector<double>& times, int frames);
+
 // The frame whose pose, with frame i's, sets the path of frame i's rows on
 // the side of time offset `dt` (>= 0: the next frame; the first and last
 // frames use their one neighbour on both sides). The step per frame interval
-// is sign * (P_neighbour - P_i): +1 for a later neighbour, -1 for an earlier.
+// is rate * (P_neighbour - P_i), rate = 1 / (t_neighbour - t_i): +1 for the
+// next of consecutive frames, -1 for the previous, +-1/2 across a dropped
+// frame. `times`: as above, empty for consecutive frames.
 struct Neighbour {
   int frame;
-  double sign;
+  double rate;
 };
-Neighbour NeighbourOnSide(int frame, double dt, int frames);
+Neighbour NeighbourOnSide(int frame, double dt, int frames, const std::vector<double>& times = {});
 
 // The step of frame i's pose parameters per frame interval on the side of time
 // offset `dt` (>= 0: toward the next frame), from the burst's frame poses.
 class PoseSteps {
  public:
-  explicit PoseSteps(const std::vector<Pose>& poses);
+  explicit PoseSteps(const std::vector<Pose>& poses, const std::vector<double>& times = {});
   const PoseParameters& Step(int frame, double dt) const {
     return dt >= 0.0 ? after_[frame] : before_[frame];
   }
@@ -56,7 +67,8 @@ class PoseSteps {
 // The pose of every row of a burst's frames.
 class RowPoses {
  public:
-  RowPoses(const std::vector<Pose>& poses, double readout, int height);
+  RowPoses(const std::vector<Pose>& poses, double readout, int height,
+           const std::vector<double>& times = {});
 
   double readout() const { return readout_; }
   // The pose of row v of frame i.

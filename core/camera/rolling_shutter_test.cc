@@ -57,6 +57,22 @@ TEST(RollingShutter, RowsInterpolateTheFramePosesOnTheirSide) {
   EXPECT_NEAR(rows.At(2, 99.5).T.x(), 0.04, 1e-12);
 }
 
+// A frame dropped between frames 1 and 2 (capture times 0, 1, 3): the path
+// from frame 1 to 2 spans two intervals, so a row half an interval after
+// frame 1's middle has gone a quarter of the way, not half.
+TEST(RollingShutter, RowsFollowTheCaptureTimesAcrossADroppedFrame) {
+  const std::vector<Pose> poses = {MakePose(0, 0), MakePose(1, 0.01), MakePose(3, 0.03)};
+  const RowPoses rows(poses, 1.0, 100, {0.0, 1.0, 3.0});
+  EXPECT_NEAR(rows.At(1, 99.5).T.x(), 0.015, 1e-12);  // 0.01 + 0.5 * 0.02 / 2
+  EXPECT_NEAR(rows.At(1, -0.5).T.x(), 0.005, 1e-12);  // the gap is on the other side
+  EXPECT_NEAR(rows.At(2, -0.5).T.x(), 0.025, 1e-12);  // 0.03 - 0.5 * 0.02 / 2
+  EXPECT_NEAR(rows.At(2, 99.5).T.x(), 0.035, 1e-12);  // extrapolates the same segment
+  EXPECT_EQ(NeighbourOnSide(2, -0.5, 3, {0.0, 1.0, 3.0}).rate, -0.5);
+  EXPECT_NO_THROW(CheckFrameTimes({}, 3));
+  EXPECT_THROW(CheckFrameTimes({0.0, 1.0}, 3), std::invalid_argument);
+  EXPECT_THROW(CheckFrameTimes({0.0, 2.0, 2.0}, 3), std::invalid_argument);
+}
+
 TEST(RollingShutter, RelativePoseOfAGlobalShutterIsTheFramePose) {
   const std::vector<Pose> poses = {MakePose(0, 0), MakePose(1, 0.01), MakePose(3, 0.03)};
   const RowPoses global(poses, 0.0, 100);

@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "core/camera/rolling_shutter.h"
 #include "core/dense/bilinear_upsample.h"
 #include "core/dense/depth_discontinuity.h"
 #include "core/dense/guided_filter.h"
@@ -41,6 +42,7 @@ void ValidateInputs(const Burst& burst, const CameraModel& camera, const std::ve
               std::to_string(burst.size()) + " frames");
   Require(static_cast<int>(poses.size()) == burst.size(),
           std::to_string(poses.size()) + " poses for " + std::to_string(burst.size()) + " frames");
+  CheckFrameTimes(options.frame_times, burst.size());
   Require(camera.width == burst.width() && camera.height == burst.height(),
           "camera is " + std::to_string(camera.width) + "x" + std::to_string(camera.height) +
               " but the burst is " + std::to_string(burst.width()) + "x" +
@@ -152,8 +154,8 @@ DenseDepth ComputeDenseDepth(const Burst& input, const CameraModel& camera,
 
   const RadialInverse radial(camera);
   cv::Mat reference = Prefiltered(burst.gray[burst.reference()], options.prefilter_sigma);
-  const SweepPoses sweep_poses =
-      SweepPoses::Make(poses, burst.reference(), options.readout, burst.height());
+  const SweepPoses sweep_poses = SweepPoses::Make(poses, burst.reference(), options.readout,
+                                                  burst.height(), options.frame_times);
   const std::vector<int>& others = sweep_poses.frames;
   std::vector<Pose> other_poses;
   for (int i : others) other_poses.push_back(poses[i]);

@@ -22,6 +22,9 @@ struct DenseOptions {
   // the sparse stage's SparseState::readout), 0 a global shutter: each
   // reference row is swept with the poses of its own row.
   double readout = 0.0;
+  // The frames' capture times the rows' path between frames follows
+  // (SparseState::frame_times); empty: consecutive frames.
+  std::vector<double> frame_times;
   // Fraction of the sparse inverse-depth range added on both sides of the sweep.
   double inverse_depth_margin = 0.2;
 

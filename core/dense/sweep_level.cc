@@ -31,9 +31,9 @@ PlaneHomography ToHomography(const Pose& pose) {
 }  // namespace
 
 SweepPoses SweepPoses::Make(const std::vector<Pose>& poses, int reference, double readout,
-                            int height) {
+                            int height, const std::vector<double>& times) {
   SweepPoses sweep;
-  const RowPoses rows(poses, readout, height);
+  const RowPoses rows(poses, readout, height, times);
   for (int i = 0; i < static_cast<int>(poses.size()); ++i) {
     if (i == reference) continue;
     sweep.frames.push_back(i);

@@ -53,7 +53,9 @@ struct SweepPoses {
   // captured row y of the frame relative to captured row y of the reference.
   std::vector<std::vector<Pose>> relative;
 
-  static SweepPoses Make(const std::vector<Pose>& poses, int reference, double readout, int height);
+  // times: the frames' capture times (rolling_shutter.h; empty: consecutive).
+  static SweepPoses Make(const std::vector<Pose>& poses, int reference, double readout, int height,
+                         const std::vector<double>& times = {});
 };
 
 // Builds the level `scale` (1: full resolution; > 1: area-downsampled by that

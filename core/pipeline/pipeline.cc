@@ -11,6 +11,7 @@
 #include "core/io/depth_tiff.h"
 #include "core/io/exif_focal.h"
 #include "core/io/file_util.h"
+#include "core/io/frame_times.h"
 #include "core/io/parallel_tasks.h"
 #include "core/pipeline/depth_check.h"
 
@@ -88,6 +89,9 @@ PipelineOutput RunPipeline(const Burst& burst, const PipelineOptions& options,
     for (const FrameCompensation& c : photometric)
       gains.push_back({{"gain", c.gain}, {"applied", c.applied}});
     result.extra["photometric_compensation"] = gains;
+    // A camera that dropped frames: the rolling shutter's path between
+    // neighbours spans the gap (io/frame_times.h).
+    sparse_options.frame_times = CaptureTimes(burst.manifest);
     output.sparse = ReconstructSparse(compensated.gray, burst.reference(), sparse_options);
     const SparseReconstruction& sparse = *output.sparse;
     result.calibration = sparse.state.camera;
@@ -114,6 +118,11 @@ PipelineOutput RunPipeline(const Burst& burst, const PipelineOptions& options,
       result.calibration_detail["rolling_shutter"]["sigma_readout"] =
           sparse.uncertainty.sigma_readout;
     result.warnings = sparse.warnings;
+    if (const int missing = MissingFrames(sparse_options.frame_times); missing > 0)
+      result.warnings.push_back(
+          "the burst misses " + std::to_string(missing) + " frame" + (missing > 1 ? "s" : "") +
+          " between its first and last (gaps in the manifest's sequence numbers or timestamps); "
+          "the motion across each gap is taken at the capture times");
     const int requested_cell = sparse_options.features.cell_px;
     const int least_cell = MinGridCellSize(burst.width(), burst.height());
     if (requested_cell > 0 && requested_cell < least_cell) {
@@ -142,6 +151,7 @@ PipelineOutput RunPipeline(const Burst& burst, const PipelineOptions& options,
       const auto dense_start = std::chrono::steady_clock::now();
       DenseOptions dense_options = options.dense;
       dense_options.readout = sparse.state.readout;
+      dense_options.frame_times = sparse.state.frame_times;
       output.dense = ComputeDenseDepth(compensated, sparse.state.camera, sparse.state.poses,
                                        sparse.InlierInverseDepths(), dense_options);
       result.timings_ms.emplace_back("dense", MillisecondsSince(dense_start));

@@ -21,8 +21,10 @@ namespace {
 // reference's neighbours, otherwise.
 class Reprojection {
  public:
-  Reprojection(const FeatureTracks& tracks, const CameraModel& camera, bool rolling)
-      : tracks_(tracks), camera_(camera), rolling_(rolling) {}
+  // times: the frames' capture times (SparseState::frame_times).
+  Reprojection(const FeatureTracks& tracks, const CameraModel& camera, bool rolling,
+               const std::vector<double>& times)
+      : tracks_(tracks), camera_(camera), rolling_(rolling), times_(times) {}
 
   bool rolling() const { return rolling_; }
 
@@ -76,17 +78,19 @@ class Reprojection {
     const int frames = tracks_.num_frames();
     const double dt_i = RowTime(1.0, tracks_.pixels[i](1, j), camera_.height);
     const double dt_r = RowTime(1.0, reference.y(), camera_.height);
-    return {NeighbourOnSide(i, dt_i, frames), NeighbourOnSide(tracks_.reference, dt_r, frames)};
+    return {NeighbourOnSide(i, dt_i, frames, times_),
+            NeighbourOnSide(tracks_.reference, dt_r, frames, times_)};
   }
   RollingShutterReprojectionError Error(const Sides& sides, const Eigen::Vector2d& reference,
                                         const Eigen::Vector2d& observed) const {
     return RollingShutterReprojectionError(reference, observed, camera_.cx, camera_.cy,
-                                           camera_.height, sides.m.sign, sides.n.sign);
+                                           camera_.height, sides.m.rate, sides.n.rate);
   }
 
   const FeatureTracks& tracks_;
   const CameraModel& camera_;
   bool rolling_;
+  const std::vector<double>& times_;
 };
 
 // A pose as Ceres holds it: the 6 parameters of rolling_shutter.h's
@@ -179,8 +183,8 @@ BundleAdjustmentSummary RunBundleAdjustment(const FeatureTracks& tracks,
   std::vector<ceres::ResidualBlockId> reprojection_blocks, prior_blocks;
   std::vector<std::pair<int, int>> block_track_frame;  // (track, frame) of each block
   double readout = state->readout;
-  const Reprojection reprojection(tracks, state->camera,
-                                  readout != 0.0 || options.estimate_readout);
+  const Reprojection reprojection(tracks, state->camera, readout != 0.0 || options.estimate_readout,
+                                  state->frame_times);
   for (int j = 0; j < m; ++j) {
     if (!use[j]) continue;
     for (int i = 0; i < n; ++i) {
@@ -299,7 +303,7 @@ std::vector<double> TrackReprojectionErrors(const FeatureTracks& tracks, const S
   const double intrinsics[3] = {state.camera.f, state.camera.k1, state.camera.k2};
   std::vector<std::array<double, 6>> poses(n);
   for (int i = 0; i < n; ++i) poses[i] = ToParameters(state.poses[i]);
-  const Reprojection reprojection(tracks, state.camera, state.readout != 0.0);
+  const Reprojection reprojection(tracks, state.camera, state.readout != 0.0, state.frame_times);
   for (int j = 0; j < tracks.num_tracks(); ++j) {
     double sum = 0.0;
     for (int i = 0; i < n; ++i) {

@@ -60,8 +60,12 @@ struct SparseState {
   std::vector<double> inverse_depths;  // per track
   // The rolling shutter's readout the poses are for, in frame intervals
   // (core/camera/rolling_shutter.h); 0 is a global shutter. With a readout,
-  // the burst's frames must be in capture order at a constant interval.
+  // the burst's frames must be in capture order.
   double readout = 0.0;
+  // Each frame's capture time in frame intervals, increasing (io/frame_times.h:
+  // a dropped frame leaves a gap of 2); empty: consecutive frames. Only the
+  // rolling shutter's path between frames reads it.
+  std::vector<double> frame_times;
 };
 
 // Refines `state` in place over the tracks whose `use` flag is set. Returns the

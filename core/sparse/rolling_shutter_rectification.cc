@@ -6,9 +6,10 @@
 namespace dfsm {
 
 FeatureTracks RectifyRollingShutter(const FeatureTracks& tracks, const CameraModel& camera,
-                                    const std::vector<Pose>& poses, double readout) {
+                                    const std::vector<Pose>& poses, double readout,
+                                    const std::vector<double>& times) {
   FeatureTracks rectified = tracks;
-  const RowPoses rows(poses, readout, camera.height);
+  const RowPoses rows(poses, readout, camera.height, times);
   for (int i = 0; i < tracks.num_frames(); ++i) {
     for (int j = 0; j < tracks.num_tracks(); ++j) {
       const Eigen::Vector2d pixel = tracks.pixels[i].col(j);
@@ -24,10 +25,11 @@ FeatureTracks RectifyRollingShutter(const FeatureTracks& tracks, const CameraMod
 
 RankOneResult RectifiedRankOneInit(const FeatureTracks& tracks, const CameraModel& camera,
                                    std::vector<Pose> poses, double readout, int rounds,
-                                   const RankOneOptions& options) {
+                                   const RankOneOptions& options,
+                                   const std::vector<double>& times) {
   RankOneResult result;
   for (int round = 0; round < rounds; ++round) {
-    const FeatureTracks rectified = RectifyRollingShutter(tracks, camera, poses, readout);
+    const FeatureTracks rectified = RectifyRollingShutter(tracks, camera, poses, readout, times);
     RankOneResult next =
         RankOneInit(rectified, camera, EstimateRotations(rectified, camera), options);
     // The rounds usually converge; where the rank-1 fit gets worse instead

@@ -21,9 +21,11 @@ namespace dfsm {
 // The tracks as a global shutter at each frame's middle row would have seen
 // them: x -> R_i R_i(v)^T x for the observation of row v (core/camera/
 // rolling_shutter.h), the reference's rows too. Observations the camera
-// cannot map back (beyond its fold) are left as they are.
+// cannot map back (beyond its fold) are left as they are. `times`: the
+// frames' capture times (SparseState::frame_times; empty: consecutive).
 FeatureTracks RectifyRollingShutter(const FeatureTracks& tracks, const CameraModel& camera,
-                                    const std::vector<Pose>& poses, double readout);
+                                    const std::vector<Pose>& poses, double readout,
+                                    const std::vector<double>& times = {});
 
 // Rank-1 initialization on tracks rectified with `readout`, each round's
 // rotations rectifying the next, while the rank-1 residual falls; `poses` is
@@ -32,6 +34,7 @@ FeatureTracks RectifyRollingShutter(const FeatureTracks& tracks, const CameraMod
 // rolling-shutter adjustment on the original tracks.
 RankOneResult RectifiedRankOneInit(const FeatureTracks& tracks, const CameraModel& camera,
                                    std::vector<Pose> poses, double readout, int rounds,
-                                   const RankOneOptions& options = {});
+                                   const RankOneOptions& options = {},
+                                   const std::vector<double>& times = {});
 
 }  // namespace dfsm

@@ -8,8 +8,9 @@
 //     P_i(dt_i)   = P_i + dt_i * s_i * (P_n - P_i),
 //
 // where n is the neighbour of frame i on the side of dt_i (the other side at
-// the burst's ends), m the reference's, and s = +1 for a later neighbour, -1
-// for an earlier one. The neighbours' poses are parameters too, so the steps
+// the burst's ends), m the reference's, and s = 1 / (t_n - t_i) the rate of
+// the neighbour's side (NeighbourOnSide: +1 for the next of consecutive
+// frames, -1 for the previous). The neighbours' poses are parameters too, so the steps
 // move with the poses. The ray p_j at inverse depth w_j in the reference
 // row's camera is, scaled by w_j,
 //
@@ -38,16 +39,16 @@ class RollingShutterReprojectionError {
   // its own, frame i's, or frame i's neighbour's (Ceres takes a block once).
   enum class ReferenceNeighbour { kOwnBlock, kFrame, kFrameNeighbour };
 
-  // sign_*: s above; height: the frames' rows.
+  // *_rate: s above; height: the frames' rows.
   RollingShutterReprojectionError(const Eigen::Vector2d& reference_pixel,
                                   const Eigen::Vector2d& observed_pixel, double cx, double cy,
-                                  int height, double reference_sign, double frame_sign)
+                                  int height, double reference_rate, double frame_rate)
       : reference_(reference_pixel),
         observed_(observed_pixel),
         cx_(cx),
         cy_(cy),
-        reference_row_(RowTime(1.0, reference_pixel.y(), height) * reference_sign),
-        frame_row_(RowTime(1.0, observed_pixel.y(), height) * frame_sign) {}
+        reference_row_(RowTime(1.0, reference_pixel.y(), height) * reference_rate),
+        frame_row_(RowTime(1.0, observed_pixel.y(), height) * frame_rate) {}
 
   // intrinsics = {f, k1, k2}; pose, neighbour, reference_neighbour = {angle-axis
   // (3), T (3)} of the middle rows of frames i, n and m; inverse_depth = {w_j};
@@ -96,7 +97,7 @@ class RollingShutterReprojectionError {
   Eigen::Vector2d reference_;
   Eigen::Vector2d observed_;
   double cx_, cy_;
-  double reference_row_, frame_row_;  // row time per unit readout, times the side's sign
+  double reference_row_, frame_row_;  // row time per unit readout, times the side's rate
 };
 
 // The functors Ceres differentiates: the reference's neighbour in a block of

@@ -6,6 +6,7 @@
 #include <opencv2/imgproc.hpp>
 #include <random>
 
+#include "core/camera/rolling_shutter.h"
 #include "core/io/stage_timer.h"
 #include "core/sparse/fixed_text.h"
 #include "core/sparse/robust_sigma.h"
@@ -161,6 +162,7 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
     ba_options.estimate_readout = true;
   SparseState& state = sparse.state;
   state.camera = initial;
+  state.frame_times = options.frame_times;
   state.readout = options.rolling_shutter.mode == RollingShutterOptions::Mode::kKnown
                       ? options.rolling_shutter.readout
                       : 0.0;
@@ -207,14 +209,16 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
   const auto rectified_start = [&](const CameraModel& camera, const std::vector<Pose>& poses,
                                    double readout, SparseState* start,
                                    std::vector<bool>* start_use) {
-    RankOneResult init = RectifiedRankOneInit(sparse.tracks, camera, poses, readout,
-                                              kRectificationRounds, options.rank_one);
+    RankOneResult init =
+        RectifiedRankOneInit(sparse.tracks, camera, poses, readout, kRectificationRounds,
+                             options.rank_one, options.frame_times);
     if (!init.ok || std::count(init.inliers.begin(), init.inliers.end(), true) < options.min_tracks)
       return false;
     start->camera = camera;
     start->poses = init.poses;
     start->inverse_depths = init.inverse_depths;
     start->readout = readout;
+    start->frame_times = options.frame_times;
     *start_use = init.inliers;
     sparse.rank_one = std::move(init);
     return true;
@@ -435,6 +439,7 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
   if (frames.size() < 3)
     throw ReconstructionError("a burst needs at least 3 frames, got " +
                               std::to_string(frames.size()));
+  CheckFrameTimes(options.frame_times, static_cast<int>(frames.size()));
   SparseReconstruction tracked;
   StageTimer timer(&tracked.timings_ms);
   tracked.tracks = TrackGridedFeatures(frames, reference, options.features, &tracked.feature_stats);

@@ -81,6 +81,11 @@ struct SparseOptions {
   double max_known_fit_ratio = 1.2;
   // The sensor's readout: global, known or estimated (rolling_shutter.h).
   RollingShutterOptions rolling_shutter;
+  // The frames' capture times in frame intervals, one per frame, increasing
+  // (io/frame_times.h reads them from a burst's manifest: a dropped frame
+  // leaves a gap of 2); empty: consecutive frames. The rolling shutter's path
+  // between frames reads them (SparseState::frame_times).
+  std::vector<double> frame_times;
   CalibrationQualityOptions quality;
   // Whether a later stage can use a camera (the dense stage inverts the radial
   // model); a camera it refuses is replaced as a folding one is. Null: only
