@@ -166,6 +166,12 @@ TEST(Pipeline, AStillBurstFailsWithAReasonAndAResultFile) {
   std::filesystem::remove_all(dir);
 }
 
+// |f - f_true| / f_true of a run.
+double FocalError(const PipelineOutput& output, const SynthBurst& generated) {
+  return std::abs(output.result.calibration.f - generated.truth.camera.f) /
+         generated.truth.camera.f;
+}
+
 // A 640x480 burst with a phone's rolling shutter (readout 0.6), seed 3.
 SynthBurst RollingShutterVgaBurst() {
   SynthOptions options;
@@ -222,10 +228,7 @@ TEST(Pipeline, ADroppedFrameIsTakenAtItsCaptureTime) {
   ASSERT_EQ(burst.manifest.frames[2].sequence, 3);
   PipelineOptions sparse_only;
   sparse_only.run_dense = false;
-  const auto f_error = [&](const PipelineOutput& output) {
-    return std::abs(output.result.calibration.f - generated.truth.camera.f) /
-           generated.truth.camera.f;
-  };
+  const auto f_error = [&](const PipelineOutput& output) { return FocalError(output, generated); };
   const PipelineOutput known_gap = RunPipeline(burst, sparse_only);
   ASSERT_TRUE(known_gap.result.ok) << known_gap.result.error;
   EXPECT_TRUE(std::any_of(
@@ -244,6 +247,39 @@ TEST(Pipeline, ADroppedFrameIsTakenAtItsCaptureTime) {
   EXPECT_LT(f_error(known_gap), 0.04) << "f " << known_gap.result.calibration.f;
   EXPECT_GT(f_error(hidden_gap), 3.0 * f_error(known_gap))
       << "f " << hidden_gap.result.calibration.f << " with the gap hidden";
+}
+
+// A frame that repeats the one before it (frame 3 a copy of frame 2, as a
+// clip's frame-rate conversion makes them) is left out, and the gap it leaves
+// is taken at the capture times; kept, it stands at the wrong time for the
+// rolling shutter's path and the camera comes out wrong.
+TEST(Pipeline, ARepeatedFrameIsLeftOutAndKeepsItsOriginalsPose) {
+  const SynthBurst generated = RollingShutterVgaBurst();
+  Burst burst = ToBurst(generated);
+  ASSERT_NE(burst.reference(), 3);
+  burst.gray[3] = burst.gray[2].clone();
+  PipelineOptions sparse_only;
+  sparse_only.run_dense = false;
+  const auto f_error = [&](const PipelineOutput& output) { return FocalError(output, generated); };
+  const PipelineOutput left_out = RunPipeline(burst, sparse_only);
+  ASSERT_TRUE(left_out.result.ok) << left_out.result.error;
+  EXPECT_EQ(left_out.result.extra.at("repeated_frames"),
+            nlohmann::json::parse(R"([{"frame": 3, "repeats": 2}])"));
+  ASSERT_EQ(left_out.result.poses.size(), burst.gray.size());
+  EXPECT_EQ(left_out.result.poses[3].R, left_out.result.poses[2].R);
+  EXPECT_EQ(left_out.result.poses[3].T, left_out.result.poses[2].T);
+  EXPECT_EQ(left_out.result.extra.at("photometric_compensation").size(), burst.gray.size());
+
+  PipelineOptions kept = sparse_only;
+  kept.repeated_frames.max_ratio = 0.0;  // off
+  const PipelineOutput with_repeat = RunPipeline(burst, kept);
+  ASSERT_TRUE(with_repeat.result.ok) << with_repeat.result.error;
+  EXPECT_FALSE(with_repeat.result.extra.contains("repeated_frames"));
+  RecordProperty("f_error_left_out", std::to_string(f_error(left_out)));
+  RecordProperty("f_error_kept", std::to_string(f_error(with_repeat)));
+  EXPECT_LT(f_error(left_out), 0.05) << "f " << left_out.result.calibration.f;
+  EXPECT_GT(f_error(with_repeat), 3.0 * f_error(left_out))
+      << "f " << with_repeat.result.calibration.f << " with the repeat kept";
 }
 
 }  // namespace

@@ -14,6 +14,7 @@
 #include "core/io/frame_times.h"
 #include "core/io/parallel_tasks.h"
 #include "core/pipeline/depth_check.h"
+#include "core/pipeline/repeated_frames.h"
 
 namespace dfsm {
 namespace {
@@ -45,6 +46,41 @@ std::vector<ColoredPoint> SparsePointCloud(const SparseReconstruction& sparse,
   }
   return points;
 }
+
+// The burst without its repeated frames, and where each of the caller's
+// frames went.
+struct DistinctFrames {
+  DistinctFrames(const Burst& all, const std::vector<int>& repeats) {
+    std::vector<int> stage_of(all.size(), -1);
+    burst = all;
+    burst.gray.clear();
+    burst.manifest.frames.clear();
+    burst.source_indices.clear();
+    const std::vector<int> indices = all.frame_indices();
+    for (int i = 0; i < all.size(); ++i) {
+      if (repeats[i] >= 0) {
+        left_out.push_back({{"frame", i}, {"repeats", repeats[i]}});
+        continue;
+      }
+      stage_of[i] = burst.size();
+      if (i == all.reference()) burst.manifest.reference = burst.size();
+      burst.gray.push_back(all.gray[i]);
+      burst.manifest.frames.push_back(all.manifest.frames[i]);
+      if (!all.source_indices.empty()) burst.source_indices.push_back(indices[i]);
+    }
+    for (int i = 0; i < all.size(); ++i)
+      stage_index.push_back(repeats[i] >= 0 ? stage_of[repeats[i]] : stage_of[i]);
+    times = CaptureTimes(burst.manifest);
+    // A manifest that says nothing of time: the frames' places in the burst.
+    if (times.empty() && !left_out.empty())
+      for (int i = 0; i < all.size(); ++i)
+        if (repeats[i] < 0) times.push_back(static_cast<double>(i));
+  }
+  Burst burst;                   // what the stages see
+  std::vector<int> stage_index;  // per caller's frame: its (or its original's) index in `burst`
+  std::vector<double> times;     // `burst`'s capture times (io/frame_times.h)
+  nlohmann::json left_out = nlohmann::json::array();  // {"frame", "repeats"} per repeat
+};
 
 }  // namespace
 
@@ -80,19 +116,39 @@ PipelineOutput RunPipeline(const Burst& burst, const PipelineOptions& options,
                     " mm (35 mm equivalent)";
       sparse_options.known = exif;
     }
+    // The stages see the frames that are not repeats (repeated_frames.h);
+    // each frame left out reports what the frame it repeats got.
+    const std::vector<int> repeats =
+        FindRepeatedFrames(burst.gray, burst.reference(), options.repeated_frames);
+    const DistinctFrames distinct(burst, repeats);
+    if (distinct.burst.size() < 3)
+      throw ReconstructionError("only " + std::to_string(distinct.burst.size()) +
+                                " distinct frames: the others repeat them (a still or stalled "
+                                "camera); a burst needs at least 3");
+    if (!distinct.left_out.empty()) {
+      result.extra["repeated_frames"] = distinct.left_out;
+      result.warnings.push_back(
+          std::to_string(distinct.left_out.size()) + " frame" +
+          (distinct.left_out.size() > 1 ? "s repeat" : " repeats") +
+          " the frame before (a clip's frame-rate conversion or a stalled driver): left out, "
+          "with the pose of the frame repeated");
+    }
     // Both stages see the frames on the reference's brightness; the Mats of
     // frames left as they are stay shared with the caller's burst.
-    Burst compensated = burst;
+    Burst compensated = distinct.burst;
     const std::vector<FrameCompensation> photometric =
-        CompensateExposure(&compensated.gray, burst.reference(), options.photometric);
+        CompensateExposure(&compensated.gray, compensated.reference(), options.photometric);
     nlohmann::json gains = nlohmann::json::array();
-    for (const FrameCompensation& c : photometric)
+    for (int i = 0; i < burst.size(); ++i) {
+      const FrameCompensation& c = photometric[distinct.stage_index[i]];
       gains.push_back({{"gain", c.gain}, {"applied", c.applied}});
+    }
     result.extra["photometric_compensation"] = gains;
-    // A camera that dropped frames: the rolling shutter's path between
-    // neighbours spans the gap (io/frame_times.h).
-    sparse_options.frame_times = CaptureTimes(burst.manifest);
-    output.sparse = ReconstructSparse(compensated.gray, burst.reference(), sparse_options);
+    // A camera that dropped frames, or frames left out as repeats: the
+    // rolling shutter's path between neighbours spans the gap
+    // (io/frame_times.h).
+    sparse_options.frame_times = distinct.times;
+    output.sparse = ReconstructSparse(compensated.gray, compensated.reference(), sparse_options);
     const SparseReconstruction& sparse = *output.sparse;
     result.calibration = sparse.state.camera;
     result.calibration_detail = {{"uncertainty", ToJson(sparse.uncertainty, sparse.state.camera.f)},
@@ -117,8 +173,8 @@ PipelineOutput RunPipeline(const Burst& burst, const PipelineOptions& options,
     if (sparse.uncertainty.sigma_readout >= 0.0)
       result.calibration_detail["rolling_shutter"]["sigma_readout"] =
           sparse.uncertainty.sigma_readout;
-    result.warnings = sparse.warnings;
-    if (const int missing = MissingFrames(sparse_options.frame_times); missing > 0)
+    result.warnings.insert(result.warnings.end(), sparse.warnings.begin(), sparse.warnings.end());
+    if (const int missing = MissingFrames(CaptureTimes(burst.manifest)); missing > 0)
       result.warnings.push_back(
           "the burst misses " + std::to_string(missing) + " frame" + (missing > 1 ? "s" : "") +
           " between its first and last (gaps in the manifest's sequence numbers or timestamps); "
@@ -132,7 +188,8 @@ PipelineOutput RunPipeline(const Burst& burst, const PipelineOptions& options,
                                 std::to_string(burst.height()) + " (at most " +
                                 std::to_string(kMaxGridCells) + " cells)");
     }
-    result.poses = sparse.state.poses;
+    for (int i = 0; i < burst.size(); ++i)
+      result.poses.push_back(sparse.state.poses[distinct.stage_index[i]]);
     result.bundle_adjustment = sparse.bundle_adjustment;
     result.bundle_adjustment.runs = sparse.runs;
     result.features =

@@ -11,6 +11,7 @@
 #include "core/io/burst.h"
 #include "core/io/result.h"
 #include "core/pipeline/photometric_compensation.h"
+#include "core/pipeline/repeated_frames.h"
 #include "core/sparse/sparse_reconstruction.h"
 
 namespace dfsm {
@@ -24,6 +25,8 @@ struct PipelineOptions {
   // digital crops and video modes make it approximate, hence wide.
   double exif_focal_sigma_percent = 5.0;
   PhotometricCompensationOptions photometric;
+  // Frames that repeat the one before them are left out (repeated_frames.h).
+  RepeatedFramesOptions repeated_frames;
 };
 
 struct PipelineOutput {
