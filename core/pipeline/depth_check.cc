@@ -60,6 +60,14 @@ DepthCheck CheckDepthAgainstTracks(const SparseReconstruction& sparse, const Den
         "depth relief uncertain: the camera's uncertainty (poses, focal length, distortion, "
         "readout) leaves relative depths uncertain by " +
         Percent(check.relief_sigma) + " (1 sigma); a higher resolution measures the poses better");
+  check.lens_relief_shift = sparse.lens_relief_shift;
+  if (check.lens_relief_shift > options.max_lens_relief_shift)
+    check.warnings.push_back(
+        "depth relief depends on the lens model: with k1 alone the tracks' relative depths "
+        "move by " +
+        Percent(check.lens_relief_shift) +
+        " (median); the lens distorts more than k1 and k2 describe (a wide angle?), and the "
+        "depth may be wrong as a whole");
   if (dense.valid_fraction < options.min_valid_fraction)
     check.warnings.push_back("depth sparse: " + Percent(dense.valid_fraction) +
                              " of the pixels have a depth");
@@ -73,6 +81,7 @@ nlohmann::json ToJson(const DepthCheck& check) {
           {"within_10_percent", check.within_10_percent},
           {"outlier_fraction", check.outlier_fraction},
           {"relief_sigma", check.relief_sigma},
+          {"lens_relief_shift", check.lens_relief_shift},
           {"confirmed", check.warnings.empty()}};
 }
 

@@ -38,6 +38,12 @@ struct DepthCheckOptions {
   // and phone VGA bursts that score 2.0-3.2 % AbsRel, 6-24 % on those that
   // score 3.4-12 % (VGA with 2 deg tremor, webcams, 320x240), 0.5-4 % on TUM.
   double max_relief_sigma = 0.05;
+  // Warn when the relief moves by more than this with the lens model
+  // (SparseReconstruction::lens_relief_shift; docs/sparse.md, "Does the
+  // relief depend on the lens model?": 0.02-2 % on generated bursts that
+  // score 0.8-6.7 % AbsRel, 5 % on two webcam bursts at 5.4 and 8.8 %, 34 and
+  // 46 % on two wide-angle phone bursts at 12 and 22 %; 0.05-4 % on TUM).
+  double max_lens_relief_shift = 0.10;
 };
 
 struct DepthCheck {
@@ -47,6 +53,7 @@ struct DepthCheck {
   double within_10_percent = 0.0;     // share of the compared tracks
   double outlier_fraction = 0.0;      // DenseDepth::outlier_fraction
   double relief_sigma = -1.0;         // CalibrationUncertainty::relief_sigma
+  double lens_relief_shift = -1.0;    // SparseReconstruction::lens_relief_shift
   std::vector<std::string> warnings;  // empty: nothing to say
 };
 

@@ -53,5 +53,26 @@ TEST(DepthCheck, AnUnknownReliefSigmaDoesNotWarn) {
   EXPECT_TRUE(ToJson(check).at("confirmed").get<bool>());
 }
 
+// A relief that moves with the lens model (SparseReconstruction::
+// lens_relief_shift) warns with the shift; -1 (not measured) does not.
+TEST(DepthCheck, AReliefThatDependsOnTheLensModelWarns) {
+  AgreeingBurst burst;
+  burst.sparse.lens_relief_shift = 0.02;
+  DepthCheck check = CheckDepthAgainstTracks(burst.sparse, burst.dense);
+  EXPECT_TRUE(check.warnings.empty()) << check.warnings.front();
+
+  burst.sparse.lens_relief_shift = 0.34;
+  check = CheckDepthAgainstTracks(burst.sparse, burst.dense);
+  ASSERT_EQ(check.warnings.size(), 1u);
+  EXPECT_NE(check.warnings[0].find("depends on the lens model"), std::string::npos);
+  EXPECT_NE(check.warnings[0].find("by 34 %"), std::string::npos) << check.warnings[0];
+  const nlohmann::json json = ToJson(check);
+  EXPECT_DOUBLE_EQ(json.at("lens_relief_shift").get<double>(), 0.34);
+  EXPECT_FALSE(json.at("confirmed").get<bool>());
+
+  burst.sparse.lens_relief_shift = -1.0;
+  EXPECT_TRUE(CheckDepthAgainstTracks(burst.sparse, burst.dense).warnings.empty());
+}
+
 }  // namespace
 }  // namespace dfsm

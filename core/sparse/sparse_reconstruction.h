@@ -131,6 +131,17 @@ struct SparseReconstruction {
     }
   };
   std::optional<KnownFit> known_fit;
+  // How far the relief depends on the lens model: the same tracks adjusted
+  // again from the solution with k1 alone (k2 held at 0), and the median
+  // over the inlier tracks of |b / (a w_j)|, where w' = a w + b fits the
+  // second adjustment's inverse depths to the first's (a common scale is
+  // free, an offset is relief). A lens with more distortion than k1 and k2
+  // describe (a wide angle's higher terms) lets the rotations take an
+  // inverse-depth offset that no residual shows; the relief then moves by
+  // tens of percent with the model (docs/sparse.md, "Does the relief depend
+  // on the lens model?"). -1: not measured (intrinsics held or given as a
+  // prior with its distortion, or a fallback camera).
+  double lens_relief_shift = -1.0;
   // The camera the adjustment estimated, when a fallback replaced it.
   std::optional<CameraModel> rejected_camera;
   // "self" | "known-fixed" | "known-prior" | "fallback-known" | "fallback-k1" |
