@@ -157,9 +157,11 @@ double LensReliefShift(const FeatureTracks& tracks, const std::vector<bool>& use
 
 // Everything after the tracking (`sparse` holds the tracks): the
 // initialization, the adjustment and its outlier rounds, the verdict and any
-// fallback, for a burst of width x height.
+// fallback, for a burst of width x height; `measure_lens_relief`: also
+// SparseReconstruction::lens_relief_shift (one adjustment more), which the
+// known-fit check's run of the burst alone does not read.
 SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int height,
-                                  const SparseOptions& options) {
+                                  const SparseOptions& options, bool measure_lens_relief) {
   StageTimer timer(&sparse.timings_ms);
   const int tracked = sparse.tracks.num_tracks();
   const double parallax = sparse.tracks.MedianMaxDisplacement();
@@ -446,8 +448,9 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
                               CalibrationQualityName(sparse.verdict.quality) + ": " +
                               sparse.verdict.reasons.front());
 
-  if (!ba_options.fix_intrinsics && ba_options.known_distortion_sigma_px == 0.0 &&
-      ba_options.distortion_terms == 2 && !sparse.rejected_camera)
+  if (measure_lens_relief && !ba_options.fix_intrinsics &&
+      ba_options.known_distortion_sigma_px == 0.0 && ba_options.distortion_terms == 2 &&
+      !sparse.rejected_camera)
     sparse.lens_relief_shift = LensReliefShift(sparse.tracks, use, state, ba_options);
   timer.Lap("lens_check");
 
@@ -486,7 +489,8 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
   const bool check_known =
       options.known && options.known->check_fit && options.max_known_fit_ratio > 0.0;
   SparseReconstruction sparse =
-      AdjustTracks(check_known ? tracked : std::move(tracked), width, height, options);
+      AdjustTracks(check_known ? tracked : std::move(tracked), width, height, options,
+                   /*measure_lens_relief=*/true);
   if (check_known) {
     // The same tracks calibrated by the burst alone: a camera that fits them
     // much better than the known one (more tracks, or a smaller error) says
@@ -503,7 +507,8 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
         static_cast<int>(std::count(sparse.inliers.begin(), sparse.inliers.end(), true));
     fit.known_rms_px = sparse.bundle_adjustment.rms_reprojection_px;
     try {
-      const SparseReconstruction free = AdjustTracks(std::move(tracked), width, height, alone);
+      const SparseReconstruction free = AdjustTracks(std::move(tracked), width, height, alone,
+                                                     /*measure_lens_relief=*/false);
       fit.free_tracks =
           static_cast<int>(std::count(free.inliers.begin(), free.inliers.end(), true));
       fit.free_rms_px = free.bundle_adjustment.rms_reprojection_px;
