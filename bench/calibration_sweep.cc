@@ -2,7 +2,8 @@
 // burst, then the summary line. Measures whether sigma_f, the distortion sigma
 // and the verdict are honest over the settings a user meets.
 //   calibration_sweep [--bursts N] [--seed S] [--no-weak-prior]
-//                     [--only I] (burst I of the sweep alone)
+//                     [--field-of-view normal|wide] (f 0.8-1.5 or 0.55-0.8 x
+//                     the longer side) [--only I] (burst I of the sweep alone)
 #include "core/pipeline/calibration_sweep.h"
 
 #include <algorithm>
@@ -11,6 +12,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <nlohmann/json.hpp>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -19,10 +21,10 @@ int main(int argc, char** argv) {
   int bursts = 64;
   uint64_t seed = 1;
   SparseOptions options;
-  double cell_scale = 1.0;
-  int only = -1;                 // every burst
-  std::string camera = "ideal";  // camera effects preset of the generated bursts  // feature cell
-                                 // against the default (0.5: four times the cells)
+  double cell_scale = 1.0;  // feature cell against the default (0.5: four times the cells)
+  int only = -1;            // every burst
+  std::string field_of_view = "normal";
+  std::string camera = "ideal";  // camera effects preset of the generated bursts
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--bursts") && i + 1 < argc)
       bursts = std::atoi(argv[++i]);
@@ -30,25 +32,38 @@ int main(int argc, char** argv) {
       seed = std::strtoull(argv[++i], nullptr, 10);
     else if (!std::strcmp(argv[i], "--no-weak-prior"))
       options.bundle_adjustment.log_f_prior_sigma = 0.0;
+    else if (!std::strcmp(argv[i], "--corner-prior") && i + 1 < argc)
+      options.bundle_adjustment.corner_shift_prior_sigma = std::atof(argv[++i]);
     else if (!std::strcmp(argv[i], "--lens-prior") && i + 1 < argc)
       options.bundle_adjustment.lens_k_prior_sigma = std::atof(argv[++i]);
     else if (!std::strcmp(argv[i], "--cell-scale") && i + 1 < argc)
       cell_scale = std::atof(argv[++i]);
     else if (!std::strcmp(argv[i], "--camera") && i + 1 < argc)
       camera = argv[++i];
+    else if (!std::strcmp(argv[i], "--field-of-view") && i + 1 < argc)
+      field_of_view = argv[++i];
     else if (!std::strcmp(argv[i], "--only") && i + 1 < argc)
       only = std::atoi(argv[++i]);
     else {
-      std::fprintf(stderr,
-                   "usage: calibration_sweep [--bursts N] [--seed S] [--no-weak-prior]\n"
-                   "                         [--lens-prior SIGMA] [--cell-scale S]\n"
-                   "                         [--camera ideal|webcam|phone]\n"
-                   "                         [--only I]\n");
+      std::fprintf(
+          stderr,
+          "usage: calibration_sweep [--bursts N] [--seed S] [--no-weak-prior]\n"
+          "                         [--lens-prior SIGMA] [--corner-prior SIGMA] [--cell-scale S]\n"
+          "                         [--camera ideal|webcam|phone]\n"
+          "                         [--field-of-view normal|wide] [--only I]\n");
       return 2;
     }
   }
   std::vector<SweepOutcome> outcomes;
-  std::vector<SynthOptions> sweep = CalibrationSweepSettings(bursts, seed);
+  SweepFieldOfView lens;
+  try {
+    lens = ParseSweepFieldOfView(field_of_view);
+  } catch (const std::invalid_argument& e) {
+    std::fprintf(stderr, "--field-of-view: %s\n", e.what());
+    return 2;
+  }
+  std::vector<SynthOptions> sweep =
+      CalibrationSweepSettings(bursts, seed, lens, CameraEffects::Preset(camera));
   if (only >= static_cast<int>(sweep.size())) {
     std::fprintf(stderr, "--only %d: the sweep has %zu bursts (0-%zu)\n", only, sweep.size(),
                  sweep.size() - 1);
@@ -56,7 +71,6 @@ int main(int argc, char** argv) {
   }
   if (only >= 0) sweep = {sweep[only]};
   for (SynthOptions settings : sweep) {
-    settings.effects = CameraEffects::Preset(camera);
     SparseOptions burst_options = options;
     if (cell_scale != 1.0)  // the default cell of this size, scaled
       burst_options.features.cell_px = std::max(

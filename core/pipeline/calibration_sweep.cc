@@ -4,18 +4,31 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 #include <random>
+#include <stdexcept>
 
 #include "core/pipeline/evaluation.h"
 
 namespace dfsm {
 
-std::vector<SynthOptions> CalibrationSweepSettings(int count, uint64_t seed) {
+SweepFieldOfView ParseSweepFieldOfView(const std::string& name) {
+  if (name == "normal") return SweepFieldOfView::kNormal;
+  if (name == "wide") return SweepFieldOfView::kWide;
+  throw std::invalid_argument("field of view '" + name + "': expected normal or wide");
+}
+
+std::vector<SynthOptions> CalibrationSweepSettings(int count, uint64_t seed,
+                                                   SweepFieldOfView field_of_view,
+                                                   const CameraEffects& effects) {
+  // f over the longer side; the normal range is the one the sweep always had.
+  const double f_low = field_of_view == SweepFieldOfView::kWide ? 0.55 : 0.8;
+  const double f_high = field_of_view == SweepFieldOfView::kWide ? 0.8 : 1.5;
   struct Size {
     int width, height;
   };
   const Size sizes[] = {{320, 240}, {640, 480}, {1280, 720}, {1920, 1080}};
   const double tremors[] = {0.25, 0.5, 1.0, 2.0};
   std::mt19937_64 random(seed);
+  std::mt19937_64 redraw(seed + 0x9e3779b97f4a7c15ull);
   std::uniform_real_distribution<double> uniform(0.0, 1.0);
   std::vector<SynthOptions> settings;
   for (int i = 0; i < count; ++i) {
@@ -24,11 +37,26 @@ std::vector<SynthOptions> CalibrationSweepSettings(int count, uint64_t seed) {
     options.height = sizes[i % 4].height;
     options.rotation_deg = tremors[(i / 4) % 4];
     options.baseline = 0.003 + 0.007 * uniform(random);
-    options.k1 = -0.3 + 0.6 * uniform(random);
-    // k2 of the opposite sign and a third of the size, as fitted real lenses
-    // tend to have, so that the corner stays unfolded at both signs of k1.
-    options.k2 = -options.k1 * uniform(random) / 3.0;
-    options.f = std::max(options.width, options.height) * (0.8 + 0.7 * uniform(random));
+    // k1 -0.3..0.3 and k2 of the opposite sign, up to a third of its size (as
+    // fitted real lenses tend to have) at the normal range's widest lens, f
+    // 0.8 x; a wider lens gets the same shift of its corner (k1 r^2, k2 r^4
+    // as there) rather than the same k1, which would fold a barrel lens over
+    // itself. A lens that the effects' k3 still folds is drawn again. (The
+    // order of the draws is the one the normal sweep always had.)
+    const double longer = std::max(options.width, options.height);
+    double k1_draw = uniform(random), k2_draw = uniform(random);
+    options.f = longer * (f_low + (f_high - f_low) * uniform(random));
+    options.effects = effects;
+    const double scale = std::pow(std::min(1.0, options.f / (0.8 * longer)), 2);
+    for (;;) {
+      options.k1 = scale * (-0.3 + 0.6 * k1_draw);
+      options.k2 = -options.k1 * scale * k2_draw / 3.0;
+      if (RenderedLensIsInvertible(options)) break;
+      // From a generator of its own, so that the bursts after this one keep
+      // the draws they have in the other fields of view.
+      k1_draw = uniform(redraw);
+      k2_draw = uniform(redraw);
+    }
     options.jpeg_quality = uniform(random) < 0.5 ? 0 : 85;
     options.frames = uniform(random) < 0.5 ? 10 : 15;
     options.supersampling = 2;

@@ -16,9 +16,21 @@
 
 namespace dfsm {
 
+// The lens field of view a sweep draws its focal lengths from, as f over the
+// longer image side.
+enum class SweepFieldOfView {
+  kNormal,  // f 0.8-1.5 x the longer side: 37-64 deg across it
+  kWide,    // f 0.55-0.8 x: 64-85 deg, the phones' main cameras and most webcams
+};
+SweepFieldOfView ParseSweepFieldOfView(const std::string& name);  // "normal", "wide"
+
 // The settings of burst `index` of a sweep of `count`: every resolution and
-// tremor appears equally often, the rest is drawn from `seed` (deterministic).
-std::vector<SynthOptions> CalibrationSweepSettings(int count, uint64_t seed = 1);
+// tremor appears equally often, the rest is drawn from `seed` (deterministic;
+// the field of view changes the focal lengths and the lens, not the other
+// draws). `effects` go into every burst; a lens their k3 would fold is redrawn.
+std::vector<SynthOptions> CalibrationSweepSettings(
+    int count, uint64_t seed = 1, SweepFieldOfView field_of_view = SweepFieldOfView::kNormal,
+    const CameraEffects& effects = {});
 
 struct SweepOutcome {
   SynthOptions settings;

@@ -49,16 +49,10 @@ void Validate(const SynthOptions& o) {
 
 // The D->U map must be monotonic out to the image corner, or the captured
 // image would fold over itself (the extra radial term k3 included).
-void RequireInvertibleDistortion(const CameraModel& camera, double k3) {
-  const double r_corner = std::hypot(std::max(camera.cx, camera.width - camera.cx),
-                                     std::max(camera.cy, camera.height - camera.cy)) /
-                          camera.f;
-  for (int step = 0; step <= 100; ++step) {
-    const double r2 = std::pow(r_corner * step / 100.0, 2);
-    Require(1.0 + 3.0 * camera.k1 * r2 + 5.0 * camera.k2 * r2 * r2 + 7.0 * k3 * r2 * r2 * r2 > 0.05,
-            k3 != 0.0 ? "k1/k2/k3 fold the image over itself before its corner"
-                      : "k1/k2 fold the image over itself before its corner");
-  }
+void RequireInvertibleDistortion(const SynthOptions& options) {
+  Require(RenderedLensIsInvertible(options),
+          options.effects.k3 != 0.0 ? "k1/k2/k3 fold the image over itself before its corner"
+                                    : "k1/k2 fold the image over itself before its corner");
 }
 
 // The nearest surface along a ray at time t (frame intervals), the moving
@@ -247,8 +241,7 @@ SceneOptions SceneOptionsFor(const SynthOptions& options, double f) {
   return scene_options;
 }
 
-SynthBurst SynthesizeBurst(const SynthOptions& options) {
-  Validate(options);
+CameraModel SynthCamera(const SynthOptions& options) {
   CameraModel camera;
   camera.width = options.width;
   camera.height = options.height;
@@ -257,7 +250,29 @@ SynthBurst SynthesizeBurst(const SynthOptions& options) {
   camera.cy = 0.5 * options.height;
   camera.k1 = options.k1;
   camera.k2 = options.k2;
-  RequireInvertibleDistortion(camera, options.effects.k3);
+  return camera;
+}
+
+bool RenderedLensIsInvertible(const SynthOptions& options) {
+  const CameraModel camera = SynthCamera(options);
+  const double k3 = options.effects.k3;
+  const double r_corner = std::hypot(std::max(camera.cx, camera.width - camera.cx),
+                                     std::max(camera.cy, camera.height - camera.cy)) /
+                          camera.f;
+  // d r_u / d r_d at 101 radii out to the corner, with a margin: a lens that
+  // nearly folds squeezes its corner into a few pixels.
+  for (int step = 0; step <= 100; ++step) {
+    const double r2 = std::pow(r_corner * step / 100.0, 2);
+    if (!(1.0 + 3.0 * camera.k1 * r2 + 5.0 * camera.k2 * r2 * r2 + 7.0 * k3 * r2 * r2 * r2 > 0.05))
+      return false;
+  }
+  return true;
+}
+
+SynthBurst SynthesizeBurst(const SynthOptions& options) {
+  Validate(options);
+  RequireInvertibleDistortion(options);
+  const CameraModel camera = SynthCamera(options);
 
   const SceneOptions scene_options = SceneOptionsFor(options, camera.f);
   const TexturedScene scene(scene_options);

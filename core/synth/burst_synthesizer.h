@@ -54,6 +54,15 @@ struct SynthBurst {
   std::vector<cv::Rect> object_boxes;
 };
 
+// The camera model of the burst `options` renders (f 0: 1.1 x the longer side;
+// principal point at the centre); the effects' k3, p1, p2 are not part of it.
+CameraModel SynthCamera(const SynthOptions& options);
+
+// Whether the rendered lens (k1, k2 and the effects' k3) maps the distorted
+// image to the undistorted one monotonically out to the corner, with a margin;
+// SynthesizeBurst refuses a lens that does not.
+bool RenderedLensIsInvertible(const SynthOptions& options);
+
 // Deterministic for given options. Throws std::invalid_argument naming a bad option.
 SynthBurst SynthesizeBurst(const SynthOptions& options);
 
