@@ -3,9 +3,12 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
+#include <memory>
 #include <random>
 
+#include "core/sparse/intrinsics_prior.h"
 #include "core/sparse/rank_one_init.h"
 #include "core/sparse/rank_one_start_for_tests.h"
 #include "core/sparse/rotation_init.h"
@@ -13,6 +16,31 @@
 
 namespace dfsm {
 namespace {
+
+// The weak prior in log f and the corner shift; a trust-region trial step
+// that takes f through zero is refused (no NaN for Ceres to warn about).
+TEST(IntrinsicsPrior, ScoresLogFocalAndCornerShiftAndRefusesFocalLengthsAtOrBelowZero) {
+  CameraModel camera;
+  camera.width = 640;
+  camera.height = 480;
+  camera.cx = 320;
+  camera.cy = 240;
+  camera.f = 500;
+  const std::unique_ptr<ceres::CostFunction> prior(IntrinsicsPrior::Create(camera, 0.5, 0.1));
+  double intrinsics[3] = {640.0 * std::exp(0.5), 0.0, 0.0};  // one sigma long, no distortion
+  const double* parameters[] = {intrinsics};
+  double residuals[3];
+  ASSERT_TRUE(prior->Evaluate(parameters, residuals, nullptr));
+  EXPECT_NEAR(residuals[0], 1.0, 1e-12);
+  EXPECT_EQ(residuals[1], 0.0);
+  EXPECT_EQ(residuals[2], 0.0);
+  for (const double f : {0.0, -1630.0}) {  // -1630: a step seen on a wide-angle sweep burst
+    intrinsics[0] = f;
+    intrinsics[1] = 5.86;
+    intrinsics[2] = 0.13;
+    EXPECT_FALSE(prior->Evaluate(parameters, residuals, nullptr)) << f;
+  }
+}
 
 struct Errors {
   double focal_percent, distortion_px, rotation_deg;

@@ -35,6 +35,11 @@ class IntrinsicsPrior {
   bool operator()(const T* intrinsics, T* residuals) const {
     using std::log;
     const T& f = intrinsics[0];
+    // A trial step of the trust region can carry f through zero (seen on
+    // wide-angle sweep bursts). log would give NaN, which Ceres rejects the
+    // same way but with a multi-line warning per occurrence on stderr, i.e.
+    // in dfsmd's journal; refusing the evaluation rejects the step silently.
+    if (!(f > T(0.0))) return false;
     residuals[0] = log(f / T(nominal_f_)) / T(log_f_sigma_);
     // How far the D->U model moves a pixel halfway to the corner and the
     // corner pixel itself, in pixels: two radii, so that k1 and k2 cannot
