@@ -19,9 +19,12 @@ SweepFieldOfView ParseSweepFieldOfView(const std::string& name) {
 std::vector<SynthOptions> CalibrationSweepSettings(int count, uint64_t seed,
                                                    SweepFieldOfView field_of_view,
                                                    const CameraEffects& effects) {
-  // f over the longer side; the normal range is the one the sweep always had.
-  const double f_low = field_of_view == SweepFieldOfView::kWide ? 0.55 : 0.8;
-  const double f_high = field_of_view == SweepFieldOfView::kWide ? 0.8 : 1.5;
+  // f over the longer side; the normal range is the one the sweep always had,
+  // the wide one ends where it begins.
+  constexpr double kNormalLow = 0.8, kNormalHigh = 1.5, kWideLow = 0.55;
+  const bool wide = field_of_view == SweepFieldOfView::kWide;
+  const double f_low = wide ? kWideLow : kNormalLow;
+  const double f_high = wide ? kNormalLow : kNormalHigh;
   struct Size {
     int width, height;
   };
@@ -47,7 +50,7 @@ std::vector<SynthOptions> CalibrationSweepSettings(int count, uint64_t seed,
     double k1_draw = uniform(random), k2_draw = uniform(random);
     options.f = longer * (f_low + (f_high - f_low) * uniform(random));
     options.effects = effects;
-    const double scale = std::pow(std::min(1.0, options.f / (0.8 * longer)), 2);
+    const double scale = std::pow(std::min(1.0, options.f / (kNormalLow * longer)), 2);
     for (;;) {
       options.k1 = scale * (-0.3 + 0.6 * k1_draw);
       options.k2 = -options.k1 * scale * k2_draw / 3.0;
