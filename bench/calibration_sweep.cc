@@ -4,6 +4,7 @@
 //   calibration_sweep [--bursts N] [--seed S] [--no-weak-prior]
 //                     [--field-of-view normal|wide] (f 0.8-1.5 or 0.55-0.8 x
 //                     the longer side) [--only I] (burst I of the sweep alone)
+//                     [--focal-starts F1,F2,...] (SparseOptions::focal_starts)
 #include "core/pipeline/calibration_sweep.h"
 
 #include <algorithm>
@@ -44,13 +45,25 @@ int main(int argc, char** argv) {
       field_of_view = argv[++i];
     else if (!std::strcmp(argv[i], "--only") && i + 1 < argc)
       only = std::atoi(argv[++i]);
-    else {
+    else if (!std::strcmp(argv[i], "--focal-starts") && i + 1 < argc) {
+      // Comma-separated fractions of max(width, height); "1" is the single
+      // start of the code before the focal starts.
+      options.focal_starts.clear();
+      for (const char* p = argv[++i]; *p;) {
+        char* end = nullptr;
+        const double start = std::strtod(p, &end);
+        if (end == p) break;
+        options.focal_starts.push_back(start);
+        p = *end == ',' ? end + 1 : end;
+      }
+    } else {
       std::fprintf(
           stderr,
           "usage: calibration_sweep [--bursts N] [--seed S] [--no-weak-prior]\n"
           "                         [--lens-prior SIGMA] [--corner-prior SIGMA] [--cell-scale S]\n"
           "                         [--camera ideal|webcam|phone]\n"
-          "                         [--field-of-view normal|wide] [--only I]\n");
+          "                         [--field-of-view normal|wide] [--only I]\n"
+          "                         [--focal-starts F1,F2,...]\n");
       return 2;
     }
   }

@@ -29,7 +29,8 @@ nlohmann::json ToJson(const Result& result) {
                             {"initial_cost", ba.initial_cost},
                             {"final_cost", ba.final_cost},
                             {"rms_reprojection_px", ba.rms_reprojection_px},
-                            {"termination", ba.termination}};
+                            {"termination", ba.termination},
+                            {"start_f_px", ba.start_f}};
   nlohmann::json runs = nlohmann::json::array();
   for (const BundleAdjustmentRun& run : ba.runs)
     runs.push_back({{"iterations", run.iterations},

@@ -32,6 +32,8 @@ struct BundleAdjustmentSummary {
   double final_cost = 0.0;
   double rms_reprojection_px = 0.0;
   std::string termination;  // Ceres' own words, for people
+  // The focal length (px) the chosen solution started from (SparseOptions::focal_starts).
+  double start_f = 0.0;
 };
 
 struct DepthSummary {

@@ -3,12 +3,14 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <opencv2/imgproc.hpp>
 #include <random>
 
 #include "core/camera/rolling_shutter.h"
 #include "core/io/stage_timer.h"
 #include "core/sparse/fixed_text.h"
+#include "core/sparse/lens_relief_shift.h"
 #include "core/sparse/robust_sigma.h"
 #include "core/sparse/rolling_shutter_rectification.h"
 
@@ -48,6 +50,21 @@ constexpr double kSameReadoutStart = 0.15;
 // Where it measures no readout it goes on to the full budget, since no
 // restart follows (docs/sparse.md, "The first adjustment's budget").
 constexpr int kMeasuringIterations = 30;
+
+// Focal starts beyond these (fractions of max(width, height)) are no camera:
+// 0.2 is a 136 deg view across the longer side, 5 a 11 deg one.
+constexpr double kFocalStartRange[] = {0.2, 5.0};
+// A later focal start replaces the solution so far where its truncated cost
+// is lower by more than this fraction. Two starts that reach the same minimum
+// differ by far less, and the earlier one (the paper's guess first) stands.
+constexpr double kFocalStartGain = 0.01;
+// A later focal start is probed: its rotations, rank-1 start and first
+// adjustment, stopped after this many iterations, and only the winner goes on
+// to the readout restarts and outlier rounds. A start near the camera reaches
+// its minimum in a few iterations; one far from it (0.6 on a normal lens)
+// crawled along the f valley to the 100-iteration cap in every run and round
+// (370 ms more at 1080p), to lose anyway.
+constexpr int kFocalStartIterations = 20;
 
 // The outlier rule of the rounds after the adjustment: the tracks of `use`
 // (and of `use` only, their inverse depths being the adjusted ones) within
@@ -92,6 +109,30 @@ ReconstructionError TooFewTracks(const cv::Mat& reference, const SparseReconstru
                              ": motion too large or blur" + measured);
 }
 
+// The adjustment's fit to every track, inliers or not, robustly: each track's
+// squared RMS reprojection error, capped at threshold^2, summed. A solution
+// that keeps fewer tracks pays for the ones it loses, and one that fits its
+// inliers more closely gains; a median alone preferred, on a wide-lens burst,
+// a camera 10 % off that fitted fewer tracks to a larger mean error.
+double TruncatedTrackCost(const FeatureTracks& tracks, const SparseState& state, double threshold) {
+  double cost = 0.0;
+  for (const double error : TrackReprojectionErrors(tracks, state))
+    cost += std::isfinite(error) ? std::min(error * error, threshold * threshold)
+                                 : threshold * threshold;
+  return cost;
+}
+
+void CheckFocalStarts(const std::vector<double>& starts) {
+  if (starts.empty())
+    throw std::invalid_argument(
+        "focal_starts: at least one start is needed (1: the paper's guess)");
+  for (const double start : starts)
+    if (!(start >= kFocalStartRange[0] && start <= kFocalStartRange[1]))
+      throw std::invalid_argument("focal_starts: " + FixedText(start) + " is outside [" +
+                                  FixedText(kFocalStartRange[0]) + ", " +
+                                  FixedText(kFocalStartRange[1]) + "] of max(width, height)");
+}
+
 double MedianTrackError(const FeatureTracks& tracks, const SparseState& state) {
   std::vector<double> errors = TrackReprojectionErrors(tracks, state);
   std::nth_element(errors.begin(), errors.begin() + errors.size() / 2, errors.end());
@@ -128,33 +169,6 @@ std::vector<double> SparseReconstruction::InlierInverseDepths() const {
 
 namespace {
 
-// SparseReconstruction::lens_relief_shift of the adjusted `state`.
-double LensReliefShift(const FeatureTracks& tracks, const std::vector<bool>& use,
-                       const SparseState& state, BundleAdjustmentOptions options) {
-  SparseState k1_alone = state;
-  k1_alone.camera.k2 = 0.0;
-  options.distortion_terms = 1;
-  RunBundleAdjustment(tracks, use, &k1_alone, options);
-  // Least squares w' = a w + b over the inlier tracks.
-  double n = 0.0, sw = 0.0, sv = 0.0, sww = 0.0, swv = 0.0;
-  for (size_t j = 0; j < use.size(); ++j) {
-    if (!use[j]) continue;
-    const double w = state.inverse_depths[j], v = k1_alone.inverse_depths[j];
-    n += 1.0, sw += w, sv += v, sww += w * w, swv += w * v;
-  }
-  const double determinant = n * sww - sw * sw;
-  if (!(n >= 2.0) || !(determinant > 0.0)) return -1.0;
-  const double a = (n * swv - sw * sv) / determinant, b = (sv - a * sw) / n;
-  if (!(a > 0.0) || !std::isfinite(b)) return -1.0;
-  std::vector<double> shifts;
-  for (size_t j = 0; j < use.size(); ++j)
-    if (use[j] && state.inverse_depths[j] > 0.0)
-      shifts.push_back(std::abs(b / (a * state.inverse_depths[j])));
-  if (shifts.empty()) return -1.0;
-  std::nth_element(shifts.begin(), shifts.begin() + shifts.size() / 2, shifts.end());
-  return shifts[shifts.size() / 2];
-}
-
 // Everything after the tracking (`sparse` holds the tracks): the
 // initialization, the adjustment and its outlier rounds, the verdict and any
 // fallback, for a burst of width x height; `measure_lens_relief`: also
@@ -190,37 +204,7 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
   if (options.rolling_shutter.mode == RollingShutterOptions::Mode::kEstimate)
     ba_options.estimate_readout = true;
   SparseState& state = sparse.state;
-  state.camera = initial;
-  state.frame_times = options.frame_times;
-  state.readout = options.rolling_shutter.mode == RollingShutterOptions::Mode::kKnown
-                      ? options.rolling_shutter.readout
-                      : 0.0;
-  std::vector<bool> use(tracked, true);
-  if (options.init == InitMode::kRankOne) {
-    const std::vector<Eigen::Matrix3d> rotations = EstimateRotations(sparse.tracks, initial);
-    timer.Lap("rotation");
-    sparse.rank_one = RankOneInit(sparse.tracks, initial, rotations, options.rank_one);
-    timer.Lap("rank1");
-    if (!sparse.rank_one.ok)
-      throw ReconstructionError("rank-1 initialization failed: fewer than 3 consistent tracks");
-    state.poses = sparse.rank_one.poses;
-    state.inverse_depths = sparse.rank_one.inverse_depths;
-    use = sparse.rank_one.inliers;
-  } else {
-    // The reference code's start: no motion, random inverse depths.
-    state.poses.assign(sparse.tracks.num_frames(), Pose{});
-    std::mt19937_64 random(options.naive_seed);
-    std::uniform_real_distribution<double> uniform(0.01, 1.0);
-    state.inverse_depths.resize(tracked);
-    for (double& w : state.inverse_depths) w = uniform(random);
-    timer.Lap("rotation");
-    timer.Lap("rank1");
-  }
-  if (std::count(use.begin(), use.end(), true) < options.min_tracks)
-    throw ReconstructionError("too few consistent tracks after outlier rejection: " +
-                              std::to_string(std::count(use.begin(), use.end(), true)) +
-                              " (need >= " + std::to_string(options.min_tracks) + ")");
-
+  std::vector<bool> use;
   const auto run_adjustment = [&](const BundleAdjustmentOptions& ba) {
     sparse.bundle_adjustment = RunBundleAdjustment(sparse.tracks, use, &state, ba);
     BundleAdjustmentRun run;
@@ -230,6 +214,7 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
     run.final_cost = sparse.bundle_adjustment.final_cost;
     sparse.runs.push_back(run);
   };
+  const bool rank_one = options.init == InitMode::kRankOne;
   // A rolling shutter: the global-shutter rank-1 start is far off under a
   // phone's readout (rolling_shutter_rectification.h), so the adjustment
   // starts from a rank-1 initialization of the tracks rectified with the
@@ -252,68 +237,155 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
     sparse.rank_one = std::move(init);
     return true;
   };
-  const bool rank_one = options.init == InitMode::kRankOne;
-  if (rank_one && std::abs(state.readout) >= kMinRectifiedReadout)
-    rectified_start(state.camera, state.poses, state.readout, &state, &use);
-  BundleAdjustmentOptions measuring = ba_options;
-  if (rank_one && ba_options.estimate_readout)
-    measuring.max_iterations = std::min(measuring.max_iterations, kMeasuringIterations);
-  run_adjustment(measuring);
-  if (measuring.max_iterations < ba_options.max_iterations && !sparse.bundle_adjustment.converged &&
-      std::abs(state.readout) < kMinRectifiedReadout)
-    run_adjustment(ba_options);  // no restart follows: this adjustment is the result
-  if (rank_one && ba_options.estimate_readout && std::abs(state.readout) >= kMinRectifiedReadout) {
-    // Restarts from the readout the first adjustment measured and from
-    // kReadoutStarts, each rectified with the first adjustment's camera and
-    // poses; the best fit over every track wins, not each start's own
-    // inliers: a wrong minimum fits its few inliers as well as the right one
-    // fits many. Where the first adjustment measured no readout (a global
-    // shutter), none is tried: those restarts cost 0.6-0.9 s per burst and
-    // changed no ideal burst.
-    const SparseState measured = state;
-    std::vector<double> starts = {measured.readout};
-    for (const double start : kReadoutStarts)
-      if (std::none_of(starts.begin(), starts.end(),
-                       [&](double tried) { return std::abs(tried - start) < kSameReadoutStart; }))
-        starts.push_back(start);
-    double best_error = MedianTrackError(sparse.tracks, state);
-    for (const double start : starts) {
-      SparseState restart;
-      std::vector<bool> restart_use;
-      const RankOneResult best_rank_one = sparse.rank_one;
-      if (!rectified_start(measured.camera, measured.poses, start, &restart, &restart_use))
-        continue;
-      const SparseState best = state;
-      const std::vector<bool> best_use = use;
-      const BundleAdjustmentSummary best_summary = sparse.bundle_adjustment;
-      state = restart;
-      use = restart_use;
-      run_adjustment(ba_options);
-      const double error = MedianTrackError(sparse.tracks, state);
-      if (error < best_error) {
-        best_error = error;
-      } else {
-        state = best;
-        use = best_use;
-        sparse.bundle_adjustment = best_summary;
-        sparse.rank_one = best_rank_one;
+  // After the first adjustment: the rest of its budget where it measured no
+  // readout, the readout restarts, the outlier rounds.
+  const auto finish = [&](const BundleAdjustmentOptions& adjust, int measured_iterations) {
+    if (measured_iterations < adjust.max_iterations && !sparse.bundle_adjustment.converged &&
+        std::abs(state.readout) < kMinRectifiedReadout)
+      run_adjustment(adjust);  // no restart follows: this adjustment is the result
+    if (rank_one && adjust.estimate_readout && std::abs(state.readout) >= kMinRectifiedReadout) {
+      // Restarts from the readout the first adjustment measured and from
+      // kReadoutStarts, each rectified with the first adjustment's camera and
+      // poses; the best fit over every track wins, not each start's own
+      // inliers: a wrong minimum fits its few inliers as well as the right one
+      // fits many. Where the first adjustment measured no readout (a global
+      // shutter), none is tried: those restarts cost 0.6-0.9 s per burst and
+      // changed no ideal burst.
+      const SparseState measured = state;
+      std::vector<double> starts = {measured.readout};
+      for (const double start : kReadoutStarts)
+        if (std::none_of(starts.begin(), starts.end(),
+                         [&](double tried) { return std::abs(tried - start) < kSameReadoutStart; }))
+          starts.push_back(start);
+      double best_error = MedianTrackError(sparse.tracks, state);
+      for (const double start : starts) {
+        SparseState restart;
+        std::vector<bool> restart_use;
+        const RankOneResult best_rank_one = sparse.rank_one;
+        if (!rectified_start(measured.camera, measured.poses, start, &restart, &restart_use))
+          continue;
+        const SparseState best = state;
+        const std::vector<bool> best_use = use;
+        const BundleAdjustmentSummary best_summary = sparse.bundle_adjustment;
+        state = restart;
+        use = restart_use;
+        run_adjustment(adjust);
+        const double error = MedianTrackError(sparse.tracks, state);
+        if (error < best_error) {
+          best_error = error;
+        } else {
+          state = best;
+          use = best_use;
+          sparse.bundle_adjustment = best_summary;
+          sparse.rank_one = best_rank_one;
+        }
       }
     }
+    // Judge every track again under the adjusted camera: tracks the initial
+    // camera made look wrong come back, tracks that do not fit go, and a short
+    // re-run from the adjusted state settles the set. A track on a depth edge
+    // (a T-junction, not a point of the scene) fits to a few tenths of a pixel
+    // and still pulls f against k1/k2, so the bound is tight and the rounds
+    // repeat until the set stops changing.
+    const BundleAdjustmentSummary first = sparse.bundle_adjustment;
+    for (int round = 0; round < options.outlier_rounds; ++round) {
+      const std::vector<bool> kept = KeptTracks(sparse.tracks, state, use, options);
+      if (kept == use || std::count(kept.begin(), kept.end(), true) < options.min_tracks) break;
+      use = kept;
+      run_adjustment(adjust);
+      sparse.bundle_adjustment.initial_cost = first.initial_cost;
+    }
+  };
+  // The initialization and the first adjustment from `start_camera`, then
+  // (unless `probe`) the rest; throws ReconstructionError.
+  const auto solve_from = [&](const CameraModel& start_camera, bool timed,
+                              const BundleAdjustmentOptions& adjust, bool probe) {
+    state.camera = start_camera;
+    state.frame_times = options.frame_times;
+    state.readout = options.rolling_shutter.mode == RollingShutterOptions::Mode::kKnown
+                        ? options.rolling_shutter.readout
+                        : 0.0;
+    use.assign(tracked, true);
+    if (options.init == InitMode::kRankOne) {
+      const std::vector<Eigen::Matrix3d> rotations = EstimateRotations(sparse.tracks, start_camera);
+      if (timed) timer.Lap("rotation");
+      sparse.rank_one = RankOneInit(sparse.tracks, start_camera, rotations, options.rank_one);
+      if (timed) timer.Lap("rank1");
+      if (!sparse.rank_one.ok)
+        throw ReconstructionError("rank-1 initialization failed: fewer than 3 consistent tracks");
+      state.poses = sparse.rank_one.poses;
+      state.inverse_depths = sparse.rank_one.inverse_depths;
+      use = sparse.rank_one.inliers;
+    } else {
+      // The reference code's start: no motion, random inverse depths.
+      state.poses.assign(sparse.tracks.num_frames(), Pose{});
+      std::mt19937_64 random(options.naive_seed);
+      std::uniform_real_distribution<double> uniform(0.01, 1.0);
+      state.inverse_depths.resize(tracked);
+      for (double& w : state.inverse_depths) w = uniform(random);
+      timer.Lap("rotation");
+      timer.Lap("rank1");
+    }
+    if (std::count(use.begin(), use.end(), true) < options.min_tracks)
+      throw ReconstructionError("too few consistent tracks after outlier rejection: " +
+                                std::to_string(std::count(use.begin(), use.end(), true)) +
+                                " (need >= " + std::to_string(options.min_tracks) + ")");
+
+    if (rank_one && std::abs(state.readout) >= kMinRectifiedReadout)
+      rectified_start(state.camera, state.poses, state.readout, &state, &use);
+    BundleAdjustmentOptions measuring = adjust;
+    if (rank_one && adjust.estimate_readout)
+      measuring.max_iterations = std::min(measuring.max_iterations, kMeasuringIterations);
+    run_adjustment(measuring);
+    if (!probe) finish(adjust, measuring.max_iterations);
+  };
+  // Each focal start runs the whole chain above, and a later one replaces the
+  // solution so far only where it fits every track clearly better
+  // (SparseOptions::focal_starts); a known camera and the naive start are
+  // started once. A start that finds no solution is passed over; where none
+  // does, the first one's reason is the error.
+  const bool restarts = !options.known && options.init == InitMode::kRankOne;
+  const size_t starts = restarts ? options.focal_starts.size() : 1;
+  struct Solution {
+    SparseState state;
+    std::vector<bool> use;
+    BundleAdjustmentSummary summary;
+    RankOneResult rank_one;
+    std::vector<BundleAdjustmentRun> runs;
+    double start_f = 0.0;
+    double cost = std::numeric_limits<double>::infinity();
+  };
+  std::optional<Solution> best;
+  std::optional<ReconstructionError> first_error;
+  for (size_t n = 0; n < starts; ++n) {
+    CameraModel start = initial;
+    if (restarts) start.f = options.focal_starts[n] * initial.f;
+    sparse.runs.clear();
+    try {
+      BundleAdjustmentOptions adjust = ba_options;
+      if (n > 0) adjust.max_iterations = std::min(adjust.max_iterations, kFocalStartIterations);
+      solve_from(start, /*timed=*/n == 0, adjust, /*probe=*/n > 0);
+    } catch (const ReconstructionError& error) {
+      if (n == 0) first_error = error;
+      continue;
+    }
+    const double cost = TruncatedTrackCost(sparse.tracks, state, options.outlier_px);
+    if (!best || cost < (1.0 - kFocalStartGain) * best->cost)
+      best = Solution{state,   use, sparse.bundle_adjustment, sparse.rank_one, sparse.runs,
+                      start.f, cost};
+    if (n == 0) timer.Lap("bundle_adjustment");
   }
-  // Judge every track again under the adjusted camera: tracks the initial
-  // camera made look wrong come back, tracks that do not fit go, and a short
-  // re-run from the adjusted state settles the set. A track on a depth edge
-  // (a T-junction, not a point of the scene) fits to a few tenths of a pixel
-  // and still pulls f against k1/k2, so the bound is tight and the rounds
-  // repeat until the set stops changing.
-  const BundleAdjustmentSummary first = sparse.bundle_adjustment;
-  for (int round = 0; round < options.outlier_rounds; ++round) {
-    const std::vector<bool> kept = KeptTracks(sparse.tracks, state, use, options);
-    if (kept == use || std::count(kept.begin(), kept.end(), true) < options.min_tracks) break;
-    use = kept;
-    run_adjustment(ba_options);
-    sparse.bundle_adjustment.initial_cost = first.initial_cost;
-  }
+  if (!best) throw *first_error;
+  if (starts > 1) timer.Lap("focal_starts");
+  state = std::move(best->state);
+  use = std::move(best->use);
+  sparse.bundle_adjustment = std::move(best->summary);
+  sparse.rank_one = std::move(best->rank_one);
+  sparse.runs = std::move(best->runs);
+  const double start_f = best->start_f;
+  // A later start was only probed (its first adjustment, capped): the winner
+  // goes on from there with the whole budget.
+  if (start_f != initial.f) finish(ba_options, kFocalStartIterations);
   if (options.known && options.known->mode == KnownCalibrationMode::kPrior &&
       options.known->also_self_calibrate) {
     SparseState self = state;
@@ -366,7 +438,7 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
     RunBundleAdjustment(sparse.tracks, use, &at, evaluate_only, &sparse.uncertainty);
   };
   estimate_uncertainty(ba_options);
-  timer.Lap("bundle_adjustment");
+  timer.Lap("uncertainty");
 
   // The verdict on the estimated calibration, then the camera the later stages
   // get: a folding lens model, or one the dense stage cannot invert, is
@@ -464,6 +536,7 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
                               FixedText(median, 6) + ", f " + FixedText(state.camera.f) + ")");
   for (double& w : state.inverse_depths) w /= median;
   for (Pose& pose : state.poses) pose.T *= median;
+  sparse.bundle_adjustment.start_f = start_f;  // also where a fallback refitted from it
   return sparse;
 }
 
@@ -475,6 +548,7 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
     throw ReconstructionError("a burst needs at least 3 frames, got " +
                               std::to_string(frames.size()));
   CheckFrameTimes(options.frame_times, static_cast<int>(frames.size()));
+  CheckFocalStarts(options.focal_starts);
   SparseReconstruction tracked;
   StageTimer timer(&tracked.timings_ms);
   tracked.tracks = TrackGridedFeatures(frames, reference, options.features, &tracked.feature_stats);

@@ -69,6 +69,16 @@ struct SparseOptions {
   // depth edges, and keeping them costs 10-25 % of focal accuracy at VGA.
   double outlier_px = 0.3;
   int outlier_rounds = 3;
+  // Focal lengths the self-calibration starts from, as fractions of
+  // max(width, height) (1: the paper's guess, CameraModel::Initial). The
+  // rotations, the rank-1 initialization and the adjustment run from each, and
+  // the solution with the least truncated reprojection cost over every track
+  // (each track's squared RMS error capped at outlier_px^2) wins. f shows only
+  // in second-order terms of small motion, and a wide lens (0.55-0.8: 64-85
+  // deg, phones' and webcams' main cameras) started at 1 can stop in another
+  // minimum, f tens of percent long (docs/sparse.md, "Focal starts"). A known
+  // calibration, and the naive start, start once from their own camera.
+  std::vector<double> focal_starts = {1.0, 0.6};
   // A known calibration; without one the burst calibrates the camera alone.
   std::optional<KnownCalibration> known;
   // A known calibration (with check_fit, held fixed or as a prior) is
