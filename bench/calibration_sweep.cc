@@ -49,10 +49,15 @@ int main(int argc, char** argv) {
       // Comma-separated fractions of max(width, height); "1" is the single
       // start of the code before the focal starts.
       options.focal_starts.clear();
-      for (const char* p = argv[++i]; *p;) {
+      const char* list = argv[++i];
+      for (const char* p = list; *p;) {
         char* end = nullptr;
         const double start = std::strtod(p, &end);
-        if (end == p) break;
+        if (end == p || (*end != ',' && *end != '\0')) {
+          std::fprintf(stderr, "--focal-starts: \"%s\" is not a comma-separated list of numbers\n",
+                       list);
+          return 2;
+        }
         options.focal_starts.push_back(start);
         p = *end == ',' ? end + 1 : end;
       }

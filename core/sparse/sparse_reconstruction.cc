@@ -353,6 +353,7 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
     RankOneResult rank_one;
     std::vector<BundleAdjustmentRun> runs;
     double start_f = 0.0;
+    bool probed = false;  // a later start: its first adjustment alone, capped
     double cost = std::numeric_limits<double>::infinity();
   };
   std::optional<Solution> best;
@@ -371,8 +372,8 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
     }
     const double cost = TruncatedTrackCost(sparse.tracks, state, options.outlier_px);
     if (!best || cost < (1.0 - kFocalStartGain) * best->cost)
-      best = Solution{state,   use, sparse.bundle_adjustment, sparse.rank_one, sparse.runs,
-                      start.f, cost};
+      best = Solution{state, use, sparse.bundle_adjustment, sparse.rank_one, sparse.runs, start.f,
+                      n > 0, cost};
     if (n == 0) timer.Lap("bundle_adjustment");
   }
   if (!best) throw *first_error;
@@ -383,9 +384,8 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
   sparse.rank_one = std::move(best->rank_one);
   sparse.runs = std::move(best->runs);
   const double start_f = best->start_f;
-  // A later start was only probed (its first adjustment, capped): the winner
-  // goes on from there with the whole budget.
-  if (start_f != initial.f) finish(ba_options, kFocalStartIterations);
+  // A probed start that won goes on from there with the whole budget.
+  if (best->probed) finish(ba_options, kFocalStartIterations);
   if (options.known && options.known->mode == KnownCalibrationMode::kPrior &&
       options.known->also_self_calibrate) {
     SparseState self = state;
