@@ -2,6 +2,7 @@
 // result.json's timings_ms.
 #pragma once
 
+#include <algorithm>
 #include <chrono>
 #include <string>
 #include <utility>
@@ -14,11 +15,16 @@ class StageTimer {
   explicit StageTimer(std::vector<std::pair<std::string, double>>* timings)
       : timings_(timings), start_(std::chrono::steady_clock::now()) {}
 
-  // Records the time since the previous lap (or construction) under `stage`.
-  void Lap(const std::string& stage) {
+  // Records the time since the previous lap (or construction) under `stage`,
+  // less `carried_ms` of it, which goes to the next lap instead: time this
+  // stage spent waiting for work that ran beside it and is timed as its own.
+  void Lap(const std::string& stage, double carried_ms = 0.0) {
     const auto now = std::chrono::steady_clock::now();
-    timings_->emplace_back(stage, std::chrono::duration<double, std::milli>(now - start_).count());
-    start_ = now;
+    const double elapsed_ms = std::chrono::duration<double, std::milli>(now - start_).count();
+    carried_ms = std::clamp(carried_ms, 0.0, elapsed_ms);
+    timings_->emplace_back(stage, elapsed_ms - carried_ms);
+    start_ = now - std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                       std::chrono::duration<double, std::milli>(carried_ms));
   }
 
  private:

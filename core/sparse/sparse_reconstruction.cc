@@ -1,18 +1,14 @@
 #include "core/sparse/sparse_reconstruction.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
-#include <limits>
 #include <opencv2/imgproc.hpp>
-#include <random>
 
 #include "core/camera/rolling_shutter.h"
 #include "core/io/stage_timer.h"
+#include "core/sparse/adjustment_starts.h"
 #include "core/sparse/fixed_text.h"
 #include "core/sparse/lens_relief_shift.h"
-#include "core/sparse/robust_sigma.h"
-#include "core/sparse/rolling_shutter_rectification.h"
 
 namespace dfsm {
 namespace {
@@ -26,60 +22,6 @@ double SceneContrast(const cv::Mat& gray) {
   cv::Scalar mean, stddev;
   cv::meanStdDev(blurred, mean, stddev);
   return stddev[0];
-}
-
-// A readout below this (frame intervals) moves no observation by a tenth of a
-// pixel at a degree of tremor: the rank-1 start stands.
-constexpr double kMinRectifiedReadout = 0.05;
-// Rounds of rectifying and re-initializing (measured at 1080p, readout 0.6:
-// rotation error 0.35 -> 0.052 -> 0.014 -> 0.006 deg).
-constexpr int kRectificationRounds = 3;
-// Readouts the adjustment also restarts from where it estimates the readout.
-// A readout and a top-to-bottom tilt of the scene trade against each other
-// when the camera moves up and down (docs/sparse.md, "The readout's sigma,
-// and TUM window 18-27"): the adjustment has two minima there, and which it
-// reaches depends on the start. Starts nearer than kSameReadoutStart to one
-// already tried return to the same minimum and are skipped.
-constexpr double kReadoutStarts[] = {0.5, 1.0};
-constexpr double kSameReadoutStart = 0.15;
-// Iterations of the first adjustment where it estimates the readout: it only
-// measures the readout for the restarts, which converge from there in a few
-// iterations. On phone bursts it used to crawl along a narrow valley to its
-// 100-iteration cap (1080p: cost 2717 at the start, 36 after 30 iterations,
-// 26.3 after 100), while the restart from its readout reached 12.2 in 8.
-// Where it measures no readout it goes on to the full budget, since no
-// restart follows (docs/sparse.md, "The first adjustment's budget").
-constexpr int kMeasuringIterations = 30;
-
-// Focal starts beyond these (fractions of max(width, height)) are no camera:
-// 0.2 is a 136 deg view across the longer side, 5 a 11 deg one.
-constexpr double kFocalStartRange[] = {0.2, 5.0};
-// A later focal start replaces the solution so far where its truncated cost
-// is lower by more than this fraction. Two starts that reach the same minimum
-// differ by far less, and the earlier one (the paper's guess first) stands.
-constexpr double kFocalStartGain = 0.01;
-// A later focal start is probed: its rotations, rank-1 start and first
-// adjustment, stopped after this many iterations, and only the winner goes on
-// to the readout restarts and outlier rounds. A start near the camera reaches
-// its minimum in a few iterations; one far from it (0.6 on a normal lens)
-// crawled along the f valley to the 100-iteration cap in every run and round
-// (370 ms more at 1080p), to lose anyway.
-constexpr int kFocalStartIterations = 20;
-
-// The outlier rule of the rounds after the adjustment: the tracks of `use`
-// (and of `use` only, their inverse depths being the adjusted ones) within
-// max(outlier_px, 4 robust sigmas) of the state's reprojection, in front.
-std::vector<bool> KeptTracks(const FeatureTracks& tracks, const SparseState& state,
-                             const std::vector<bool>& use, const SparseOptions& options) {
-  const std::vector<double> errors = TrackReprojectionErrors(tracks, state);
-  std::vector<double> used_errors;
-  for (size_t j = 0; j < errors.size(); ++j)
-    if (use[j]) used_errors.push_back(errors[j]);
-  const double threshold = std::max(options.outlier_px, 4.0 * RobustSigma(used_errors));
-  std::vector<bool> kept(errors.size());
-  for (size_t j = 0; j < errors.size(); ++j)
-    kept[j] = errors[j] <= threshold && state.inverse_depths[j] > 0.0;
-  return kept;
 }
 
 // Below this scene contrast (grey levels) the corners found are sensor noise.
@@ -107,36 +49,6 @@ ReconstructionError TooFewTracks(const cv::Mat& reference, const SparseReconstru
   return ReconstructionError("too few tracks: " + std::to_string(stats.tracks) + " of " +
                              std::to_string(stats.corners) + " corners survived tracking" + need +
                              ": motion too large or blur" + measured);
-}
-
-// The adjustment's fit to every track, inliers or not, robustly: each track's
-// squared RMS reprojection error, capped at threshold^2, summed. A solution
-// that keeps fewer tracks pays for the ones it loses, and one that fits its
-// inliers more closely gains; a median alone preferred, on a wide-lens burst,
-// a camera 10 % off that fitted fewer tracks to a larger mean error.
-double TruncatedTrackCost(const FeatureTracks& tracks, const SparseState& state, double threshold) {
-  double cost = 0.0;
-  for (const double error : TrackReprojectionErrors(tracks, state))
-    cost += std::isfinite(error) ? std::min(error * error, threshold * threshold)
-                                 : threshold * threshold;
-  return cost;
-}
-
-void CheckFocalStarts(const std::vector<double>& starts) {
-  if (starts.empty())
-    throw std::invalid_argument(
-        "focal_starts: at least one start is needed (1: the paper's guess)");
-  for (const double start : starts)
-    if (!(start >= kFocalStartRange[0] && start <= kFocalStartRange[1]))
-      throw std::invalid_argument("focal_starts: " + FixedText(start) + " is outside [" +
-                                  FixedText(kFocalStartRange[0]) + ", " +
-                                  FixedText(kFocalStartRange[1]) + "] of max(width, height)");
-}
-
-double MedianTrackError(const FeatureTracks& tracks, const SparseState& state) {
-  std::vector<double> errors = TrackReprojectionErrors(tracks, state);
-  std::nth_element(errors.begin(), errors.begin() + errors.size() / 2, errors.end());
-  return errors[errors.size() / 2];
 }
 
 }  // namespace
@@ -203,189 +115,11 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
   options.rolling_shutter.Check();
   if (options.rolling_shutter.mode == RollingShutterOptions::Mode::kEstimate)
     ba_options.estimate_readout = true;
-  SparseState& state = sparse.state;
-  std::vector<bool> use;
-  const auto run_adjustment = [&](const BundleAdjustmentOptions& ba) {
-    sparse.bundle_adjustment = RunBundleAdjustment(sparse.tracks, use, &state, ba);
-    BundleAdjustmentRun run;
-    run.iterations = sparse.bundle_adjustment.iterations;
-    run.converged = sparse.bundle_adjustment.converged;
-    run.tracks = static_cast<int>(std::count(use.begin(), use.end(), true));
-    run.final_cost = sparse.bundle_adjustment.final_cost;
-    sparse.runs.push_back(run);
-  };
-  const bool rank_one = options.init == InitMode::kRankOne;
-  // A rolling shutter: the global-shutter rank-1 start is far off under a
-  // phone's readout (rolling_shutter_rectification.h), so the adjustment
-  // starts from a rank-1 initialization of the tracks rectified with the
-  // readout: the known one at once; an estimated one after a first
-  // adjustment has measured it, keeping whichever adjustment fits better.
-  const auto rectified_start = [&](const CameraModel& camera, const std::vector<Pose>& poses,
-                                   double readout, SparseState* start,
-                                   std::vector<bool>* start_use) {
-    RankOneResult init =
-        RectifiedRankOneInit(sparse.tracks, camera, poses, readout, kRectificationRounds,
-                             options.rank_one, options.frame_times);
-    if (!init.ok || std::count(init.inliers.begin(), init.inliers.end(), true) < options.min_tracks)
-      return false;
-    start->camera = camera;
-    start->poses = init.poses;
-    start->inverse_depths = init.inverse_depths;
-    start->readout = readout;
-    start->frame_times = options.frame_times;
-    *start_use = init.inliers;
-    sparse.rank_one = std::move(init);
-    return true;
-  };
-  // After the first adjustment: the rest of its budget where it measured no
-  // readout, the readout restarts, the outlier rounds.
-  const auto finish = [&](const BundleAdjustmentOptions& adjust, int measured_iterations) {
-    if (measured_iterations < adjust.max_iterations && !sparse.bundle_adjustment.converged &&
-        std::abs(state.readout) < kMinRectifiedReadout)
-      run_adjustment(adjust);  // no restart follows: this adjustment is the result
-    if (rank_one && adjust.estimate_readout && std::abs(state.readout) >= kMinRectifiedReadout) {
-      // Restarts from the readout the first adjustment measured and from
-      // kReadoutStarts, each rectified with the first adjustment's camera and
-      // poses; the best fit over every track wins, not each start's own
-      // inliers: a wrong minimum fits its few inliers as well as the right one
-      // fits many. Where the first adjustment measured no readout (a global
-      // shutter), none is tried: those restarts cost 0.6-0.9 s per burst and
-      // changed no ideal burst.
-      const SparseState measured = state;
-      std::vector<double> starts = {measured.readout};
-      for (const double start : kReadoutStarts)
-        if (std::none_of(starts.begin(), starts.end(),
-                         [&](double tried) { return std::abs(tried - start) < kSameReadoutStart; }))
-          starts.push_back(start);
-      double best_error = MedianTrackError(sparse.tracks, state);
-      for (const double start : starts) {
-        SparseState restart;
-        std::vector<bool> restart_use;
-        const RankOneResult best_rank_one = sparse.rank_one;
-        if (!rectified_start(measured.camera, measured.poses, start, &restart, &restart_use))
-          continue;
-        const SparseState best = state;
-        const std::vector<bool> best_use = use;
-        const BundleAdjustmentSummary best_summary = sparse.bundle_adjustment;
-        state = restart;
-        use = restart_use;
-        run_adjustment(adjust);
-        const double error = MedianTrackError(sparse.tracks, state);
-        if (error < best_error) {
-          best_error = error;
-        } else {
-          state = best;
-          use = best_use;
-          sparse.bundle_adjustment = best_summary;
-          sparse.rank_one = best_rank_one;
-        }
-      }
-    }
-    // Judge every track again under the adjusted camera: tracks the initial
-    // camera made look wrong come back, tracks that do not fit go, and a short
-    // re-run from the adjusted state settles the set. A track on a depth edge
-    // (a T-junction, not a point of the scene) fits to a few tenths of a pixel
-    // and still pulls f against k1/k2, so the bound is tight and the rounds
-    // repeat until the set stops changing.
-    const BundleAdjustmentSummary first = sparse.bundle_adjustment;
-    for (int round = 0; round < options.outlier_rounds; ++round) {
-      const std::vector<bool> kept = KeptTracks(sparse.tracks, state, use, options);
-      if (kept == use || std::count(kept.begin(), kept.end(), true) < options.min_tracks) break;
-      use = kept;
-      run_adjustment(adjust);
-      sparse.bundle_adjustment.initial_cost = first.initial_cost;
-    }
-  };
-  // The initialization and the first adjustment from `start_camera`, then
-  // (unless `probe`) the rest; throws ReconstructionError.
-  const auto solve_from = [&](const CameraModel& start_camera, bool timed,
-                              const BundleAdjustmentOptions& adjust, bool probe) {
-    state.camera = start_camera;
-    state.frame_times = options.frame_times;
-    state.readout = options.rolling_shutter.mode == RollingShutterOptions::Mode::kKnown
-                        ? options.rolling_shutter.readout
-                        : 0.0;
-    use.assign(tracked, true);
-    if (options.init == InitMode::kRankOne) {
-      const std::vector<Eigen::Matrix3d> rotations = EstimateRotations(sparse.tracks, start_camera);
-      if (timed) timer.Lap("rotation");
-      sparse.rank_one = RankOneInit(sparse.tracks, start_camera, rotations, options.rank_one);
-      if (timed) timer.Lap("rank1");
-      if (!sparse.rank_one.ok)
-        throw ReconstructionError("rank-1 initialization failed: fewer than 3 consistent tracks");
-      state.poses = sparse.rank_one.poses;
-      state.inverse_depths = sparse.rank_one.inverse_depths;
-      use = sparse.rank_one.inliers;
-    } else {
-      // The reference code's start: no motion, random inverse depths.
-      state.poses.assign(sparse.tracks.num_frames(), Pose{});
-      std::mt19937_64 random(options.naive_seed);
-      std::uniform_real_distribution<double> uniform(0.01, 1.0);
-      state.inverse_depths.resize(tracked);
-      for (double& w : state.inverse_depths) w = uniform(random);
-      timer.Lap("rotation");
-      timer.Lap("rank1");
-    }
-    if (std::count(use.begin(), use.end(), true) < options.min_tracks)
-      throw ReconstructionError("too few consistent tracks after outlier rejection: " +
-                                std::to_string(std::count(use.begin(), use.end(), true)) +
-                                " (need >= " + std::to_string(options.min_tracks) + ")");
-
-    if (rank_one && std::abs(state.readout) >= kMinRectifiedReadout)
-      rectified_start(state.camera, state.poses, state.readout, &state, &use);
-    BundleAdjustmentOptions measuring = adjust;
-    if (rank_one && adjust.estimate_readout)
-      measuring.max_iterations = std::min(measuring.max_iterations, kMeasuringIterations);
-    run_adjustment(measuring);
-    if (!probe) finish(adjust, measuring.max_iterations);
-  };
-  // Each focal start runs the whole chain above, and a later one replaces the
-  // solution so far only where it fits every track clearly better
-  // (SparseOptions::focal_starts); a known camera and the naive start are
-  // started once. A start that finds no solution is passed over; where none
-  // does, the first one's reason is the error.
-  const bool restarts = !options.known && options.init == InitMode::kRankOne;
-  const size_t starts = restarts ? options.focal_starts.size() : 1;
-  struct Solution {
-    SparseState state;
-    std::vector<bool> use;
-    BundleAdjustmentSummary summary;
-    RankOneResult rank_one;
-    std::vector<BundleAdjustmentRun> runs;
-    double start_f = 0.0;
-    bool probed = false;  // a later start: its first adjustment alone, capped
-    double cost = std::numeric_limits<double>::infinity();
-  };
-  std::optional<Solution> best;
-  std::optional<ReconstructionError> first_error;
-  for (size_t n = 0; n < starts; ++n) {
-    CameraModel start = initial;
-    if (restarts) start.f = options.focal_starts[n] * initial.f;
-    sparse.runs.clear();
-    try {
-      BundleAdjustmentOptions adjust = ba_options;
-      if (n > 0) adjust.max_iterations = std::min(adjust.max_iterations, kFocalStartIterations);
-      solve_from(start, /*timed=*/n == 0, adjust, /*probe=*/n > 0);
-    } catch (const ReconstructionError& error) {
-      if (n == 0) first_error = error;
-      continue;
-    }
-    const double cost = TruncatedTrackCost(sparse.tracks, state, options.outlier_px);
-    if (!best || cost < (1.0 - kFocalStartGain) * best->cost)
-      best = Solution{state, use, sparse.bundle_adjustment, sparse.rank_one, sparse.runs, start.f,
-                      n > 0, cost};
-    if (n == 0) timer.Lap("bundle_adjustment");
-  }
-  if (!best) throw *first_error;
-  if (starts > 1) timer.Lap("focal_starts");
-  state = std::move(best->state);
-  use = std::move(best->use);
-  sparse.bundle_adjustment = std::move(best->summary);
-  sparse.rank_one = std::move(best->rank_one);
-  sparse.runs = std::move(best->runs);
-  const double start_f = best->start_f;
-  // A probed start that won goes on from there with the whole budget.
-  if (best->probed) finish(ba_options, kFocalStartIterations);
+  // The solution from the starts; the rest below (a fallback refit) goes on
+  // adjusting it.
+  AdjustmentAttempt solved = AdjustFromStarts(sparse.tracks, initial, options, ba_options, &timer);
+  SparseState& state = solved.state;
+  std::vector<bool>& use = solved.use;
   if (options.known && options.known->mode == KnownCalibrationMode::kPrior &&
       options.known->also_self_calibrate) {
     SparseState self = state;
@@ -426,7 +160,7 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
                               " in front of the camera, need >= " +
                               std::to_string(options.min_tracks) + " (median track motion " +
                               FixedText(parallax) + " px: too little baseline to separate depths)");
-  sparse.bundle_adjustment.init = InitModeName(options.init);
+  solved.summary.init = InitModeName(options.init);
   sparse.inliers = use;
   // The covariance once, at the final state and tracks: an adjustment of no
   // iterations only evaluates (computing it in every outlier round cost 60 %
@@ -447,7 +181,7 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
   // an absurd calibration, and the result says so.
   CalibrationEvidence evidence;
   evidence.tracks = static_cast<int>(std::count(use.begin(), use.end(), true));
-  evidence.rms_reprojection_px = sparse.bundle_adjustment.rms_reprojection_px;
+  evidence.rms_reprojection_px = solved.summary.rms_reprojection_px;
   evidence.median_track_motion_px = parallax;
   evidence.intrinsics_estimated = !ba_options.fix_intrinsics;
   sparse.verdict = JudgeCalibration(state.camera, sparse.uncertainty, evidence, options.quality);
@@ -493,7 +227,7 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
       state = estimated;
       use = estimated_use;
       state.camera = fallback.camera;
-      run_adjustment(fallback.options);
+      solved.Adjust(sparse.tracks, fallback.options);
       settle_sign();
       std::string refused;
       const bool last = n + 1 == fallbacks.size();
@@ -525,18 +259,23 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
       !sparse.rejected_camera)
     sparse.lens_relief_shift = LensReliefShift(sparse.tracks, use, state, ba_options);
   timer.Lap("lens_check");
+  solved.summary.start_f = solved.start_f;  // also where a fallback refitted from it
+  sparse.state = std::move(solved.state);
+  sparse.bundle_adjustment = std::move(solved.summary);
+  sparse.rank_one = std::move(solved.rank_one);
+  sparse.runs = std::move(solved.runs);
 
   // A global scale is free: report depths with median inverse depth 1.
+  SparseState& result = sparse.state;
   std::vector<double> inverse_depths = sparse.InlierInverseDepths();
   std::nth_element(inverse_depths.begin(), inverse_depths.begin() + inverse_depths.size() / 2,
                    inverse_depths.end());
   const double median = inverse_depths[inverse_depths.size() / 2];
-  if (!(median > 0.0) || !std::isfinite(state.camera.f) || state.camera.f <= 0.0)
+  if (!(median > 0.0) || !std::isfinite(result.camera.f) || result.camera.f <= 0.0)
     throw ReconstructionError("bundle adjustment diverged (median inverse depth " +
-                              FixedText(median, 6) + ", f " + FixedText(state.camera.f) + ")");
-  for (double& w : state.inverse_depths) w /= median;
-  for (Pose& pose : state.poses) pose.T *= median;
-  sparse.bundle_adjustment.start_f = start_f;  // also where a fallback refitted from it
+                              FixedText(median, 6) + ", f " + FixedText(result.camera.f) + ")");
+  for (double& w : result.inverse_depths) w /= median;
+  for (Pose& pose : result.poses) pose.T *= median;
   return sparse;
 }
 

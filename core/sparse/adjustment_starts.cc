@@ -1,0 +1,331 @@
+#include "core/sparse/adjustment_starts.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <optional>
+#include <random>
+
+#include "core/io/parallel_tasks.h"
+#include "core/sparse/fixed_text.h"
+#include "core/sparse/robust_sigma.h"
+#include "core/sparse/rolling_shutter_rectification.h"
+#include "core/sparse/rotation_init.h"
+
+namespace dfsm {
+namespace {
+
+// A readout below this (frame intervals) moves no observation by a tenth of a
+// pixel at a degree of tremor: the rank-1 start stands.
+constexpr double kMinRectifiedReadout = 0.05;
+// Rounds of rectifying and re-initializing (measured at 1080p, readout 0.6:
+// rotation error 0.35 -> 0.052 -> 0.014 -> 0.006 deg).
+constexpr int kRectificationRounds = 3;
+// Readouts the adjustment also restarts from where it estimates the readout.
+// A readout and a top-to-bottom tilt of the scene trade against each other
+// when the camera moves up and down (docs/sparse.md, "The readout's sigma,
+// and TUM window 18-27"): the adjustment has two minima there, and which it
+// reaches depends on the start. Starts nearer than kSameReadoutStart to one
+// already tried return to the same minimum and are skipped.
+constexpr double kReadoutStarts[] = {0.5, 1.0};
+constexpr double kSameReadoutStart = 0.15;
+// Iterations of the first adjustment where it estimates the readout: it only
+// measures the readout for the restarts, which converge from there in a few
+// iterations. On phone bursts it used to crawl along a narrow valley to its
+// 100-iteration cap (1080p: cost 2717 at the start, 36 after 30 iterations,
+// 26.3 after 100), while the restart from its readout reached 12.2 in 8.
+// Where it measures no readout it goes on to the full budget, since no
+// restart follows (docs/sparse.md, "The first adjustment's budget").
+constexpr int kMeasuringIterations = 30;
+
+// Focal starts beyond these (fractions of max(width, height)) are no camera:
+// 0.2 is a 136 deg view across the longer side, 5 a 11 deg one.
+constexpr double kFocalStartRange[] = {0.2, 5.0};
+// A later focal start replaces the solution so far where its truncated cost
+// is lower by more than this fraction. Two starts that reach the same minimum
+// differ by far less, and the earlier one (the paper's guess first) stands.
+constexpr double kFocalStartGain = 0.01;
+// A later focal start is probed: its rotations, rank-1 start and first
+// adjustment, stopped after this many iterations, and only the winner goes on
+// to the readout restarts and outlier rounds. A start near the camera reaches
+// its minimum in a few iterations; one far from it (0.6 on a normal lens)
+// crawled along the f valley to the 100-iteration cap in every run and round
+// (370 ms more at 1080p), to lose anyway.
+constexpr int kFocalStartIterations = 20;
+
+// The outlier rule of the rounds after the adjustment: the tracks of `use`
+// (and of `use` only, their inverse depths being the adjusted ones) within
+// max(outlier_px, 4 robust sigmas) of the state's reprojection, in front.
+std::vector<bool> KeptTracks(const FeatureTracks& tracks, const SparseState& state,
+                             const std::vector<bool>& use, const SparseOptions& options) {
+  const std::vector<double> errors = TrackReprojectionErrors(tracks, state);
+  std::vector<double> used_errors;
+  for (size_t j = 0; j < errors.size(); ++j)
+    if (use[j]) used_errors.push_back(errors[j]);
+  const double threshold = std::max(options.outlier_px, 4.0 * RobustSigma(used_errors));
+  std::vector<bool> kept(errors.size());
+  for (size_t j = 0; j < errors.size(); ++j)
+    kept[j] = errors[j] <= threshold && state.inverse_depths[j] > 0.0;
+  return kept;
+}
+
+// The adjustment's fit to every track, inliers or not, robustly: each track's
+// squared RMS reprojection error, capped at threshold^2, summed. A solution
+// that keeps fewer tracks pays for the ones it loses, and one that fits its
+// inliers more closely gains; a median alone preferred, on a wide-lens burst,
+// a camera 10 % off that fitted fewer tracks to a larger mean error.
+double TruncatedTrackCost(const FeatureTracks& tracks, const SparseState& state, double threshold) {
+  double cost = 0.0;
+  for (const double error : TrackReprojectionErrors(tracks, state))
+    cost += std::isfinite(error) ? std::min(error * error, threshold * threshold)
+                                 : threshold * threshold;
+  return cost;
+}
+
+double MedianTrackError(const FeatureTracks& tracks, const SparseState& state) {
+  std::vector<double> errors = TrackReprojectionErrors(tracks, state);
+  std::nth_element(errors.begin(), errors.begin() + errors.size() / 2, errors.end());
+  return errors[errors.size() / 2];
+}
+
+int CountUsed(const std::vector<bool>& use) {
+  return static_cast<int>(std::count(use.begin(), use.end(), true));
+}
+
+// The steps of one start, over the tracks of one burst.
+class StartedAdjustment {
+ public:
+  StartedAdjustment(const FeatureTracks& tracks, const SparseOptions& options)
+      : tracks_(tracks), options_(options), rank_one_(options.init == InitMode::kRankOne) {}
+
+  // The initialization and the first adjustment from `start_camera` (laps
+  // `timer` where there is one); returns the iterations that adjustment was
+  // allowed, for Finish(). Throws ReconstructionError.
+  int Solve(const CameraModel& start_camera, const BundleAdjustmentOptions& adjust,
+            StageTimer* timer, AdjustmentAttempt* attempt) const {
+    const auto lap = [&](const char* stage) {
+      if (timer) timer->Lap(stage);
+    };
+    SparseState& state = attempt->state;
+    state.camera = start_camera;
+    state.frame_times = options_.frame_times;
+    state.readout = options_.rolling_shutter.mode == RollingShutterOptions::Mode::kKnown
+                        ? options_.rolling_shutter.readout
+                        : 0.0;
+    attempt->use.assign(tracks_.num_tracks(), true);
+    if (rank_one_) {
+      const std::vector<Eigen::Matrix3d> rotations = EstimateRotations(tracks_, start_camera);
+      lap("rotation");
+      attempt->rank_one = RankOneInit(tracks_, start_camera, rotations, options_.rank_one);
+      lap("rank1");
+      if (!attempt->rank_one.ok)
+        throw ReconstructionError("rank-1 initialization failed: fewer than 3 consistent tracks");
+      state.poses = attempt->rank_one.poses;
+      state.inverse_depths = attempt->rank_one.inverse_depths;
+      attempt->use = attempt->rank_one.inliers;
+    } else {
+      // The reference code's start: no motion, random inverse depths.
+      state.poses.assign(tracks_.num_frames(), Pose{});
+      std::mt19937_64 random(options_.naive_seed);
+      std::uniform_real_distribution<double> uniform(0.01, 1.0);
+      state.inverse_depths.resize(tracks_.num_tracks());
+      for (double& w : state.inverse_depths) w = uniform(random);
+      lap("rotation");
+      lap("rank1");
+    }
+    if (CountUsed(attempt->use) < options_.min_tracks)
+      throw ReconstructionError("too few consistent tracks after outlier rejection: " +
+                                std::to_string(CountUsed(attempt->use)) +
+                                " (need >= " + std::to_string(options_.min_tracks) + ")");
+
+    if (rank_one_ && std::abs(state.readout) >= kMinRectifiedReadout)
+      RectifiedStart(state.camera, state.poses, state.readout, attempt);
+    BundleAdjustmentOptions measuring = adjust;
+    if (rank_one_ && adjust.estimate_readout)
+      measuring.max_iterations = std::min(measuring.max_iterations, kMeasuringIterations);
+    attempt->Adjust(tracks_, measuring);
+    return measuring.max_iterations;
+  }
+
+  // After the first adjustment: the rest of its budget where it measured no
+  // readout, the readout restarts, the outlier rounds.
+  void Finish(const BundleAdjustmentOptions& adjust, int measured_iterations,
+              AdjustmentAttempt* attempt) const {
+    if (measured_iterations < adjust.max_iterations && !attempt->summary.converged &&
+        std::abs(attempt->state.readout) < kMinRectifiedReadout)
+      attempt->Adjust(tracks_, adjust);  // no restart follows: this adjustment is the result
+    if (rank_one_ && adjust.estimate_readout &&
+        std::abs(attempt->state.readout) >= kMinRectifiedReadout)
+      Restart(adjust, attempt);
+    // Judge every track again under the adjusted camera: tracks the initial
+    // camera made look wrong come back, tracks that do not fit go, and a short
+    // re-run from the adjusted state settles the set. A track on a depth edge
+    // (a T-junction, not a point of the scene) fits to a few tenths of a pixel
+    // and still pulls f against k1/k2, so the bound is tight and the rounds
+    // repeat until the set stops changing.
+    const double initial_cost = attempt->summary.initial_cost;
+    for (int round = 0; round < options_.outlier_rounds; ++round) {
+      const std::vector<bool> kept = KeptTracks(tracks_, attempt->state, attempt->use, options_);
+      if (kept == attempt->use || CountUsed(kept) < options_.min_tracks) break;
+      attempt->use = kept;
+      attempt->Adjust(tracks_, adjust);
+      attempt->summary.initial_cost = initial_cost;
+    }
+  }
+
+ private:
+  // A rolling shutter: the global-shutter rank-1 start is far off under a
+  // phone's readout (rolling_shutter_rectification.h), so the adjustment
+  // starts from a rank-1 initialization of the tracks rectified with the
+  // readout: the known one at once; an estimated one after a first
+  // adjustment has measured it. Sets `start`'s state, tracks and rank-1
+  // result, or returns false and leaves it as it was.
+  bool RectifiedStart(const CameraModel& camera, const std::vector<Pose>& poses, double readout,
+                      AdjustmentAttempt* start) const {
+    RankOneResult init = RectifiedRankOneInit(tracks_, camera, poses, readout, kRectificationRounds,
+                                              options_.rank_one, options_.frame_times);
+    if (!init.ok || CountUsed(init.inliers) < options_.min_tracks) return false;
+    start->state.camera = camera;
+    start->state.poses = init.poses;
+    start->state.inverse_depths = init.inverse_depths;
+    start->state.readout = readout;
+    start->state.frame_times = options_.frame_times;
+    start->use = init.inliers;
+    start->rank_one = std::move(init);
+    return true;
+  }
+
+  // Restarts from the readout the first adjustment measured and from
+  // kReadoutStarts, each rectified with the first adjustment's camera and
+  // poses; the best fit over every track wins, not each start's own inliers:
+  // a wrong minimum fits its few inliers as well as the right one fits many.
+  // Where the first adjustment measured no readout (a global shutter), none is
+  // tried: those restarts cost 0.6-0.9 s per burst and changed no ideal burst.
+  // The restarts depend on the measured state only, so they run side by side;
+  // each is then judged in order against the best so far.
+  void Restart(const BundleAdjustmentOptions& adjust, AdjustmentAttempt* attempt) const {
+    const SparseState measured = attempt->state;
+    std::vector<double> starts = {measured.readout};
+    for (const double start : kReadoutStarts)
+      if (std::none_of(starts.begin(), starts.end(),
+                       [&](double tried) { return std::abs(tried - start) < kSameReadoutStart; }))
+        starts.push_back(start);
+    std::vector<AdjustmentAttempt> restarts(starts.size());
+    std::vector<double> errors(starts.size(), std::numeric_limits<double>::infinity());
+    std::vector<std::function<void()>> tasks;
+    for (size_t k = 0; k < starts.size(); ++k)
+      tasks.push_back([&, k] {
+        if (!RectifiedStart(measured.camera, measured.poses, starts[k], &restarts[k])) return;
+        restarts[k].Adjust(tracks_, adjust);
+        errors[k] = MedianTrackError(tracks_, restarts[k].state);
+      });
+    RunInParallel(tasks);
+    double best_error = MedianTrackError(tracks_, attempt->state);
+    for (size_t k = 0; k < starts.size(); ++k) {
+      AdjustmentAttempt& restart = restarts[k];
+      if (restart.runs.empty()) continue;  // no rectified start
+      attempt->runs.insert(attempt->runs.end(), restart.runs.begin(), restart.runs.end());
+      if (errors[k] < best_error) {
+        best_error = errors[k];
+        attempt->state = std::move(restart.state);
+        attempt->use = std::move(restart.use);
+        attempt->summary = restart.summary;
+        attempt->rank_one = std::move(restart.rank_one);
+      }
+    }
+  }
+
+  const FeatureTracks& tracks_;
+  const SparseOptions& options_;
+  const bool rank_one_;
+};
+
+double MillisecondsBetween(std::chrono::steady_clock::time_point from,
+                           std::chrono::steady_clock::time_point to) {
+  return std::chrono::duration<double, std::milli>(to - from).count();
+}
+
+}  // namespace
+
+void AdjustmentAttempt::Adjust(const FeatureTracks& tracks,
+                               const BundleAdjustmentOptions& options) {
+  summary = RunBundleAdjustment(tracks, use, &state, options);
+  BundleAdjustmentRun run;
+  run.iterations = summary.iterations;
+  run.converged = summary.converged;
+  run.tracks = CountUsed(use);
+  run.final_cost = summary.final_cost;
+  runs.push_back(run);
+}
+
+void CheckFocalStarts(const std::vector<double>& starts) {
+  if (starts.empty())
+    throw std::invalid_argument(
+        "focal_starts: at least one start is needed (1: the paper's guess)");
+  for (const double start : starts)
+    if (!(start >= kFocalStartRange[0] && start <= kFocalStartRange[1]))
+      throw std::invalid_argument("focal_starts: " + FixedText(start) + " is outside [" +
+                                  FixedText(kFocalStartRange[0]) + ", " +
+                                  FixedText(kFocalStartRange[1]) + "] of max(width, height)");
+}
+
+AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraModel& initial,
+                                   const SparseOptions& options,
+                                   const BundleAdjustmentOptions& adjust, StageTimer* timer) {
+  const StartedAdjustment steps(tracks, options);
+  // Each focal start is initialized and adjusted once, side by side: the
+  // first (timed) to the end of its first adjustment, a later one probed,
+  // its first adjustment capped at kFocalStartIterations.
+  const bool restarts = !options.known && options.init == InitMode::kRankOne;
+  const size_t starts = restarts ? options.focal_starts.size() : 1;
+  std::vector<AdjustmentAttempt> attempts(starts);
+  std::vector<std::optional<ReconstructionError>> errors(starts);
+  std::vector<int> measured_iterations(starts, 0);
+  std::chrono::steady_clock::time_point first_solved;
+  std::vector<std::function<void()>> tasks;
+  for (size_t n = 0; n < starts; ++n)
+    tasks.push_back([&, n] {
+      CameraModel start = initial;
+      if (restarts) start.f = options.focal_starts[n] * initial.f;
+      attempts[n].start_f = start.f;
+      BundleAdjustmentOptions probe = adjust;
+      if (n > 0) probe.max_iterations = std::min(probe.max_iterations, kFocalStartIterations);
+      try {
+        measured_iterations[n] = steps.Solve(start, probe, n == 0 ? timer : nullptr, &attempts[n]);
+      } catch (const ReconstructionError& error) {
+        errors[n] = error;
+      }
+      if (n == 0) first_solved = std::chrono::steady_clock::now();
+    });
+  RunInParallel(tasks);
+  // The time the later starts kept the first one waiting is theirs.
+  const double waited_ms = MillisecondsBetween(first_solved, std::chrono::steady_clock::now());
+  if (!errors[0]) {
+    try {
+      steps.Finish(adjust, measured_iterations[0], &attempts[0]);
+    } catch (const ReconstructionError& error) {
+      errors[0] = error;
+    }
+  }
+  timer->Lap("bundle_adjustment", starts > 1 ? waited_ms : 0.0);
+
+  // A later start replaces the solution so far only where it fits every track
+  // clearly better; a start that found no solution is passed over.
+  std::optional<size_t> best;
+  double best_cost = std::numeric_limits<double>::infinity();
+  for (size_t n = 0; n < starts; ++n) {
+    if (errors[n]) continue;
+    const double cost = TruncatedTrackCost(tracks, attempts[n].state, options.outlier_px);
+    if (!best || cost < (1.0 - kFocalStartGain) * best_cost) best = n, best_cost = cost;
+  }
+  if (!best) throw *errors[0];
+  AdjustmentAttempt solved = std::move(attempts[*best]);
+  // A probed start that won goes on from there with the whole budget.
+  if (*best > 0) steps.Finish(adjust, kFocalStartIterations, &solved);
+  if (starts > 1) timer->Lap("focal_starts");
+  return solved;
+}
+
+}  // namespace dfsm

@@ -1,0 +1,53 @@
+// The self-calibrating adjustment from its starts (steps 2-4 of Ha et al.
+// 2016, with the rolling shutter of Im et al. 2015): from each focal start,
+// the rotations, the rank-1 initialization (rectified for a readout), the
+// first adjustment; then the readout restarts and the outlier rounds; the
+// start that fits every track best is kept (SparseOptions::focal_starts).
+//
+// Starts, and readout restarts, that do not depend on each other run side by
+// side on OpenCV's thread pool. Each adjustment itself is single-threaded and
+// the winner is chosen in the starts' order, so the result is the same on one
+// core as on four.
+#pragma once
+
+#include <vector>
+
+#include "core/io/stage_timer.h"
+#include "core/sparse/sparse_reconstruction.h"
+
+namespace dfsm {
+
+// One path from a start to an adjusted solution: what it reached and how.
+struct AdjustmentAttempt {
+  SparseState state;
+  std::vector<bool> use;            // the tracks it adjusts
+  BundleAdjustmentSummary summary;  // of the last adjustment it kept
+  RankOneResult rank_one;           // the initialization it came from (rank1 mode)
+  // Every adjustment it ran, in order: restarts it did not keep included.
+  std::vector<BundleAdjustmentRun> runs;
+  double start_f = 0.0;  // the focal length it started from, pixels
+
+  // One adjustment of the `use` tracks from `state`, in place, recorded in
+  // `summary` and `runs`.
+  void Adjust(const FeatureTracks& tracks, const BundleAdjustmentOptions& options);
+};
+
+// Throws std::invalid_argument for an empty list or a start outside the range
+// a camera can have.
+void CheckFocalStarts(const std::vector<double>& starts);
+
+// Adjusts `tracks` from `initial` (a known camera, or CameraModel::Initial),
+// with `adjust` (options.bundle_adjustment as the known calibration and the
+// readout mode set it). A known calibration and the naive start start once;
+// a burst that calibrates itself starts from each of options.focal_starts.
+// Laps `timer` with "rotation", "rank1" and "bundle_adjustment" (the first
+// start's) and, with more than one start, "focal_starts": the wall time the
+// later starts add (a wait for them after the first start's first
+// adjustment, and the winner's rest where a later start wins). Throws
+// ReconstructionError, with the first start's reason, where no start reaches
+// a solution.
+AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraModel& initial,
+                                   const SparseOptions& options,
+                                   const BundleAdjustmentOptions& adjust, StageTimer* timer);
+
+}  // namespace dfsm

@@ -1,0 +1,124 @@
+#include "core/sparse/adjustment_starts.h"
+
+#include <gtest/gtest.h>
+
+#include <opencv2/core.hpp>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "core/sparse/track_simulator.h"
+
+namespace dfsm {
+namespace {
+
+// A wide phone camera: a rolling shutter whose readout the adjustment
+// estimates (so the readout restarts run) and two focal starts.
+TrackSimulation PhoneTracks() {
+  TrackSimulatorOptions options;
+  options.width = 640;
+  options.height = 480;
+  options.f = 420.0;
+  options.k1 = -0.05;
+  options.k2 = 0.01;
+  options.rotation_deg = 1.0;
+  options.noise_px = 0.05;
+  options.readout = 0.6;
+  options.seed = 5;
+  return SimulateTracks(options);
+}
+
+SparseOptions EstimatedReadout() {
+  SparseOptions options;
+  options.rolling_shutter.mode = RollingShutterOptions::Mode::kEstimate;
+  return options;
+}
+
+struct Adjusted {
+  AdjustmentAttempt attempt;
+  std::vector<std::pair<std::string, double>> laps;
+};
+
+Adjusted AdjustOn(int threads, const TrackSimulation& sim, const SparseOptions& options) {
+  const int before = cv::getNumThreads();
+  cv::setNumThreads(threads);
+  BundleAdjustmentOptions adjust = options.bundle_adjustment;
+  adjust.estimate_readout = true;
+  Adjusted adjusted;
+  StageTimer timer(&adjusted.laps);
+  adjusted.attempt =
+      AdjustFromStarts(sim.tracks, CameraModel::Initial(640, 480), options, adjust, &timer);
+  cv::setNumThreads(before);
+  return adjusted;
+}
+
+// The starts and the readout restarts run side by side, but each adjustment
+// is single-threaded and the winner is picked in order: one core and two
+// give the same bits.
+TEST(AdjustFromStarts, GivesTheSameResultOnOneCoreAsOnTwo) {
+  const TrackSimulation sim = PhoneTracks();
+  const SparseOptions options = EstimatedReadout();
+  const AdjustmentAttempt one = AdjustOn(1, sim, options).attempt;
+  const AdjustmentAttempt two = AdjustOn(2, sim, options).attempt;
+  // The first adjustment, at least one readout restart and the outlier
+  // rounds ran, so the side-by-side restarts were exercised.
+  ASSERT_GE(one.runs.size(), 2u);
+  EXPECT_GT(one.state.readout, 0.3);
+  EXPECT_EQ(one.state.camera.f, two.state.camera.f);
+  EXPECT_EQ(one.state.camera.k1, two.state.camera.k1);
+  EXPECT_EQ(one.state.camera.k2, two.state.camera.k2);
+  EXPECT_EQ(one.state.readout, two.state.readout);
+  EXPECT_EQ(one.state.inverse_depths, two.state.inverse_depths);
+  ASSERT_EQ(one.state.poses.size(), two.state.poses.size());
+  for (size_t i = 0; i < one.state.poses.size(); ++i) {
+    EXPECT_EQ(one.state.poses[i].R, two.state.poses[i].R) << "frame " << i;
+    EXPECT_EQ(one.state.poses[i].T, two.state.poses[i].T) << "frame " << i;
+  }
+  EXPECT_EQ(one.use, two.use);
+  EXPECT_EQ(one.start_f, two.start_f);
+  ASSERT_EQ(one.runs.size(), two.runs.size());
+  for (size_t r = 0; r < one.runs.size(); ++r) {
+    EXPECT_EQ(one.runs[r].iterations, two.runs[r].iterations) << "run " << r;
+    EXPECT_EQ(one.runs[r].final_cost, two.runs[r].final_cost) << "run " << r;
+  }
+  EXPECT_NEAR(one.state.camera.f, sim.camera.f, 0.05 * sim.camera.f);
+}
+
+// The laps are the first start's stages, then what the later starts added;
+// each is a duration, none negative, whichever start ran where.
+TEST(AdjustFromStarts, LapsTheFirstStartThenTheOthers) {
+  const TrackSimulation sim = PhoneTracks();
+  for (const int threads : {1, 2}) {
+    const Adjusted adjusted = AdjustOn(threads, sim, EstimatedReadout());
+    std::vector<std::string> stages;
+    for (const auto& [stage, ms] : adjusted.laps) {
+      stages.push_back(stage);
+      EXPECT_GE(ms, 0.0) << stage << " on " << threads << " threads";
+    }
+    EXPECT_EQ(stages,
+              (std::vector<std::string>{"rotation", "rank1", "bundle_adjustment", "focal_starts"}))
+        << threads << " threads";
+  }
+}
+
+TEST(AdjustFromStarts, AKnownCameraStartsOnce) {
+  const TrackSimulation sim = PhoneTracks();
+  SparseOptions options = EstimatedReadout();
+  KnownCalibration known;
+  known.camera = sim.camera;
+  options.known = known;
+  BundleAdjustmentOptions adjust = options.bundle_adjustment;
+  adjust.fix_intrinsics = true;
+  adjust.estimate_readout = true;
+  std::vector<std::pair<std::string, double>> laps;
+  StageTimer timer(&laps);
+  const AdjustmentAttempt attempt =
+      AdjustFromStarts(sim.tracks, sim.camera, options, adjust, &timer);
+  EXPECT_EQ(attempt.start_f, sim.camera.f);
+  EXPECT_EQ(attempt.state.camera.f, sim.camera.f);
+  ASSERT_EQ(laps.size(), 3u);  // no focal_starts lap
+  EXPECT_EQ(laps.back().first, "bundle_adjustment");
+}
+
+}  // namespace
+}  // namespace dfsm
