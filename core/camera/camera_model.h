@@ -4,6 +4,8 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <algorithm>
+#include <cmath>
 #include <nlohmann/json_fwd.hpp>
 #include <optional>
 
@@ -41,6 +43,12 @@ struct CameraModel {
   // The initial guess of the pipeline: f = max(width, height), principal point
   // at the image centre, no distortion.
   static CameraModel Initial(int width, int height);
+
+  // Distance from the principal point to the farthest corner of the image,
+  // pixels: how far out the lens model must hold.
+  double CornerRadiusPx() const {
+    return std::hypot(std::max(cx, width - cx), std::max(cy, height - cy));
+  }
 
   Eigen::Vector2d PixelToUndistorted(const Eigen::Vector2d& pixel) const;
 

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <nlohmann/json.hpp>
 
 #include "core/camera/pose.h"
@@ -24,6 +25,16 @@ TEST(CameraModel, InitialGuessFollowsThePaper) {
   EXPECT_EQ(camera.cy, 240.0);
   EXPECT_EQ(camera.k1, 0.0);
   EXPECT_EQ(camera.k2, 0.0);
+}
+
+// The lens model must hold out to the farthest corner, wherever the
+// principal point sits.
+TEST(CameraModel, CornerRadiusIsTheFarthestCorner) {
+  CameraModel camera = CameraModel::Initial(640, 480);
+  EXPECT_DOUBLE_EQ(camera.CornerRadiusPx(), 400.0);
+  camera.cx = 100.0;
+  camera.cy = 300.0;
+  EXPECT_DOUBLE_EQ(camera.CornerRadiusPx(), std::hypot(540.0, 300.0));
 }
 
 TEST(CameraModel, PixelToUndistortedMatchesTheContractFormula) {

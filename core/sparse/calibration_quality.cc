@@ -40,8 +40,7 @@ void CalibrationQualityOptions::Check() const {
 }
 
 bool RadialModelIsMonotone(const CameraModel& camera, double* fold_radius_px) {
-  const double corner_px = std::hypot(std::max(camera.cx, camera.width - camera.cx),
-                                      std::max(camera.cy, camera.height - camera.cy));
+  const double corner_px = camera.CornerRadiusPx();
   // d(r_u)/d(r_d) = 1 + 3 k1 r^2 + 5 k2 r^4 must stay positive out to the corner.
   constexpr int kSteps = 256;
   for (int step = 1; step <= kSteps; ++step) {

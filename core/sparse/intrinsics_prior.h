@@ -55,8 +55,7 @@ class IntrinsicsPrior {
 
   static ceres::CostFunction* Create(const CameraModel& camera, double log_f_sigma,
                                      double corner_shift_sigma_fraction) {
-    const double corner = std::hypot(std::max(camera.cx, camera.width - camera.cx),
-                                     std::max(camera.cy, camera.height - camera.cy));
+    const double corner = camera.CornerRadiusPx();
     return new ceres::AutoDiffCostFunction<IntrinsicsPrior, 3, 3>(
         new IntrinsicsPrior(std::max(camera.width, camera.height), corner, log_f_sigma,
                             corner_shift_sigma_fraction * corner));
@@ -123,8 +122,7 @@ class KnownIntrinsicsPrior {
 
   static ceres::CostFunction* Create(const CameraModel& known, double sigma_f_percent,
                                      double sigma_shift_px) {
-    const double corner = std::hypot(std::max(known.cx, known.width - known.cx),
-                                     std::max(known.cy, known.height - known.cy));
+    const double corner = known.CornerRadiusPx();
     return new ceres::AutoDiffCostFunction<KnownIntrinsicsPrior, 3, 3>(
         new KnownIntrinsicsPrior(known, corner, sigma_f_percent, sigma_shift_px));
   }

@@ -256,9 +256,7 @@ CameraModel SynthCamera(const SynthOptions& options) {
 bool RenderedLensIsInvertible(const SynthOptions& options) {
   const CameraModel camera = SynthCamera(options);
   const double k3 = options.effects.k3;
-  const double r_corner = std::hypot(std::max(camera.cx, camera.width - camera.cx),
-                                     std::max(camera.cy, camera.height - camera.cy)) /
-                          camera.f;
+  const double r_corner = camera.CornerRadiusPx() / camera.f;
   // d r_u / d r_d at 101 radii out to the corner, with a margin: a lens that
   // nearly folds squeezes its corner into a few pixels.
   for (int step = 0; step <= 100; ++step) {
