@@ -71,11 +71,12 @@ struct SparseOptions {
   int outlier_rounds = 3;
   // Focal lengths the self-calibration starts from, as fractions of
   // max(width, height) (1: the paper's guess, CameraModel::Initial). The
-  // first start runs the whole adjustment; each later one is probed (its
-  // rotations, rank-1 initialization and first adjustment, capped) and
-  // replaces the solution so far where its truncated reprojection cost over
-  // every track (each track's squared RMS error capped at outlier_px^2) is
-  // lower by more than 1 %, then finishes with the whole budget. f shows only
+  // first start runs the whole adjustment; each later one is probed beside it
+  // (its rotations, rank-1 initialization and first adjustment, capped;
+  // adjustment_starts.h) and replaces the solution so far where its
+  // truncated reprojection cost over every track (each track's squared RMS
+  // error capped at outlier_px^2) is lower by more than 1 %, then finishes
+  // with the whole budget. f shows only
   // in second-order terms of small motion, and a wide lens (0.55-0.8: 64-85
   // deg, phones' and webcams' main cameras) started at 1 can stop in another
   // minimum, f tens of percent long (docs/sparse.md, "Focal starts"). A known
