@@ -231,7 +231,7 @@ class StartedAdjustment {
         best_error = errors[k];
         attempt->state = std::move(restart.state);
         attempt->use = std::move(restart.use);
-        attempt->summary = restart.summary;
+        attempt->summary = std::move(restart.summary);
         attempt->rank_one = std::move(restart.rank_one);
       }
     }
@@ -274,6 +274,10 @@ void CheckFocalStarts(const std::vector<double>& starts) {
 AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraModel& initial,
                                    const SparseOptions& options,
                                    const BundleAdjustmentOptions& adjust, StageTimer* timer) {
+  CheckFocalStarts(options.focal_starts);
+  const auto lap = [&](const char* stage, double carried_ms = 0.0) {
+    if (timer) timer->Lap(stage, carried_ms);
+  };
   const StartedAdjustment steps(tracks, options);
   // Each focal start is initialized and adjusted once, side by side: the
   // first (timed) to the end of its first adjustment, a later one probed,
@@ -309,7 +313,7 @@ AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraMode
       errors[0] = error;
     }
   }
-  timer->Lap("bundle_adjustment", starts > 1 ? waited_ms : 0.0);
+  lap("bundle_adjustment", starts > 1 ? waited_ms : 0.0);
 
   // A later start replaces the solution so far only where it fits every track
   // clearly better; a start that found no solution is passed over.
@@ -324,7 +328,7 @@ AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraMode
   AdjustmentAttempt solved = std::move(attempts[*best]);
   // A probed start that won goes on from there with the whole budget.
   if (*best > 0) steps.Finish(adjust, kFocalStartIterations, &solved);
-  if (starts > 1) timer->Lap("focal_starts");
+  if (starts > 1) lap("focal_starts");
   return solved;
 }
 

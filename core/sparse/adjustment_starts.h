@@ -20,9 +20,11 @@ namespace dfsm {
 // One path from a start to an adjusted solution: what it reached and how.
 struct AdjustmentAttempt {
   SparseState state;
-  std::vector<bool> use;            // the tracks it adjusts
-  BundleAdjustmentSummary summary;  // of the last adjustment it kept
-  RankOneResult rank_one;           // the initialization it came from (rank1 mode)
+  std::vector<bool> use;  // the tracks it adjusts
+  // Of the last adjustment it kept; after outlier rounds, initial_cost is the
+  // one before the rounds.
+  BundleAdjustmentSummary summary;
+  RankOneResult rank_one;  // the initialization it came from (rank1 mode)
   // Every adjustment it ran, in order: restarts it did not keep included.
   std::vector<BundleAdjustmentRun> runs;
   double start_f = 0.0;  // the focal length it started from, pixels
@@ -40,12 +42,12 @@ void CheckFocalStarts(const std::vector<double>& starts);
 // with `adjust` (options.bundle_adjustment as the known calibration and the
 // readout mode set it). A known calibration and the naive start start once;
 // a burst that calibrates itself starts from each of options.focal_starts.
-// Laps `timer` with "rotation", "rank1" and "bundle_adjustment" (the first
+// Laps `timer` (where not null) with "rotation", "rank1" and "bundle_adjustment" (the first
 // start's) and, with more than one start, "focal_starts": the wall time the
 // later starts add (a wait for them after the first start's first
 // adjustment, and the winner's rest where a later start wins). Throws
 // ReconstructionError, with the first start's reason, where no start reaches
-// a solution.
+// a solution; std::invalid_argument for focal starts CheckFocalStarts refuses.
 AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraModel& initial,
                                    const SparseOptions& options,
                                    const BundleAdjustmentOptions& adjust, StageTimer* timer);
