@@ -10,6 +10,13 @@
 
 namespace dfsm {
 
+// Milliseconds from `from` to `to` (default: now), as timings_ms reports them.
+inline double MillisecondsBetween(
+    std::chrono::steady_clock::time_point from,
+    std::chrono::steady_clock::time_point to = std::chrono::steady_clock::now()) {
+  return std::chrono::duration<double, std::milli>(to - from).count();
+}
+
 class StageTimer {
  public:
   explicit StageTimer(std::vector<std::pair<std::string, double>>* timings)
@@ -20,7 +27,7 @@ class StageTimer {
   // stage spent waiting for work that ran beside it and is timed as its own.
   void Lap(const std::string& stage, double carried_ms = 0.0) {
     const auto now = std::chrono::steady_clock::now();
-    const double elapsed_ms = std::chrono::duration<double, std::milli>(now - start_).count();
+    const double elapsed_ms = MillisecondsBetween(start_, now);
     carried_ms = std::clamp(carried_ms, 0.0, elapsed_ms);
     timings_->emplace_back(stage, elapsed_ms - carried_ms);
     start_ = now - std::chrono::duration_cast<std::chrono::steady_clock::duration>(

@@ -13,16 +13,12 @@
 #include "core/io/file_util.h"
 #include "core/io/frame_times.h"
 #include "core/io/parallel_tasks.h"
+#include "core/io/stage_timer.h"
 #include "core/pipeline/depth_check.h"
 #include "core/pipeline/repeated_frames.h"
 
 namespace dfsm {
 namespace {
-
-double MillisecondsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
-      .count();
-}
 
 std::vector<ColoredPoint> SparsePointCloud(const SparseReconstruction& sparse,
                                            const cv::Mat& reference_color) {
@@ -211,7 +207,7 @@ PipelineOutput RunPipeline(const Burst& burst, const PipelineOptions& options,
       dense_options.frame_times = sparse.state.frame_times;
       output.dense = ComputeDenseDepth(compensated, sparse.state.camera, sparse.state.poses,
                                        sparse.InlierInverseDepths(), dense_options);
-      result.timings_ms.emplace_back("dense", MillisecondsSince(dense_start));
+      result.timings_ms.emplace_back("dense", MillisecondsBetween(dense_start));
       DepthSummary depth;
       depth.valid_fraction = output.dense->valid_fraction;
       depth.planes = output.dense->planes;
@@ -233,7 +229,7 @@ PipelineOutput RunPipeline(const Burst& burst, const PipelineOptions& options,
     result.ok = false;
     result.error = std::string("internal error: ") + e.what();
   }
-  result.timings_ms.emplace_back("total", MillisecondsSince(start));
+  result.timings_ms.emplace_back("total", MillisecondsBetween(start));
   result.extra["input"] = {{"frames", burst.size()},
                            {"width", burst.width()},
                            {"height", burst.height()},
@@ -292,7 +288,7 @@ void WritePipelineOutputs(const std::filesystem::path& out_dir, const Burst& bur
           {"valid_fraction", static_cast<double>(cv::countNonZero(filled->depth_filled > 0.0f)) /
                                  static_cast<double>(filled->depth_filled.total())}};
     SyncFileSystem(out_dir);
-    extra["write_ms"] = MillisecondsSince(start);
+    extra["write_ms"] = MillisecondsBetween(start);
   }
   // result.json goes last: its presence marks a complete result directory.
   WriteResultJson(out_dir, output->result);

@@ -90,8 +90,9 @@ double MedianTrackError(const FeatureTracks& tracks, const SparseState& state) {
   return errors[errors.size() / 2];
 }
 
-int CountUsed(const std::vector<bool>& use) {
-  return static_cast<int>(std::count(use.begin(), use.end(), true));
+// Laps `timer` where there is one: only the first start is timed.
+void LapIfTimed(StageTimer* timer, const char* stage, double carried_ms = 0.0) {
+  if (timer) timer->Lap(stage, carried_ms);
 }
 
 // The steps of one start, over the tracks of one burst.
@@ -105,9 +106,6 @@ class StartedAdjustment {
   // allowed, for Finish(). Throws ReconstructionError.
   int Solve(const CameraModel& start_camera, const BundleAdjustmentOptions& adjust,
             StageTimer* timer, AdjustmentAttempt* attempt) const {
-    const auto lap = [&](const char* stage) {
-      if (timer) timer->Lap(stage);
-    };
     SparseState& state = attempt->state;
     state.camera = start_camera;
     state.frame_times = options_.frame_times;
@@ -117,9 +115,9 @@ class StartedAdjustment {
     attempt->use.assign(tracks_.num_tracks(), true);
     if (rank_one_) {
       const std::vector<Eigen::Matrix3d> rotations = EstimateRotations(tracks_, start_camera);
-      lap("rotation");
+      LapIfTimed(timer, "rotation");
       attempt->rank_one = RankOneInit(tracks_, start_camera, rotations, options_.rank_one);
-      lap("rank1");
+      LapIfTimed(timer, "rank1");
       if (!attempt->rank_one.ok)
         throw ReconstructionError("rank-1 initialization failed: fewer than 3 consistent tracks");
       state.poses = attempt->rank_one.poses;
@@ -132,8 +130,8 @@ class StartedAdjustment {
       std::uniform_real_distribution<double> uniform(0.01, 1.0);
       state.inverse_depths.resize(tracks_.num_tracks());
       for (double& w : state.inverse_depths) w = uniform(random);
-      lap("rotation");
-      lap("rank1");
+      LapIfTimed(timer, "rotation");
+      LapIfTimed(timer, "rank1");
     }
     if (CountUsed(attempt->use) < options_.min_tracks)
       throw ReconstructionError("too few consistent tracks after outlier rejection: " +
@@ -242,11 +240,6 @@ class StartedAdjustment {
   const bool rank_one_;
 };
 
-double MillisecondsBetween(std::chrono::steady_clock::time_point from,
-                           std::chrono::steady_clock::time_point to) {
-  return std::chrono::duration<double, std::milli>(to - from).count();
-}
-
 }  // namespace
 
 void AdjustmentAttempt::Adjust(const FeatureTracks& tracks,
@@ -275,9 +268,6 @@ AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraMode
                                    const SparseOptions& options,
                                    const BundleAdjustmentOptions& adjust, StageTimer* timer) {
   CheckFocalStarts(options.focal_starts);
-  const auto lap = [&](const char* stage, double carried_ms = 0.0) {
-    if (timer) timer->Lap(stage, carried_ms);
-  };
   const StartedAdjustment steps(tracks, options);
   // Each focal start is initialized and adjusted once, side by side: the
   // first (timed) to the end of its first adjustment, a later one probed,
@@ -305,7 +295,7 @@ AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraMode
     });
   RunInParallel(tasks);
   // The time the later starts kept the first one waiting is theirs.
-  const double waited_ms = MillisecondsBetween(first_solved, std::chrono::steady_clock::now());
+  const double waited_ms = MillisecondsBetween(first_solved);
   if (!errors[0]) {
     try {
       steps.Finish(adjust, measured_iterations[0], &attempts[0]);
@@ -313,7 +303,7 @@ AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraMode
       errors[0] = error;
     }
   }
-  lap("bundle_adjustment", starts > 1 ? waited_ms : 0.0);
+  LapIfTimed(timer, "bundle_adjustment", starts > 1 ? waited_ms : 0.0);
 
   // A later start replaces the solution so far only where it fits every track
   // clearly better; a start that found no solution is passed over.
@@ -328,7 +318,7 @@ AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraMode
   AdjustmentAttempt solved = std::move(attempts[*best]);
   // A probed start that won goes on from there with the whole budget.
   if (*best > 0) steps.Finish(adjust, kFocalStartIterations, &solved);
-  if (starts > 1) lap("focal_starts");
+  if (starts > 1) LapIfTimed(timer, "focal_starts");
   return solved;
 }
 

@@ -4,10 +4,14 @@
 
 namespace dfsm {
 
+int CountUsed(const std::vector<bool>& use) {
+  return static_cast<int>(std::count(use.begin(), use.end(), true));
+}
+
 FeatureTracks FeatureTracks::Select(const std::vector<bool>& keep) const {
   FeatureTracks selected;
   selected.reference = reference;
-  const int kept = static_cast<int>(std::count(keep.begin(), keep.end(), true));
+  const int kept = CountUsed(keep);
   for (const Eigen::Matrix2Xd& frame : pixels) {
     Eigen::Matrix2Xd out(2, kept);
     for (int j = 0, k = 0; j < frame.cols(); ++j)

@@ -21,4 +21,7 @@ struct FeatureTracks {
   double MedianMaxDisplacement() const;
 };
 
+// How many tracks a per-track flag (kept, used, inlier) marks.
+int CountUsed(const std::vector<bool>& use);
+
 }  // namespace dfsm

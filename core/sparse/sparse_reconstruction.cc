@@ -129,7 +129,7 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
     const BundleAdjustmentSummary summary =
         RunBundleAdjustment(sparse.tracks, use, &self, self_options, &estimate.uncertainty);
     CalibrationEvidence self_evidence;
-    self_evidence.tracks = static_cast<int>(std::count(use.begin(), use.end(), true));
+    self_evidence.tracks = CountUsed(use);
     self_evidence.rms_reprojection_px = summary.rms_reprojection_px;
     self_evidence.median_track_motion_px = parallax;
     estimate.camera = self.camera;
@@ -154,12 +154,12 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
       if (use[j] && !(state.inverse_depths[j] > 0.0)) use[j] = false;
   };
   settle_sign();
-  if (std::count(use.begin(), use.end(), true) < options.min_tracks)
-    throw ReconstructionError("too few consistent tracks after bundle adjustment: " +
-                              std::to_string(std::count(use.begin(), use.end(), true)) +
-                              " in front of the camera, need >= " +
-                              std::to_string(options.min_tracks) + " (median track motion " +
-                              FixedText(parallax) + " px: too little baseline to separate depths)");
+  if (CountUsed(use) < options.min_tracks)
+    throw ReconstructionError(
+        "too few consistent tracks after bundle adjustment: " + std::to_string(CountUsed(use)) +
+        " in front of the camera, need >= " + std::to_string(options.min_tracks) +
+        " (median track motion " + FixedText(parallax) +
+        " px: too little baseline to separate depths)");
   solved.summary.init = InitModeName(options.init);
   sparse.inliers = use;
   // The covariance once, at the final state and tracks: an adjustment of no
@@ -180,7 +180,7 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
   // and the poses are refitted under it, so that depth never fails because of
   // an absurd calibration, and the result says so.
   CalibrationEvidence evidence;
-  evidence.tracks = static_cast<int>(std::count(use.begin(), use.end(), true));
+  evidence.tracks = CountUsed(use);
   evidence.rms_reprojection_px = solved.summary.rms_reprojection_px;
   evidence.median_track_motion_px = parallax;
   evidence.intrinsics_estimated = !ba_options.fix_intrinsics;
@@ -243,11 +243,11 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
       estimate_uncertainty(fallback.options);
       break;
     }
-    if (std::count(use.begin(), use.end(), true) < options.min_tracks)
+    if (CountUsed(use) < options.min_tracks)
       throw ReconstructionError(
           "too few consistent tracks after refitting without the "
           "rejected calibration: " +
-          std::to_string(std::count(use.begin(), use.end(), true)));
+          std::to_string(CountUsed(use)));
   }
   if (sparse.verdict.quality != CalibrationQuality::kReliable && evidence.intrinsics_estimated)
     sparse.warnings.push_back(std::string("calibration ") +
@@ -287,6 +287,8 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
     throw ReconstructionError("a burst needs at least 3 frames, got " +
                               std::to_string(frames.size()));
   CheckFrameTimes(options.frame_times, static_cast<int>(frames.size()));
+  // Before the tracking, so that a bad option costs no seconds of work;
+  // AdjustFromStarts checks them again for its other callers.
   CheckFocalStarts(options.focal_starts);
   SparseReconstruction tracked;
   StageTimer timer(&tracked.timings_ms);
@@ -316,14 +318,12 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
     SparseOptions alone = options;
     alone.known.reset();
     SparseReconstruction::KnownFit fit;
-    fit.known_tracks =
-        static_cast<int>(std::count(sparse.inliers.begin(), sparse.inliers.end(), true));
+    fit.known_tracks = CountUsed(sparse.inliers);
     fit.known_rms_px = sparse.bundle_adjustment.rms_reprojection_px;
     try {
       const SparseReconstruction free = AdjustTracks(std::move(tracked), width, height, alone,
                                                      /*measure_lens_relief=*/false);
-      fit.free_tracks =
-          static_cast<int>(std::count(free.inliers.begin(), free.inliers.end(), true));
+      fit.free_tracks = CountUsed(free.inliers);
       fit.free_rms_px = free.bundle_adjustment.rms_reprojection_px;
       fit.free_camera = free.state.camera;
       fit.free_quality = free.verdict.quality;
