@@ -147,6 +147,13 @@ class StartedAdjustment {
     return measuring.max_iterations;
   }
 
+  // Whether Finish() restarts from several readouts: the first adjustment
+  // measured one.
+  bool Restarts(const BundleAdjustmentOptions& adjust, const AdjustmentAttempt& attempt) const {
+    return rank_one_ && adjust.estimate_readout &&
+           std::abs(attempt.state.readout) >= kMinRectifiedReadout;
+  }
+
   // After the first adjustment: the rest of its budget where it measured no
   // readout, the readout restarts, the outlier rounds.
   void Finish(const BundleAdjustmentOptions& adjust, int measured_iterations,
@@ -154,9 +161,7 @@ class StartedAdjustment {
     if (measured_iterations < adjust.max_iterations && !attempt->summary.converged &&
         std::abs(attempt->state.readout) < kMinRectifiedReadout)
       attempt->Adjust(tracks_, adjust);  // no restart follows: this adjustment is the result
-    if (rank_one_ && adjust.estimate_readout &&
-        std::abs(attempt->state.readout) >= kMinRectifiedReadout)
-      Restart(adjust, attempt);
+    if (Restarts(adjust, *attempt)) Restart(adjust, attempt);
     // Judge every track again under the adjusted camera: tracks the initial
     // camera made look wrong come back, tracks that do not fit go, and a short
     // re-run from the adjusted state settles the set. A track on a depth edge
@@ -277,7 +282,8 @@ AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraMode
   std::vector<AdjustmentAttempt> attempts(starts);
   std::vector<std::optional<ReconstructionError>> errors(starts);
   std::vector<int> measured_iterations(starts, 0);
-  std::chrono::steady_clock::time_point first_solved;
+  std::chrono::steady_clock::time_point first_done;
+  bool first_finished = false;
   std::vector<std::function<void()>> tasks;
   for (size_t n = 0; n < starts; ++n)
     tasks.push_back([&, n] {
@@ -288,15 +294,22 @@ AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraMode
       if (n > 0) probe.max_iterations = std::min(probe.max_iterations, kFocalStartIterations);
       try {
         measured_iterations[n] = steps.Solve(start, probe, n == 0 ? timer : nullptr, &attempts[n]);
+        // The first start's finish depends on no other start, so it runs
+        // here, beside the probes, unless it restarts from several readouts
+        // (those restarts run side by side, and want the cores to themselves).
+        if (n == 0 && !steps.Restarts(adjust, attempts[0])) {
+          steps.Finish(adjust, measured_iterations[0], &attempts[0]);
+          first_finished = true;
+        }
       } catch (const ReconstructionError& error) {
         errors[n] = error;
       }
-      if (n == 0) first_solved = std::chrono::steady_clock::now();
+      if (n == 0) first_done = std::chrono::steady_clock::now();
     });
   RunInParallel(tasks);
   // The time the later starts kept the first one waiting is theirs.
-  const double waited_ms = MillisecondsBetween(first_solved);
-  if (!errors[0]) {
+  const double waited_ms = MillisecondsBetween(first_done);
+  if (!errors[0] && !first_finished) {
     try {
       steps.Finish(adjust, measured_iterations[0], &attempts[0]);
     } catch (const ReconstructionError& error) {

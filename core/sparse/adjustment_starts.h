@@ -5,8 +5,10 @@
 // start that fits every track best is kept (SparseOptions::focal_starts).
 //
 // Starts, and readout restarts, that do not depend on each other run side by
-// side on OpenCV's thread pool. Each adjustment itself is single-threaded and
-// the winner is chosen in the starts' order, so the result is the same on one
+// side on OpenCV's thread pool: the later starts' probes beside the first
+// start's initialization and its whole adjustment (its first adjustment only,
+// where readout restarts follow: they run side by side after the probes). Each adjustment itself is
+// single-threaded and the winner is chosen in the starts' order, so the result is the same on one
 // core as on four.
 #pragma once
 
@@ -44,8 +46,8 @@ void CheckFocalStarts(const std::vector<double>& starts);
 // a burst that calibrates itself starts from each of options.focal_starts.
 // Laps `timer` (where not null) with "rotation", "rank1" and "bundle_adjustment" (the first
 // start's) and, with more than one start, "focal_starts": the wall time the
-// later starts add (a wait for them after the first start's first
-// adjustment, and the winner's rest where a later start wins). Throws
+// later starts add (a wait for them after the first start, and the winner's
+// rest where a later start wins). Throws
 // ReconstructionError, with the first start's reason, where no start reaches
 // a solution; std::invalid_argument for focal starts CheckFocalStarts refuses.
 AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraModel& initial,

@@ -1,10 +1,13 @@
 #include "core/sparse/sparse_reconstruction.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
+#include <functional>
 #include <opencv2/imgproc.hpp>
 
 #include "core/camera/rolling_shutter.h"
+#include "core/io/parallel_tasks.h"
 #include "core/io/stage_timer.h"
 #include "core/sparse/adjustment_starts.h"
 #include "core/sparse/fixed_text.h"
@@ -171,11 +174,35 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
     SparseState at = state;
     RunBundleAdjustment(sparse.tracks, use, &at, evaluate_only, &sparse.uncertainty);
   };
-  estimate_uncertainty(ba_options);
-  timer.Lap("uncertainty");
+  // The camera the later stages get: a folding lens model, or one the dense
+  // stage cannot invert, is replaced below.
+  std::string unusable;
+  double fold_px = 0.0;
+  if (!RadialModelIsMonotone(state.camera, &fold_px))
+    unusable = "folds the image over itself " + FixedText(fold_px, 0) + " px from the centre";
+  else if (options.camera_usable && !options.camera_usable(state.camera, &unusable))
+    unusable = unusable.empty() ? "is refused by the dense stage" : unusable;
+  // The lens check where the burst calibrated its own lens and keeps it.
+  const bool check_lens = measure_lens_relief && !ba_options.fix_intrinsics &&
+                          ba_options.known_distortion_sigma_px == 0.0 &&
+                          ba_options.distortion_terms == 2 && unusable.empty();
+  // The covariance and the lens check read the solution and nothing of each
+  // other, so they run side by side (each single-threaded); the lens check's
+  // wall time beyond the covariance's goes to its own lap.
+  double uncertainty_ms = 0.0;
+  std::vector<std::function<void()>> checks{[&] {
+    const auto start = std::chrono::steady_clock::now();
+    estimate_uncertainty(ba_options);
+    uncertainty_ms = MillisecondsBetween(start);
+  }};
+  if (check_lens)
+    checks.push_back(
+        [&] { sparse.lens_relief_shift = LensReliefShift(sparse.tracks, use, state, ba_options); });
+  const auto checks_start = std::chrono::steady_clock::now();
+  RunInParallel(checks);
+  timer.Lap("uncertainty", MillisecondsBetween(checks_start) - uncertainty_ms);
 
-  // The verdict on the estimated calibration, then the camera the later stages
-  // get: a folding lens model, or one the dense stage cannot invert, is
+  // The verdict on the estimated calibration, then an unusable camera is
   // replaced (the known calibration where there is one, else no distortion)
   // and the poses are refitted under it, so that depth never fails because of
   // an absurd calibration, and the result says so.
@@ -185,12 +212,6 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
   evidence.median_track_motion_px = parallax;
   evidence.intrinsics_estimated = !ba_options.fix_intrinsics;
   sparse.verdict = JudgeCalibration(state.camera, sparse.uncertainty, evidence, options.quality);
-  std::string unusable;
-  double fold_px = 0.0;
-  if (!RadialModelIsMonotone(state.camera, &fold_px))
-    unusable = "folds the image over itself " + FixedText(fold_px, 0) + " px from the centre";
-  else if (options.camera_usable && !options.camera_usable(state.camera, &unusable))
-    unusable = unusable.empty() ? "is refused by the dense stage" : unusable;
   if (!unusable.empty()) {
     sparse.rejected_camera = state.camera;
     const SparseState estimated = state;
@@ -254,10 +275,6 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
                               CalibrationQualityName(sparse.verdict.quality) + ": " +
                               sparse.verdict.reasons.front());
 
-  if (measure_lens_relief && !ba_options.fix_intrinsics &&
-      ba_options.known_distortion_sigma_px == 0.0 && ba_options.distortion_terms == 2 &&
-      !sparse.rejected_camera)
-    sparse.lens_relief_shift = LensReliefShift(sparse.tracks, use, state, ba_options);
   timer.Lap("lens_check");
   solved.summary.start_f = solved.start_f;  // also where a fallback refitted from it
   sparse.state = std::move(solved.state);
