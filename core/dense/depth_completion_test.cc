@@ -2,7 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <opencv2/imgproc.hpp>
+#include <vector>
 
 namespace dfsm {
 namespace {
@@ -124,6 +126,61 @@ TEST(DepthCompletionTest, TheConfidentInteriorOutweighsAFringe) {
   const float without = FillHoles(values, weight, guide, linear).at<float>(10, 40);
   EXPECT_LT(with_power, without - 1.0f);
   EXPECT_GT(with_power, 10.0f);
+}
+
+// A varied scene (depth and texture change across the image, confidences
+// between 0.05 and 1) with bright squares whose outlines hold no
+// measurement, so the spread leaves them to the fallback: in the image's
+// corner, across tile boundaries, at its right edge and alone in the middle.
+void SceneWithUnreachedSquares(const cv::Size& size, cv::Mat* values, cv::Mat* weight,
+                               cv::Mat* guide, std::vector<cv::Rect>* squares) {
+  values->create(size, CV_32FC1);
+  weight->create(size, CV_32FC1);
+  guide->create(size, CV_8UC1);
+  cv::RNG random(7);
+  for (int y = 0; y < size.height; ++y)
+    for (int x = 0; x < size.width; ++x) {
+      values->at<float>(y, x) = 1.0f + 0.002f * x + 0.5f * std::sin(0.03f * y);
+      weight->at<float>(y, x) = static_cast<float>(random.uniform(0.05, 1.0));
+      guide->at<uchar>(y, x) = static_cast<uchar>(40 + (x / 7 + y / 5) % 3 * 20);
+    }
+  const int w = size.width, h = size.height;
+  *squares = {cv::Rect(0, 0, 30, 24), cv::Rect(60, 50, 40, 30), cv::Rect(w - 26, h / 2, 26, 20),
+              cv::Rect(w / 2 + 3, h / 3 + 5, 17, 21)};
+  for (const cv::Rect& square : *squares) {
+    (*guide)(square).setTo(250);
+    (*weight)(square).setTo(0.0f);
+  }
+}
+
+TEST(DepthCompletionTest, TheFallbackInTilesIsTheFallbackOverTheWholeImage) {
+  // 1280x720 subsamples the guided pass by 2, 640x480 does not; 1281x721 has
+  // no exact half, and goes over the whole image either way.
+  for (const cv::Size size : {cv::Size(1280, 720), cv::Size(640, 480), cv::Size(1281, 721)}) {
+    cv::Mat values, weight, guide;
+    std::vector<cv::Rect> squares;
+    SceneWithUnreachedSquares(size, &values, &weight, &guide, &squares);
+    DepthCompletionOptions whole;
+    whole.fallback_tile = 0;
+    const cv::Mat expected = FillHoles(values, weight, guide, whole);
+    const cv::Mat tiled = FillHoles(values, weight, guide);
+    ASSERT_FALSE(expected.empty());
+    cv::Mat difference;
+    cv::absdiff(tiled, expected, difference);
+    double largest = 0.0;
+    cv::minMaxLoc(difference, nullptr, &largest);
+    EXPECT_LT(largest, 1e-5) << size;
+    for (const cv::Rect& square : squares) {
+      // The squares were left to the fallback: filled from around them, not
+      // from the spread's weightless guess.
+      const cv::Point centre(square.x + square.width / 2, square.y + square.height / 2);
+      EXPECT_GT(expected.at<float>(centre), 0.4f) << size << " " << square;
+      EXPECT_EQ(tiled.at<float>(centre), tiled.at<float>(centre)) << size;  // not NaN
+    }
+  }
+  DepthCompletionOptions odd;
+  odd.fallback_tile = 33;
+  EXPECT_THROW(odd.Check(), std::invalid_argument);
 }
 
 TEST(DepthCompletionTest, NothingToFillFrom) {
