@@ -20,10 +20,32 @@ int GridCellSize(const GridedFeatureOptions& options, int width, int height) {
   return std::max(cell, MinGridCellSize(width, height));
 }
 
+cv::Mat CornerResponse(const cv::Mat& gray) {
+  CV_Assert(gray.type() == CV_8UC1);
+  // Each band is computed from its rows and `halo` more on each side: the
+  // 3x3 block sum of the gradients' products reads one row beyond a row,
+  // the 3x3 Sobel one more. The rows a band keeps then read exactly what
+  // they read in the whole frame (summed from another first row), and at the
+  // frame's own top and bottom the band's border is the frame's.
+  constexpr int kBlockSize = 3, kSobelSize = 3, kBandRows = 64;
+  constexpr int halo = kBlockSize / 2 + kSobelSize / 2;
+  cv::Mat response(gray.size(), CV_32FC1);
+  const int bands = (gray.rows + kBandRows - 1) / kBandRows;
+  cv::parallel_for_(cv::Range(0, bands), [&](const cv::Range& range) {
+    cv::Mat band_response;
+    for (int b = range.start; b < range.end; ++b) {
+      const int first = b * kBandRows, last = std::min(gray.rows, first + kBandRows);
+      const int from = std::max(0, first - halo), to = std::min(gray.rows, last + halo);
+      cv::cornerMinEigenVal(gray.rowRange(from, to), band_response, kBlockSize, kSobelSize);
+      band_response.rowRange(first - from, last - from).copyTo(response.rowRange(first, last));
+    }
+  });
+  return response;
+}
+
 std::vector<cv::Point2f> DetectGridedCorners(const cv::Mat& gray, int cell_px, double min_quality,
                                              int border_px) {
-  cv::Mat response;
-  cv::cornerMinEigenVal(gray, response, /*blockSize=*/3, /*ksize=*/3);
+  const cv::Mat response = CornerResponse(gray);
   double strongest = 0.0;
   cv::minMaxLoc(response, nullptr, &strongest);
   const float threshold = static_cast<float>(min_quality * strongest);
