@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <opencv2/imgproc.hpp>
+
 namespace dfsm {
 namespace {
 
@@ -25,6 +27,36 @@ TEST(WeakTextureMask, CoversFlatRegionsAwayFromStrongTexture) {
   }
   // A threshold below the noise's own gradient marks nothing.
   EXPECT_EQ(cv::countNonZero(WeakTextureMask(image, radius, 0.5)), 0);
+}
+
+// The mask is made in bands of rows; a band's rows must come out as the
+// whole frame's: the same filters over the whole frame at once, here.
+TEST(WeakTextureMask, InBandsIsTheMaskOfTheWholeFrame) {
+  for (const cv::Size size : {cv::Size(1920, 1080), cv::Size(641, 479), cv::Size(90, 9)}) {
+    // Noise of 1 grey level, with textured squares and stripes every few
+    // bands, so that the mask has edges across the bands' boundaries.
+    cv::Mat image(size, CV_32FC1);
+    cv::RNG rng(5);
+    rng.fill(image, cv::RNG::NORMAL, 128.0, 1.0);
+    for (int y = 0; y < size.height; y += 97)
+      for (int x = (y / 97 % 2) * 60; x < size.width; x += 120) {
+        cv::Mat patch = image(cv::Rect(x, y, 40, 50) & cv::Rect({}, size));
+        rng.fill(patch, cv::RNG::UNIFORM, 0.0, 255.0);
+      }
+    const int radius = 7;
+    const double max_rms_gradient = 8.0;
+    cv::Mat gx, gy;
+    cv::Sobel(image, gx, CV_32F, 1, 0, 1, 0.5, 0.0, cv::BORDER_REPLICATE);
+    cv::Sobel(image, gy, CV_32F, 0, 1, 1, 0.5, 0.0, cv::BORDER_REPLICATE);
+    cv::Mat energy = gx.mul(gx) + gy.mul(gy);
+    cv::boxFilter(energy, energy, -1, cv::Size(2 * radius + 1, 2 * radius + 1), cv::Point(-1, -1),
+                  true, cv::BORDER_REPLICATE);
+    const cv::Mat expected = energy < static_cast<float>(max_rms_gradient * max_rms_gradient);
+    const cv::Mat mask = WeakTextureMask(image, radius, max_rms_gradient);
+    EXPECT_EQ(cv::countNonZero(mask != expected), 0) << size;
+    EXPECT_GT(cv::countNonZero(mask), 0) << size;
+    EXPECT_LT(cv::countNonZero(mask), static_cast<int>(mask.total())) << size;
+  }
 }
 
 }  // namespace
