@@ -96,7 +96,8 @@ cv::Mat PullFinest(const Pyramid& pyramid, const cv::Mat& level1, const cv::Rect
 // the 2x2 averaging), so that a tile's pixels read what they read in the
 // whole image. (At the whole frame's size this cost 65-90 ms at 1080p for
 // 0.04-0.3 % of its pixels.) Where the windows would cover half the image,
-// or the subsampled grid is not an exact half, the whole image is one window.
+// or the guided pass's subsampled grid is not an exact half, the whole image
+// is one window.
 void PushPull(const cv::Mat& values, const cv::Mat& w0, const cv::Mat& measured,
               const cv::Mat& guide, const DepthCompletionOptions& options, const cv::Mat& unreached,
               cv::Mat* filled) {
@@ -124,7 +125,8 @@ void PushPull(const cv::Mat& values, const cv::Mat& w0, const cv::Mat& measured,
       windows.push_back({tile, roi});
       covered += roi.area();
     }
-  const bool exact_tiles = size.width % subsample == 0 && size.height % subsample == 0;
+  const bool exact_tiles =
+      options.guided_radius == 0 || (size.width % subsample == 0 && size.height % subsample == 0);
   if (!exact_tiles || covered >= 0.5 * size.area())
     windows = {{cv::Rect({}, size), cv::Rect({}, size)}};
 

@@ -33,8 +33,8 @@ struct DepthCompletionOptions {
   int guided_radius = 8;
   // The fallback is evaluated in tiles of this side (even) around the holes
   // it fills, each read with the guided pass's reach around it, instead of
-  // over the whole image: the same result to float rounding (1e-6 relative)
-  // for a fraction of the time. 0: the whole image at once.
+  // over the whole image: the same result to float rounding (a few 1e-6
+  // relative) for a fraction of the time. 0: the whole image at once.
   int fallback_tile = 64;
   float guided_eps = 1e-3f;  // on the grey reference scaled to [0, 1]
   // Weight of a filled pixel in the guided pass, relative to a measured one

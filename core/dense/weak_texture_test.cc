@@ -51,9 +51,16 @@ TEST(WeakTextureMask, InBandsIsTheMaskOfTheWholeFrame) {
     cv::Mat energy = gx.mul(gx) + gy.mul(gy);
     cv::boxFilter(energy, energy, -1, cv::Size(2 * radius + 1, 2 * radius + 1), cv::Point(-1, -1),
                   true, cv::BORDER_REPLICATE);
-    const cv::Mat expected = energy < static_cast<float>(max_rms_gradient * max_rms_gradient);
+    const float max_energy = static_cast<float>(max_rms_gradient * max_rms_gradient);
+    const cv::Mat expected = energy < max_energy;
     const cv::Mat mask = WeakTextureMask(image, radius, max_rms_gradient);
-    EXPECT_EQ(cv::countNonZero(mask != expected), 0) << size;
+    // The box sums run down from each band's first row, so they may round
+    // differently: a pixel within that rounding of the threshold may go
+    // either way.
+    cv::Mat undecided;
+    cv::absdiff(energy, max_energy, undecided);
+    const cv::Mat disagree = (mask != expected) & (undecided > 1e-5f * max_energy);
+    EXPECT_EQ(cv::countNonZero(disagree), 0) << size;
     EXPECT_GT(cv::countNonZero(mask), 0) << size;
     EXPECT_LT(cv::countNonZero(mask), static_cast<int>(mask.total())) << size;
   }

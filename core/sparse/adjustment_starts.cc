@@ -154,13 +154,23 @@ class StartedAdjustment {
            std::abs(attempt.state.readout) >= kMinRectifiedReadout;
   }
 
-  // After the first adjustment: the rest of its budget where it measured no
-  // readout, the readout restarts, the outlier rounds.
+  // After the first adjustment: Continue(), then Settle().
   void Finish(const BundleAdjustmentOptions& adjust, int measured_iterations,
               AdjustmentAttempt* attempt) const {
+    Continue(adjust, measured_iterations, attempt);
+    Settle(adjust, attempt);
+  }
+
+  // The rest of the first adjustment's budget where it measured no readout.
+  void Continue(const BundleAdjustmentOptions& adjust, int measured_iterations,
+                AdjustmentAttempt* attempt) const {
     if (measured_iterations < adjust.max_iterations && !attempt->summary.converged &&
         std::abs(attempt->state.readout) < kMinRectifiedReadout)
-      attempt->Adjust(tracks_, adjust);  // no restart follows: this adjustment is the result
+      attempt->Adjust(tracks_, adjust);
+  }
+
+  // The readout restarts (where Restarts()), then the outlier rounds.
+  void Settle(const BundleAdjustmentOptions& adjust, AdjustmentAttempt* attempt) const {
     if (Restarts(adjust, *attempt)) Restart(adjust, attempt);
     // Judge every track again under the adjusted camera: tracks the initial
     // camera made look wrong come back, tracks that do not fit go, and a short
@@ -296,10 +306,14 @@ AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraMode
         measured_iterations[n] = steps.Solve(start, probe, n == 0 ? timer : nullptr, &attempts[n]);
         // The first start's finish depends on no other start, so it runs
         // here, beside the probes, unless it restarts from several readouts
-        // (those restarts run side by side, and want the cores to themselves).
-        if (n == 0 && !steps.Restarts(adjust, attempts[0])) {
-          steps.Finish(adjust, measured_iterations[0], &attempts[0]);
-          first_finished = true;
+        // (those restarts run side by side after the probes, with the cores
+        // to themselves: a parallel region inside this one would run serially).
+        if (n == 0) {
+          steps.Continue(adjust, measured_iterations[0], &attempts[0]);
+          if (!steps.Restarts(adjust, attempts[0])) {
+            steps.Settle(adjust, &attempts[0]);
+            first_finished = true;
+          }
         }
       } catch (const ReconstructionError& error) {
         errors[n] = error;
@@ -311,7 +325,7 @@ AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraMode
   const double waited_ms = MillisecondsBetween(first_done);
   if (!errors[0] && !first_finished) {
     try {
-      steps.Finish(adjust, measured_iterations[0], &attempts[0]);
+      steps.Settle(adjust, &attempts[0]);
     } catch (const ReconstructionError& error) {
       errors[0] = error;
     }
