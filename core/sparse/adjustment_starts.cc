@@ -147,7 +147,7 @@ class StartedAdjustment {
     return measuring.max_iterations;
   }
 
-  // Whether Finish() restarts from several readouts: the first adjustment
+  // Whether Settle() restarts from several readouts: the adjustment so far
   // measured one.
   bool Restarts(const BundleAdjustmentOptions& adjust, const AdjustmentAttempt& attempt) const {
     return rank_one_ && adjust.estimate_readout &&

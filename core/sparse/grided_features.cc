@@ -5,6 +5,8 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
 
+#include "core/io/parallel_bands.h"
+
 namespace dfsm {
 
 int MinGridCellSize(int width, int height) {
@@ -22,23 +24,15 @@ int GridCellSize(const GridedFeatureOptions& options, int width, int height) {
 
 cv::Mat CornerResponse(const cv::Mat& gray) {
   CV_Assert(gray.type() == CV_8UC1);
-  // Each band is computed from its rows and `halo` more on each side: the
-  // 3x3 block sum of the gradients' products reads one row beyond a row,
-  // the 3x3 Sobel one more. The rows a band keeps then read exactly what
-  // they read in the whole frame (summed from another first row), and at the
-  // frame's own top and bottom the band's border is the frame's.
+  // A band reads one row beyond each of its rows for the 3x3 block sum of
+  // the gradients' products, and the 3x3 Sobel one more. At the frame's own
+  // top and bottom the band's border is the frame's.
   constexpr int kBlockSize = 3, kSobelSize = 3, kBandRows = 64;
-  constexpr int halo = kBlockSize / 2 + kSobelSize / 2;
   cv::Mat response(gray.size(), CV_32FC1);
-  const int bands = (gray.rows + kBandRows - 1) / kBandRows;
-  cv::parallel_for_(cv::Range(0, bands), [&](const cv::Range& range) {
+  ForEachRowBand(gray.rows, kBandRows, kBlockSize / 2 + kSobelSize / 2, [&](const RowBand& band) {
     cv::Mat band_response;
-    for (int b = range.start; b < range.end; ++b) {
-      const int first = b * kBandRows, last = std::min(gray.rows, first + kBandRows);
-      const int from = std::max(0, first - halo), to = std::min(gray.rows, last + halo);
-      cv::cornerMinEigenVal(gray.rowRange(from, to), band_response, kBlockSize, kSobelSize);
-      band_response.rowRange(first - from, last - from).copyTo(response.rowRange(first, last));
-    }
+    cv::cornerMinEigenVal(gray.rowRange(band.from, band.to), band_response, kBlockSize, kSobelSize);
+    band_response.rowRange(band.Own()).copyTo(response.rowRange(band.first, band.last));
   });
   return response;
 }
