@@ -22,6 +22,22 @@ cv::Mat Step(cv::Size size = {40, 24}) {
   return plane;
 }
 
+// The median is taken in bands of rows: where every pixel departs from it
+// (max_departure below 0), the result is OpenCV's 5x5 median of the whole
+// frame, bit for bit, at sizes with a partial last band and a band of 1 row.
+TEST(KeepEdgesOfRawWinners, TheMedianInBandsIsTheMedianOfTheWholeFrame) {
+  for (const cv::Size size : {cv::Size(1920, 1080), cv::Size(67, 129), cv::Size(31, 65)}) {
+    cv::Mat raw(size, CV_32FC1);
+    cv::randu(raw, 0.0f, 128.0f);
+    const cv::Mat weight(size, CV_32FC1, cv::Scalar(1.0f));
+    cv::Mat expected;
+    cv::medianBlur(raw, expected, 5);
+    cv::Mat refined = raw.clone();
+    KeepEdgesOfRawWinners(raw, weight, -1.0f, 0, {}, refined);
+    EXPECT_EQ(cv::countNonZero(refined != expected), 0) << size;
+  }
+}
+
 TEST(KeepEdgesOfRawWinners, UndoesSmoothingAcrossAnEdgeAndKeepsItElsewhere) {
   const cv::Mat raw = Step();
   const cv::Mat weight(raw.size(), CV_32FC1, cv::Scalar(1.0f));
