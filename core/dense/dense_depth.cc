@@ -9,6 +9,7 @@
 
 #include "core/camera/rolling_shutter.h"
 #include "core/dense/bilinear_upsample.h"
+#include "core/dense/dense_frames.h"
 #include "core/dense/depth_discontinuity.h"
 #include "core/dense/guided_filter.h"
 #include "core/dense/high_pass.h"
@@ -110,29 +111,22 @@ double MaxParallaxPerInverseDepth(const CameraModel& camera, const std::vector<P
   return std::max(largest, 1e-12);
 }
 
-// The 8-bit frame as float, Gaussian-filtered: one separable pass straight
-// from 8 bits into the float image, with the kernel GaussianBlur picks for
-// float images (size 8 sigma + 1, odd), so no converted copy is made first.
-cv::Mat Prefiltered(const cv::Mat& gray, double sigma) {
-  cv::Mat image;
-  if (sigma <= 0.0) {
-    gray.convertTo(image, CV_32F);
-    return image;
-  }
-  const int size = cvRound(sigma * 8 + 1) | 1;
-  const cv::Mat kernel = cv::getGaussianKernel(size, sigma, CV_32F);
-  cv::sepFilter2D(gray, image, CV_32F, kernel, kernel, cv::Point(-1, -1), 0.0,
-                  cv::BORDER_REPLICATE);
-  return image;
-}
-
 }  // namespace
 
-DenseDepth ComputeDenseDepth(const Burst& input, const CameraModel& camera,
+DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
                              const std::vector<Pose>& poses,
                              const std::vector<double>& sparse_inverse_depths,
-                             const DenseOptions& options) {
-  ValidateInputs(input, camera, poses, options);
+                             const DenseOptions& options, std::optional<DenseFrames> prepared) {
+  ValidateInputs(burst, camera, poses, options);
+  const double high_pass_sigma =
+      HighPassSigma(options.high_pass_sigma_px, burst.width(), burst.height());
+  if (prepared)
+    Require(prepared->high_pass_sigma == high_pass_sigma &&
+                prepared->prefilter_sigma == options.prefilter_sigma &&
+                prepared->reference == burst.reference() && prepared->count == burst.size() &&
+                prepared->size == cv::Size(burst.width(), burst.height()),
+            "the prepared frames were made from another burst or with other high_pass_sigma_px "
+            "or prefilter_sigma");
   const InverseDepthLattice lattice = InverseDepthLattice::FromSparse(
       sparse_inverse_depths, options.inverse_depth_margin, options.planes);
   DenseDepth result;
@@ -142,33 +136,21 @@ DenseDepth ComputeDenseDepth(const Burst& input, const CameraModel& camera,
   StageTimer timer(&result.timings_ms);
 
   // Everything below sees the high-passed frames; the caller's stay as they are.
-  Burst burst = input;
-  const double high_pass_sigma =
-      HighPassSigma(options.high_pass_sigma_px, input.width(), input.height());
-  if (high_pass_sigma > 0.0) {
-    cv::parallel_for_(cv::Range(0, burst.size()), [&](const cv::Range& range) {
-      for (int i = range.start; i < range.end; ++i)
-        burst.gray[i] = HighPass(input.gray[i], high_pass_sigma);
-    });
-  }
+  DenseFrames prepared_here;
+  if (!prepared)
+    prepared_here = PrepareDenseFrames(burst, options.high_pass_sigma_px, options.prefilter_sigma);
+  DenseFrames& made = prepared ? *prepared : prepared_here;
+  const cv::Mat high_passed_reference = made.reference_gray;
+  cv::Mat reference = std::move(made.reference_filtered);
+  std::vector<cv::Mat> frames = std::move(made.others);
+  made = DenseFrames();
 
   const RadialInverse radial(camera);
-  cv::Mat reference = Prefiltered(burst.gray[burst.reference()], options.prefilter_sigma);
   const SweepPoses sweep_poses = SweepPoses::Make(poses, burst.reference(), options.readout,
                                                   burst.height(), options.frame_times);
   const std::vector<int>& others = sweep_poses.frames;
   std::vector<Pose> other_poses;
   for (int i : others) other_poses.push_back(poses[i]);
-  std::vector<cv::Mat> frames(others.size());
-  cv::parallel_for_(cv::Range(0, static_cast<int>(others.size())), [&](const cv::Range& range) {
-    for (int n = range.start; n < range.end; ++n)
-      frames[n] = Prefiltered(burst.gray[others[n]], options.prefilter_sigma);
-  });
-  // From here on the sweeps read `frames`; of the high-passed burst only the
-  // reference is read again (the guide of the refinement, and of the fill
-  // where the burst has no colour).
-  for (int i = 0; i < burst.size(); ++i)
-    if (i != burst.reference()) burst.gray[i].release();
   timer.Lap("prepare");
 
   PhotoCostOptions cost;
@@ -341,8 +323,7 @@ DenseDepth ComputeDenseDepth(const Burst& input, const CameraModel& camera,
   breaks.zero_plane = static_cast<float>(-lattice.min_inverse_depth / lattice.step());
   // The reference on [0, 1]: the guide of the refinement.
   cv::Mat guide;
-  if (options.guided_radius > 0)
-    burst.gray[burst.reference()].convertTo(guide, CV_32F, 1.0 / 255.0);
+  if (options.guided_radius > 0) high_passed_reference.convertTo(guide, CV_32F, 1.0 / 255.0);
   // The filter returns a new image, so the raw winners stay as they are.
   cv::Mat raw_plane = plane;
   if (options.guided_radius > 0) {
@@ -399,9 +380,8 @@ DenseDepth ComputeDenseDepth(const Burst& input, const CameraModel& camera,
     // captured: the high-pass is for matching, an edge is an edge).
     const cv::Mat& color = burst.reference_color;
     const bool has_color = color.type() == CV_8UC3;  // its size is checked up front
-    const cv::Mat filled =
-        FillHoles(plane, result.confidence, has_color ? color : burst.gray[burst.reference()],
-                  options.completion);
+    const cv::Mat filled = FillHoles(plane, result.confidence,
+                                     has_color ? color : high_passed_reference, options.completion);
     if (!filled.empty()) {
       result.depth_filled = result.depth.clone();
       const float last = static_cast<float>(lattice.planes - 1);

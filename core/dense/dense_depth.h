@@ -2,12 +2,14 @@
 #pragma once
 
 #include <opencv2/core.hpp>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include "core/camera/camera_model.h"
 #include "core/camera/pose.h"
+#include "core/dense/dense_frames.h"
 #include "core/dense/depth_completion.h"
 #include "core/dense/semi_global.h"
 #include "core/io/burst.h"
@@ -159,10 +161,16 @@ struct DenseDepth {
 
 // `poses` are X_i = R_i X_ref + T_i for every frame of `burst` (reference
 // included); `sparse_inverse_depths` are the inverse depths (same scale as T)
-// of the sparse tracks, used to choose the swept range.
+// of the sparse tracks, used to choose the swept range. `prepared`: the
+// frames PrepareDenseFrames made of this burst with options.high_pass_sigma_px
+// and options.prefilter_sigma (made here where absent; their memory is given
+// up as the stage goes, so pass them moved). Throws std::invalid_argument
+// naming the problem for inputs and options out of range, and for prepared
+// frames made of another burst or with other options.
 DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
                              const std::vector<Pose>& poses,
                              const std::vector<double>& sparse_inverse_depths,
-                             const DenseOptions& options = {});
+                             const DenseOptions& options = {},
+                             std::optional<DenseFrames> prepared = std::nullopt);
 
 }  // namespace dfsm

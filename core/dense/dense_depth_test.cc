@@ -6,6 +6,7 @@
 #include <cmath>
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
+#include <tuple>
 
 #include "core/pipeline/evaluation.h"
 
@@ -192,6 +193,28 @@ TEST_P(DenseDepthPlaneTest, AccurateAndAlignedWithTheCapturedGrid) {
 
 INSTANTIATE_TEST_SUITE_P(Slant, DenseDepthPlaneTest, ::testing::Values(0, 1));
 
+// The pipeline has the frames made beside the sparse stage: handed in, they
+// give the bits the stage gives making them itself.
+TEST(DenseDepth, FramesPreparedBeforeGiveTheSameDepth) {
+  const PlaneScene scene = RenderPlaneScene(Eigen::Vector3d(-0.5, 0.0, 0.6), 4);
+  const DenseOptions options;
+  const DenseDepth inside =
+      ComputeDenseDepth(scene.burst, scene.camera, scene.poses, scene.sparse_inverse_depths);
+  DenseFrames frames =
+      PrepareDenseFrames(scene.burst, options.high_pass_sigma_px, options.prefilter_sigma);
+  const DenseDepth handed =
+      ComputeDenseDepth(scene.burst, scene.camera, scene.poses, scene.sparse_inverse_depths,
+                        options, std::move(frames));
+  ASSERT_GT(inside.valid_fraction, 0.5);
+  for (const auto& [name, a, b] :
+       {std::tuple{"depth", inside.depth, handed.depth},
+        std::tuple{"confidence", inside.confidence, handed.confidence},
+        std::tuple{"depth_filled", inside.depth_filled, handed.depth_filled}}) {
+    ASSERT_EQ(a.size(), b.size()) << name;
+    EXPECT_EQ(cv::countNonZero(a != b), 0) << name;
+  }
+}
+
 class DenseDepthInputTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
@@ -253,6 +276,15 @@ TEST_F(DenseDepthInputTest, RejectsInconsistentInputsWithANamedReason) {
   options.weak_texture_gradient = -1.0;
   ExpectRejected(s.burst, s.camera, s.poses, s.sparse_inverse_depths, "weak_texture_gradient",
                  options);
+  options = {};
+  options.prefilter_sigma = 0.8;  // the frames below are prefiltered at 0.5
+  try {
+    ComputeDenseDepth(s.burst, s.camera, s.poses, s.sparse_inverse_depths, options,
+                      PrepareDenseFrames(s.burst, 0.0, 0.5));
+    ADD_FAILURE() << "accepted frames prefiltered otherwise";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("prepared frames"), std::string::npos) << e.what();
+  }
   options = {};
   options.oversample_max_pixels = -1;
   ExpectRejected(s.burst, s.camera, s.poses, s.sparse_inverse_depths, "oversample_max_pixels",

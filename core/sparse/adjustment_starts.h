@@ -14,6 +14,7 @@
 
 #include <vector>
 
+#include "core/io/shared_work.h"
 #include "core/io/stage_timer.h"
 #include "core/sparse/sparse_reconstruction.h"
 
@@ -50,8 +51,16 @@ void CheckFocalStarts(const std::vector<double>& starts);
 // rest where a later start wins). Throws
 // ReconstructionError, with the first start's reason, where no start reaches
 // a solution; std::invalid_argument for focal starts CheckFocalStarts refuses.
+//
+// `beside` (may be null): pieces of the caller's work that do not depend on
+// this one (ReconstructSparse's). With more than one start, each start that is
+// done takes pieces up while another still runs, filling the core the first
+// start leaves idle beside the probes; the time the pieces keep the starts'
+// region open after every start is done is lapped as "beside_starts". With
+// one start none is taken: the caller runs them.
 AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraModel& initial,
                                    const SparseOptions& options,
-                                   const BundleAdjustmentOptions& adjust, StageTimer* timer);
+                                   const BundleAdjustmentOptions& adjust, StageTimer* timer,
+                                   SharedWork* beside = nullptr);
 
 }  // namespace dfsm

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
+#include <functional>
 #include <opencv2/core.hpp>
 #include <stdexcept>
 #include <string>
@@ -106,6 +108,41 @@ TEST(AdjustFromStarts, LapsTheFirstStartThenTheOthers) {
   }
 }
 
+// The caller's pieces (SharedWork) fill the core the first start leaves
+// while the probe runs: every piece runs once, the result is the same bits as
+// without them, and the time they keep the region open is a lap of its own.
+TEST(AdjustFromStarts, TakesUpTheCallersPiecesAndChangesNothing) {
+  const TrackSimulation sim = PhoneTracks();
+  const SparseOptions options = EstimatedReadout();
+  BundleAdjustmentOptions adjust = options.bundle_adjustment;
+  adjust.estimate_readout = true;
+  const AdjustmentAttempt alone = AdjustOn(2, sim, options).attempt;
+  for (const int threads : {1, 2}) {
+    const int before = cv::getNumThreads();
+    cv::setNumThreads(threads);
+    std::vector<std::atomic<int>> runs(12);
+    std::vector<std::function<void()>> pieces;
+    for (size_t i = 0; i < runs.size(); ++i) pieces.push_back([&runs, i] { ++runs[i]; });
+    SharedWork beside(std::move(pieces));
+    std::vector<std::pair<std::string, double>> laps;
+    StageTimer timer(&laps);
+    const AdjustmentAttempt attempt = AdjustFromStarts(sim.tracks, CameraModel::Initial(640, 480),
+                                                       options, adjust, &timer, &beside);
+    cv::setNumThreads(before);
+    EXPECT_EQ(beside.taken(), 12) << threads << " threads";
+    for (size_t i = 0; i < runs.size(); ++i) EXPECT_EQ(runs[i].load(), 1) << "piece " << i;
+    std::vector<std::string> stages;
+    for (const auto& [stage, ms] : laps) stages.push_back(stage);
+    EXPECT_EQ(stages, (std::vector<std::string>{"rotation", "rank1", "bundle_adjustment",
+                                                "beside_starts", "focal_starts"}))
+        << threads << " threads";
+    EXPECT_EQ(attempt.state.camera.f, alone.state.camera.f);
+    EXPECT_EQ(attempt.state.readout, alone.state.readout);
+    EXPECT_EQ(attempt.state.inverse_depths, alone.state.inverse_depths);
+    EXPECT_EQ(attempt.use, alone.use);
+  }
+}
+
 TEST(AdjustFromStarts, AKnownCameraStartsOnce) {
   const TrackSimulation sim = PhoneTracks();
   SparseOptions options = EstimatedReadout();
@@ -124,6 +161,10 @@ TEST(AdjustFromStarts, AKnownCameraStartsOnce) {
   EXPECT_EQ(attempt.state.camera.f, sim.camera.f);
   ASSERT_EQ(laps.size(), 3u);  // no focal_starts lap
   EXPECT_EQ(laps.back().first, "bundle_adjustment");
+  // One start leaves no core idle: the caller's pieces are left to it.
+  SharedWork beside({[] {}});
+  AdjustFromStarts(sim.tracks, sim.camera, options, adjust, nullptr, &beside);
+  EXPECT_EQ(beside.taken(), 0);
 }
 
 TEST(AdjustFromStarts, RefusesFocalStartsNoCameraHas) {

@@ -90,7 +90,8 @@ namespace {
 // SparseReconstruction::lens_relief_shift (one adjustment more), which the
 // known-fit check's run of the burst alone does not read.
 SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int height,
-                                  const SparseOptions& options, bool measure_lens_relief) {
+                                  const SparseOptions& options, bool measure_lens_relief,
+                                  SharedWork* beside) {
   StageTimer timer(&sparse.timings_ms);
   const int tracked = sparse.tracks.num_tracks();
   const double parallax = sparse.tracks.MedianMaxDisplacement();
@@ -120,7 +121,8 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
     ba_options.estimate_readout = true;
   // The solution from the starts; the rest below (a fallback refit) goes on
   // adjusting it.
-  AdjustmentAttempt solved = AdjustFromStarts(sparse.tracks, initial, options, ba_options, &timer);
+  AdjustmentAttempt solved =
+      AdjustFromStarts(sparse.tracks, initial, options, ba_options, &timer, beside);
   SparseState& state = solved.state;
   std::vector<bool>& use = solved.use;
   if (options.known && options.known->mode == KnownCalibrationMode::kPrior &&
@@ -300,7 +302,7 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
 }  // namespace
 
 SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int reference,
-                                       const SparseOptions& options) {
+                                       const SparseOptions& options, SharedWork* beside) {
   if (frames.size() < 3)
     throw ReconstructionError("a burst needs at least 3 frames, got " +
                               std::to_string(frames.size()));
@@ -323,7 +325,7 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
       options.known && options.known->check_fit && options.max_known_fit_ratio > 0.0;
   SparseReconstruction sparse =
       AdjustTracks(check_known ? tracked : std::move(tracked), width, height, options,
-                   /*measure_lens_relief=*/true);
+                   /*measure_lens_relief=*/true, beside);
   if (check_known) {
     // The same tracks calibrated by the burst alone: a camera that fits them
     // much better than the known one (more tracks, or a smaller error) says
@@ -340,7 +342,7 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
     fit.known_rms_px = sparse.bundle_adjustment.rms_reprojection_px;
     try {
       const SparseReconstruction free = AdjustTracks(std::move(tracked), width, height, alone,
-                                                     /*measure_lens_relief=*/false);
+                                                     /*measure_lens_relief=*/false, beside);
       fit.free_tracks = CountUsed(free.inliers);
       fit.free_rms_px = free.bundle_adjustment.rms_reprojection_px;
       fit.free_camera = free.state.camera;

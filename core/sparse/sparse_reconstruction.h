@@ -13,6 +13,7 @@
 #include "core/camera/rolling_shutter.h"
 #include "core/io/burst.h"
 #include "core/io/result.h"
+#include "core/io/shared_work.h"
 #include "core/sparse/bundle_adjustment.h"
 #include "core/sparse/calibration_quality.h"
 #include "core/sparse/grided_features.h"
@@ -170,7 +171,12 @@ struct SparseReconstruction {
 };
 
 // Throws ReconstructionError for bursts that cannot be reconstructed.
+// `beside` (may be null): pieces of the caller's work that do not depend on
+// this stage, handed in to fill a core the stage leaves idle: the focal-start
+// probes' (AdjustFromStarts), where the burst calibrates itself from more than
+// one start. Pieces it did not take (SharedWork::taken), the caller runs.
 SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& gray_frames, int reference,
-                                       const SparseOptions& options = {});
+                                       const SparseOptions& options = {},
+                                       SharedWork* beside = nullptr);
 
 }  // namespace dfsm
