@@ -124,7 +124,10 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
     Require(prepared->high_pass_sigma == high_pass_sigma &&
                 prepared->prefilter_sigma == options.prefilter_sigma &&
                 prepared->reference == burst.reference() && prepared->count == burst.size() &&
-                prepared->size == cv::Size(burst.width(), burst.height()),
+                prepared->size == cv::Size(burst.width(), burst.height()) &&
+                static_cast<int>(prepared->others.size()) == burst.size() - 1 &&
+                prepared->reference_filtered.size() == prepared->size &&
+                prepared->reference_gray.size() == prepared->size,
             "the prepared frames were made from another burst or with other high_pass_sigma_px "
             "or prefilter_sigma");
   const InverseDepthLattice lattice = InverseDepthLattice::FromSparse(

@@ -235,24 +235,28 @@ int Halo(const PhotoCostOptions& options) {
 // Bands are small enough that every core gets several (balance) and large
 // enough that the halo adds little (16-128 rows against 2 x 7 rows for the
 // wide windows: at 1080p on 2 cores, 128-row bands swept the full-resolution
-// window ~5 % faster than 64-row ones; a band of 7 slices is ~15 MB), and
-// as many for every thread (docs/dense.md, "As many sweep bands for every
-// thread").
+// window ~5 % faster than 64-row ones; a band of 7 slices is ~15 MB). Where
+// their count is no multiple of the threads, it is rounded up to one and the
+// rows spread evenly over them, as long as the bands keep 16 rows: at 1080p
+// 128-row bands made 9 and the thread left with the ninth swept it alone
+// (the fine sweep took ~8 % longer than with 10 of 108 rows; docs/dense.md,
+// "As many sweep bands for every thread").
 template <typename SweepBand>
 void ForEachBand(int level_rows, int halo, const SweepBand& sweep_band) {
+  constexpr int kMinBandRows = 16, kMaxBandRows = 128;
+  if (level_rows <= 0) return;
   const int threads = std::max(1, cv::getNumThreads());
-  int band_rows = std::clamp(level_rows / (4 * threads), 16, 128);
-  // At 1080p 128-row bands made 9, and the thread left with the ninth
-  // swept it alone: the fine sweep took ~8 % longer than with 10 of 108 rows.
+  const int band_rows = std::clamp(level_rows / (4 * threads), kMinBandRows, kMaxBandRows);
   int bands = (level_rows + band_rows - 1) / band_rows;
-  bands = (bands + threads - 1) / threads * threads;
-  band_rows = (level_rows + bands - 1) / bands;
-  bands = (level_rows + band_rows - 1) / band_rows;
+  const int balanced = (bands + threads - 1) / threads * threads;
+  const bool spread = balanced != bands && level_rows / balanced >= kMinBandRows;
+  if (spread) bands = balanced;
   cv::parallel_for_(cv::Range(0, bands), [&](const cv::Range& range) {
     for (int b = range.start; b < range.end; ++b) {
       Band band;
-      band.first = b * band_rows;
-      band.last = std::min(level_rows, band.first + band_rows);
+      band.first = spread ? b * level_rows / bands : b * band_rows;
+      band.last =
+          spread ? (b + 1) * level_rows / bands : std::min(level_rows, band.first + band_rows);
       band.halo = halo;
       band.level_rows = level_rows;
       sweep_band(band);

@@ -9,8 +9,10 @@ namespace dfsm {
 SharedWork::SharedWork(std::vector<std::function<void()>> pieces)
     : pieces_(std::move(pieces)), errors_(pieces_.size()) {}
 
-void SharedWork::Help() {
-  for (int i = next_.fetch_add(1); i < size(); i = next_.fetch_add(1)) {
+void SharedWork::Help(const std::function<bool()>& go_on) {
+  while (!go_on || go_on()) {
+    const int i = next_.fetch_add(1);
+    if (i >= size()) return;
     try {
       pieces_[i]();
     } catch (...) {
@@ -27,9 +29,10 @@ void SharedWork::Finish() {
   });
 }
 
-void SharedWork::Rethrow() const {
+std::exception_ptr SharedWork::FirstError() const {
   for (const std::exception_ptr& error : errors_)
-    if (error) std::rethrow_exception(error);
+    if (error) return error;
+  return nullptr;
 }
 
 }  // namespace dfsm

@@ -22,17 +22,18 @@ class SharedWork {
  public:
   explicit SharedWork(std::vector<std::function<void()>> pieces);
 
-  // Runs pieces not yet taken, one at a time, until none is left. Safe to
-  // call from any number of threads at once; each piece runs exactly once.
-  // A piece that throws is recorded (see Rethrow), not propagated here: the
-  // caller's own work is not the pieces'.
-  void Help();
+  // Runs pieces not yet taken, one at a time, until none is left, or, with
+  // `go_on`, until it returns false (asked before each piece). Safe to call
+  // from any number of threads at once; each piece runs exactly once. A piece
+  // that throws is recorded (FirstError), not propagated here: the caller's
+  // own work is not the pieces'.
+  void Help(const std::function<bool()>& go_on = {});
   // Runs every piece not yet taken on OpenCV's pool (each thread helps), and
   // returns when all of them, wherever they ran, are done. Not from inside a
   // parallel region (it would run them serially) nor beside Help() calls.
   void Finish();
-  // Rethrows the exception of the first piece, in order, that threw.
-  void Rethrow() const;
+  // The exception of the first piece, in order, that threw; null if none did.
+  std::exception_ptr FirstError() const;
 
   int size() const { return static_cast<int>(pieces_.size()); }
   // Pieces taken so far (the first ones, in order: pieces are taken in order).

@@ -49,24 +49,41 @@ TEST(SharedWork, FinishRunsEveryPieceLeftOnThePool) {
   for (size_t i = 0; i < runs.size(); ++i) EXPECT_EQ(runs[i].load(), 1) << "piece " << i;
 }
 
-TEST(SharedWork, KeepsThePiecesErrorsForRethrowInTheirOrder) {
+TEST(SharedWork, KeepsThePiecesErrorsAndGivesTheFirstInOrder) {
   std::vector<std::function<void()>> pieces = {[] {}, [] { throw std::runtime_error("second"); },
                                                [] { throw std::logic_error("third"); }};
   SharedWork work(std::move(pieces));
   EXPECT_NO_THROW(work.Help());
   EXPECT_EQ(work.taken(), 3);
+  ASSERT_TRUE(work.FirstError());
   try {
-    work.Rethrow();
-    FAIL() << "no exception";
+    std::rethrow_exception(work.FirstError());
   } catch (const std::runtime_error& error) {
     EXPECT_STREQ(error.what(), "second");
   }
 }
 
-TEST(SharedWork, WithoutErrorsRethrowIsQuiet) {
+TEST(SharedWork, WithoutErrorsThereIsNone) {
   SharedWork work({[] {}, [] {}});
   work.Finish();
-  EXPECT_NO_THROW(work.Rethrow());
+  EXPECT_FALSE(work.FirstError());
+}
+
+// A helper asked to go on only while something else runs stops between
+// pieces; Finish runs what it left.
+TEST(SharedWork, AHelperStopsBetweenPiecesWhenToldAndFinishRunsTheRest) {
+  std::vector<std::atomic<int>> runs(8);
+  SharedWork work(CountingPieces(runs));
+  int asked = 0;
+  work.Help([&asked] { return ++asked <= 3; });
+  EXPECT_EQ(work.taken(), 3);
+  EXPECT_EQ(runs[2].load(), 1);
+  EXPECT_EQ(runs[3].load(), 0);
+  work.Help([] { return false; });
+  EXPECT_EQ(work.taken(), 3);
+  work.Finish();
+  EXPECT_EQ(work.taken(), 8);
+  for (size_t i = 0; i < runs.size(); ++i) EXPECT_EQ(runs[i].load(), 1) << "piece " << i;
 }
 
 }  // namespace

@@ -221,13 +221,16 @@ PipelineOutput RunPipeline(const Burst& burst, const PipelineOptions& options,
       const auto dense_start = std::chrono::steady_clock::now();
       // The frames made beside the sparse stage were made in the order of
       // the pieces; the rest are made here, in the dense stage's wall time.
+      // Where a piece failed the dense stage makes them itself, after
+      // checking its inputs, so that bad data gets the error that names it.
       const int frames_beside = frames_work->taken();
       frames_work->Finish();
-      frames_work->Rethrow();
-      DenseFrames dense_frames = frames_maker->Take();
+      std::optional<DenseFrames> dense_frames;
+      if (!frames_work->FirstError()) dense_frames = frames_maker->Take();
       const double frames_ms = MillisecondsBetween(dense_start);
       double frames_beside_ms = 0.0;
-      for (int i = 0; i < frames_beside; ++i) frames_beside_ms += dense_frames.frame_ms[i];
+      for (int i = 0; dense_frames && i < frames_beside; ++i)
+        frames_beside_ms += dense_frames->frame_ms[i];
       DenseOptions dense_options = options.dense;
       dense_options.readout = sparse.state.readout;
       dense_options.frame_times = sparse.state.frame_times;

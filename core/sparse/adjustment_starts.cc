@@ -1,6 +1,7 @@
 #include "core/sparse/adjustment_starts.h"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <functional>
@@ -296,7 +297,11 @@ AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraMode
   std::vector<int> measured_iterations(starts, 0);
   std::vector<std::chrono::steady_clock::time_point> done(starts);
   bool first_finished = false;
-  const bool helped = starts > 1 && beside && beside->taken() < beside->size();
+  // Pieces only fill a core another start leaves idle: with one start, or
+  // one thread (the starts then run one after the other), there is none.
+  const bool helped =
+      starts > 1 && cv::getNumThreads() > 1 && beside && beside->taken() < beside->size();
+  std::atomic<int> running(static_cast<int>(starts));
   std::vector<std::function<void()>> tasks;
   for (size_t n = 0; n < starts; ++n)
     tasks.push_back([&, n] {
@@ -324,8 +329,10 @@ AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraMode
       done[n] = std::chrono::steady_clock::now();
       // A start that is done takes up the caller's pieces while another
       // still runs (the probe outlasts the first start by up to ~190 ms at
-      // 1080p); with one start there is no idle core to fill.
-      if (helped) beside->Help();
+      // 1080p); the last one to finish takes none: the caller's Finish then
+      // spreads what is left over every core.
+      const int still_running = --running;
+      if (helped && still_running > 0) beside->Help([&running] { return running.load() > 0; });
     });
   RunInParallel(tasks);
   const auto region_end = std::chrono::steady_clock::now();
@@ -342,6 +349,8 @@ AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraMode
     }
   }
   LapIfTimed(timer, "bundle_adjustment", starts > 1 ? waited_ms + beside_ms : 0.0);
+  // The region's end less its carried wait: the pieces' time after every
+  // start was done; the wait goes on to focal_starts.
   if (helped) LapIfTimed(timer, "beside_starts", waited_ms);
 
   // A later start replaces the solution so far only where it fits every track

@@ -53,11 +53,11 @@ void CheckFocalStarts(const std::vector<double>& starts);
 // a solution; std::invalid_argument for focal starts CheckFocalStarts refuses.
 //
 // `beside` (may be null): pieces of the caller's work that do not depend on
-// this one (ReconstructSparse's). With more than one start, each start that is
-// done takes pieces up while another still runs, filling the core the first
-// start leaves idle beside the probes; the time the pieces keep the starts'
-// region open after every start is done is lapped as "beside_starts". With
-// one start none is taken: the caller runs them.
+// this one (ReconstructSparse's). With more than one start and more than one
+// thread, a start that is done takes pieces up while another start still
+// runs, filling the core the first start leaves idle beside the probes; the
+// time a piece taken last keeps the starts' region open is lapped as
+// "beside_starts". Pieces not taken (SharedWork::taken), the caller runs.
 AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraModel& initial,
                                    const SparseOptions& options,
                                    const BundleAdjustmentOptions& adjust, StageTimer* timer,
