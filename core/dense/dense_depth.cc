@@ -120,14 +120,14 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
   ValidateInputs(burst, camera, poses, options);
   const double high_pass_sigma =
       HighPassSigma(options.high_pass_sigma_px, burst.width(), burst.height());
+  const cv::Size size(burst.width(), burst.height());
   if (prepared)
     Require(prepared->high_pass_sigma == high_pass_sigma &&
                 prepared->prefilter_sigma == options.prefilter_sigma &&
-                prepared->reference == burst.reference() && prepared->count == burst.size() &&
-                prepared->size == cv::Size(burst.width(), burst.height()) &&
+                prepared->reference == burst.reference() &&
                 static_cast<int>(prepared->others.size()) == burst.size() - 1 &&
-                prepared->reference_filtered.size() == prepared->size &&
-                prepared->reference_gray.size() == prepared->size,
+                prepared->reference_filtered.size() == size &&
+                prepared->reference_gray.size() == size,
             "the prepared frames were made from another burst or with other high_pass_sigma_px "
             "or prefilter_sigma");
   const InverseDepthLattice lattice = InverseDepthLattice::FromSparse(

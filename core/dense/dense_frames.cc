@@ -30,8 +30,6 @@ DenseFramesMaker::DenseFramesMaker(const Burst& burst, double high_pass_sigma_px
   made_.high_pass_sigma = HighPassSigma(high_pass_sigma_px, burst.width(), burst.height());
   made_.prefilter_sigma = prefilter_sigma;
   made_.reference = burst.reference();
-  made_.count = burst.size();
-  made_.size = cv::Size(burst.width(), burst.height());
   made_.frame_ms.assign(burst.size(), 0.0);
 }
 

@@ -13,14 +13,13 @@
 namespace dfsm {
 
 struct DenseFrames {
-  // What they were made with and from (ComputeDenseDepth refuses frames made
-  // otherwise): HighPassSigma's sigma as used (0: none), the prefilter's
-  // sigma, the burst's reference index, frame count and size.
+  // What they were made with (ComputeDenseDepth refuses frames made
+  // otherwise, or of a burst of another size, frame count or reference):
+  // HighPassSigma's sigma as used (0: none), the prefilter's sigma, the
+  // burst's reference index.
   double high_pass_sigma = 0.0;
   double prefilter_sigma = 0.0;
   int reference = -1;
-  int count = 0;
-  cv::Size size;
   // The reference high-passed, 8-bit: the refinement's guide, and the fill's
   // where the burst has no colour.
   cv::Mat reference_gray;
@@ -46,7 +45,7 @@ class DenseFramesMaker {
   // HighPassSigma(high_pass_sigma_px, width, height).
   DenseFramesMaker(const Burst& burst, double high_pass_sigma_px, double prefilter_sigma);
 
-  int frames() const { return made_.count; }
+  int frames() const { return burst_.size(); }
   // Makes frame i; distinct frames may be made at once, from any threads.
   void MakeFrame(int i);
   // The frames, once every one is made (std::logic_error otherwise); once.
