@@ -5,6 +5,8 @@
 #include <opencv2/core/hal/intrin.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "core/io/parallel_bands.h"
+
 namespace dfsm {
 namespace {
 
@@ -235,32 +237,24 @@ int Halo(const PhotoCostOptions& options) {
 // Bands are small enough that every core gets several (balance) and large
 // enough that the halo adds little (16-128 rows against 2 x 7 rows for the
 // wide windows: at 1080p on 2 cores, 128-row bands swept the full-resolution
-// window ~5 % faster than 64-row ones; a band of 7 slices is ~15 MB). Where
-// their count is no multiple of the threads, it is rounded up to one and the
-// rows spread evenly over them, as long as the bands keep 16 rows: at 1080p
-// 128-row bands made 9 and the thread left with the ninth swept it alone
-// (the fine sweep took ~8 % longer than with 10 of 108 rows; docs/dense.md,
-// "As many sweep bands for every thread").
+// window ~5 % faster than 64-row ones; a band of 7 slices is ~15 MB), and as
+// many for every thread (RowBandLayout).
 template <typename SweepBand>
 void ForEachBand(int level_rows, int halo, const SweepBand& sweep_band) {
-  constexpr int kMinBandRows = 16, kMaxBandRows = 128;
+  constexpr int kMaxBandRows = 128;
   if (level_rows <= 0) return;
   const int threads = std::max(1, cv::getNumThreads());
-  const int band_rows = std::clamp(level_rows / (4 * threads), kMinBandRows, kMaxBandRows);
-  int bands = (level_rows + band_rows - 1) / band_rows;
-  const int balanced = (bands + threads - 1) / threads * threads;
-  const bool spread = balanced != bands && level_rows / balanced >= kMinBandRows;
-  if (spread) bands = balanced;
-  cv::parallel_for_(cv::Range(0, bands), [&](const cv::Range& range) {
-    for (int b = range.start; b < range.end; ++b) {
-      Band band;
-      band.first = spread ? b * level_rows / bands : b * band_rows;
-      band.last =
-          spread ? (b + 1) * level_rows / bands : std::min(level_rows, band.first + band_rows);
-      band.halo = halo;
-      band.level_rows = level_rows;
-      sweep_band(band);
-    }
+  const int band_rows =
+      std::clamp(level_rows / (4 * threads), RowBandLayout::kMinSpreadRows, kMaxBandRows);
+  // The sweep's halo repeats the edge rows (Band::Row), so the RowBand's
+  // clamped halo is not used.
+  ForEachRowBand(level_rows, band_rows, 0, [&](const RowBand& rows) {
+    Band band;
+    band.first = rows.first;
+    band.last = rows.last;
+    band.halo = halo;
+    band.level_rows = level_rows;
+    sweep_band(band);
   });
 }
 
