@@ -9,6 +9,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "core/camera/rolling_shutter.h"
 #include "core/io/file_util.h"
 #include "core/io/image_decode.h"
 #include "core/io/jpeg_encode.h"
@@ -117,8 +118,7 @@ cv::Mat RenderFrame(const RenderInputs& in, int frame, cv::Mat* object_mask) {
     std::vector<Eigen::Vector3d> centres(times);
     std::vector<double> sample_time(times);
     for (int v = rows.start; v < rows.end; ++v) {
-      const double row_time =
-          readout > 0.0 ? frame + readout * ((v + 0.5) / camera.height - 0.5) : frame;
+      const double row_time = frame + RowTime(readout, v, camera.height);
       for (int k = 0; k < times; ++k) {
         sample_time[k] = times > 1 ? row_time + exposure * ((k + 0.5) / times - 0.5) : row_time;
         const Pose pose =
@@ -159,13 +159,26 @@ cv::Mat RenderFrame(const RenderInputs& in, int frame, cv::Mat* object_mask) {
   return image;
 }
 
-// Depth (Z in the reference camera) of the surface seen at each pixel centre,
-// through the rendering's lens, the moving object where it is at time 0.
+// Depth of the surface the reference frame shows at each pixel centre,
+// through the rendering's lens: Z in the camera of the pixel's row. With a
+// rolling shutter each row of the reference is seen from the pose at its own
+// time, as RenderFrame renders it (and as the pipeline's depth is defined,
+// core/dense/sweep_level.h: reference row y from its own row's pose); from
+// the frame's middle-row pose alone, rows far from the middle would be
+// compared with a view shifted by the motion during the readout (several
+// pixels at 2 deg of tremor). The moving object is where it is at the row's
+// time.
 cv::Mat RenderReferenceDepth(const TexturedScene& scene, const MovingObject* moving,
-                             const CameraModel& camera, const CameraEffects& effects) {
+                             const CameraModel& camera, const CameraEffects& effects,
+                             const std::vector<Pose>& path, int reference) {
+  const double readout = effects.rolling_shutter_readout;
   cv::Mat depth(camera.height, camera.width, CV_32FC1, cv::Scalar(0.0f));
   cv::parallel_for_(cv::Range(0, camera.height), [&](const cv::Range& rows) {
     for (int v = rows.start; v < rows.end; ++v) {
+      const double row_time = reference + RowTime(readout, v, camera.height);
+      const Pose pose = readout > 0.0 ? PoseAtTime(path, row_time) : path[reference];
+      const Eigen::Matrix3d to_reference = pose.R.transpose();
+      const Eigen::Vector3d centre = pose.Centre();
       float* out = depth.ptr<float>(v);
       for (int u = 0; u < camera.width; ++u) {
         const Eigen::Vector2d x =
@@ -173,9 +186,10 @@ cv::Mat RenderReferenceDepth(const TexturedScene& scene, const MovingObject* mov
         double distance;
         cv::Vec3f bgr;
         bool object;
-        // The ray (x, y, 1) has unit z, so the distance along it is the depth.
-        if (TraceAt(scene, moving, Eigen::Vector3d::Zero(), Eigen::Vector3d(x.x(), x.y(), 1.0), 0.0,
-                    &distance, &bgr, &object))
+        // The ray (x, y, 1) has unit z in the row's camera, so the distance
+        // along it is the depth.
+        if (TraceAt(scene, moving, centre, to_reference * Eigen::Vector3d(x.x(), x.y(), 1.0),
+                    row_time, &distance, &bgr, &object))
           out[u] = static_cast<float>(distance);
       }
     }
@@ -298,12 +312,12 @@ SynthBurst SynthesizeBurst(const SynthOptions& options) {
   burst.effects = options.effects;
   burst.truth.camera = camera;
   burst.truth.poses = HandheldCameraPath(path_options);
-  burst.truth.depth = RenderReferenceDepth(scene, moving_object, camera, options.effects);
-
   burst.manifest.width = options.width;
   burst.manifest.height = options.height;
   burst.manifest.pixel_format = options.color ? "bgr8" : "gray8";
   burst.manifest.reference = 0;
+  burst.truth.depth = RenderReferenceDepth(scene, moving_object, camera, options.effects,
+                                           burst.truth.poses, burst.manifest.reference);
   burst.manifest.source = {{"device", "synthetic"},
                            {"fps", 30.0},
                            {"synthetic", OptionsJson(options, camera, scene.texture_names())}};
@@ -360,7 +374,7 @@ void WriteSynthBurst(const std::filesystem::path& burst_dir, const SynthBurst& b
         {"frames", frames},
         {"note",
          "pixels where any sample saw the object (255 in the mask; box x, y, width, height); "
-         "depth_gt shows it at the reference time"}};
+         "depth_gt shows it where each reference row saw it (the row's time)"}};
   }
   WriteFileAtomically(burst_dir / "ground_truth.json", truth.dump(2) + "\n");
   WriteBurst(burst_dir, burst.manifest, burst.frames);

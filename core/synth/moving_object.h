@@ -2,7 +2,8 @@
 // footage has leaves and people that move between frames): a textured disc on
 // a straight path at a constant speed, seen by every ray at its own time. Its
 // pixels are recorded per frame (a mask and a box) so that a benchmark can
-// exclude or score them; the reference depth shows it at the reference time.
+// exclude or score them; the reference depth shows it where each
+// reference row saw it, at the row's time.
 #pragma once
 
 #include <Eigen/Core>
