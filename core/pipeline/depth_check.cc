@@ -11,6 +11,29 @@ namespace {
 
 std::string Percent(double share) { return FixedText(100.0 * share, 0) + " %"; }
 
+// The shares of the measured pixels of `dense` within one lattice plane of the
+// swept range's nearest and farthest ends.
+void SharesAtRangeEnds(const DenseDepth& dense, double* nearest, double* farthest) {
+  *nearest = *farthest = 0.0;
+  if (dense.planes < 2 || !(dense.max_inverse_depth > dense.min_inverse_depth)) return;
+  const double step = (dense.max_inverse_depth - dense.min_inverse_depth) / (dense.planes - 1);
+  const double near_end = dense.max_inverse_depth - step, far_end = dense.min_inverse_depth + step;
+  long measured = 0, near = 0, far = 0;
+  for (int y = 0; y < dense.depth.rows; ++y) {
+    const float* depth = dense.depth.ptr<float>(y);
+    for (int x = 0; x < dense.depth.cols; ++x) {
+      if (!(depth[x] > 0.0f)) continue;
+      ++measured;
+      const double w = 1.0 / depth[x];
+      near += w >= near_end;
+      far += w <= far_end;
+    }
+  }
+  if (measured == 0) return;
+  *nearest = static_cast<double>(near) / measured;
+  *farthest = static_cast<double>(far) / measured;
+}
+
 }  // namespace
 
 DepthCheck CheckDepthAgainstTracks(const SparseReconstruction& sparse, const DenseDepth& dense,
@@ -68,6 +91,17 @@ DepthCheck CheckDepthAgainstTracks(const SparseReconstruction& sparse, const Den
         Percent(check.lens_relief_shift) +
         " (median); the lens distorts more than k1 and k2 describe (a wide angle?), and the "
         "depth may be wrong as a whole");
+  SharesAtRangeEnds(dense, &check.at_nearest_plane, &check.at_farthest_plane);
+  if (check.at_nearest_plane > options.max_range_end_fraction)
+    check.warnings.push_back(
+        "depth clamped: " + Percent(check.at_nearest_plane) +
+        " of the measured pixels sit at the nearest swept depth; a surface nearer than every "
+        "tracked point (no track on it) is shown there, farther than it is");
+  if (check.at_farthest_plane > options.max_range_end_fraction)
+    check.warnings.push_back(
+        "depth clamped: " + Percent(check.at_farthest_plane) +
+        " of the measured pixels sit at the farthest swept depth; a surface farther than every "
+        "tracked point (no track on it) is shown there, nearer than it is");
   if (dense.valid_fraction < options.min_valid_fraction)
     check.warnings.push_back("depth sparse: " + Percent(dense.valid_fraction) +
                              " of the pixels have a depth");
@@ -82,6 +116,8 @@ nlohmann::json ToJson(const DepthCheck& check) {
           {"outlier_fraction", check.outlier_fraction},
           {"relief_sigma", check.relief_sigma},
           {"lens_relief_shift", check.lens_relief_shift},
+          {"at_nearest_plane", check.at_nearest_plane},
+          {"at_farthest_plane", check.at_farthest_plane},
           {"confirmed", check.warnings.empty()}};
 }
 

@@ -74,5 +74,41 @@ TEST(DepthCheck, AReliefThatDependsOnTheLensModelWarns) {
   EXPECT_TRUE(CheckDepthAgainstTracks(burst.sparse, burst.dense).warnings.empty());
 }
 
+// A surface nearer (or farther) than every track is swept only to the range's
+// end and takes the end plane: above 3 % of the measured pixels there, the
+// depth is not confirmed, and below it says nothing.
+TEST(DepthCheck, PixelsAtAnEndOfTheSweptRangeWarnThatTheDepthIsClamped) {
+  AgreeingBurst burst;
+  burst.dense.min_inverse_depth = 0.25;  // the map's 0.5 lies inside
+  burst.dense.max_inverse_depth = 1.0;
+  burst.dense.planes = 128;
+  DepthCheck check = CheckDepthAgainstTracks(burst.sparse, burst.dense);
+  EXPECT_TRUE(check.warnings.empty()) << check.warnings.front();
+  EXPECT_EQ(check.at_nearest_plane, 0.0);
+
+  burst.dense.depth(cv::Rect(0, 0, 10, 1)).setTo(1.0f);  // 10 of 400 pixels at the nearest plane
+  check = CheckDepthAgainstTracks(burst.sparse, burst.dense);
+  EXPECT_TRUE(check.warnings.empty()) << check.warnings.front();
+  EXPECT_DOUBLE_EQ(check.at_nearest_plane, 10.0 / 400.0);
+
+  burst.dense.depth(cv::Rect(0, 0, 20, 2)).setTo(1.0f);  // 40: a tenth
+  check = CheckDepthAgainstTracks(burst.sparse, burst.dense);
+  ASSERT_EQ(check.warnings.size(), 1u);
+  EXPECT_NE(check.warnings[0].find("10 % of the measured pixels sit at the nearest swept depth"),
+            std::string::npos)
+      << check.warnings[0];
+  EXPECT_FALSE(ToJson(check).at("confirmed").get<bool>());
+
+  burst.dense.depth(cv::Rect(0, 0, 20, 2)).setTo(2.0f);
+  burst.dense.depth(cv::Rect(0, 18, 20, 2)).setTo(4.0f);  // the farthest plane
+  burst.dense.depth(cv::Rect(0, 10, 20, 2)).setTo(0.0f);  // unmeasured pixels do not count
+  check = CheckDepthAgainstTracks(burst.sparse, burst.dense);
+  ASSERT_EQ(check.warnings.size(), 1u);
+  EXPECT_DOUBLE_EQ(check.at_farthest_plane, 40.0 / 360.0);
+  EXPECT_NE(check.warnings[0].find("sit at the farthest swept depth"), std::string::npos)
+      << check.warnings[0];
+  EXPECT_DOUBLE_EQ(ToJson(check).at("at_farthest_plane").get<double>(), 40.0 / 360.0);
+}
+
 }  // namespace
 }  // namespace dfsm
