@@ -69,6 +69,8 @@ void ValidateInputs(const Burst& burst, const CameraModel& camera, const std::ve
               " too small for coarse_scale " + std::to_string(scale));
   if (options.regularize) options.semi_global.Check();
   Require(options.refine_radius >= 1, "refine_radius must be >= 1");
+  Require(options.range_extension_share >= 0.0 && options.range_extension_share <= 1.0,
+          "range_extension_share must be between 0 (never) and 1");
   Require(options.seed_prior >= 0.0, "seed_prior must be >= 0 (0: off)");
   Require(options.oversample_max_pixels >= 0, "oversample_max_pixels must be >= 0 (0: never)");
   Require(options.edge_guard_parallax >= 0.0 && options.discontinuity_parallax >= 0.0 &&
@@ -100,6 +102,40 @@ constexpr double kFinePlaneParallax = 0.35;
 // pixel over such a span (the fine window spans about as much: 6 x 0.35).
 constexpr double kProjectedSpan = 2.0;
 
+// Where more than `share` of the confident coarse pixels (plane >= 0,
+// confidence > 0) won the nearest or the farthest plane of a coarse lattice
+// of `coarse_planes`, extends `lattice` by its width on that side (toward
+// infinity at most to half its smallest inverse depth, as FromSparse) and
+// names the side(s) in `extended`; false where neither end needs it.
+bool ExtendTowardClampedEnd(const PlaneSelection& coarse, int coarse_planes, double share,
+                            InverseDepthLattice* lattice, std::string* extended) {
+  if (!(share > 0.0) || coarse_planes < 2) return false;
+  long confident = 0, nearest = 0, farthest = 0;
+  const float last = static_cast<float>(coarse_planes - 1);
+  for (int y = 0; y < coarse.plane.rows; ++y) {
+    const float* p = coarse.plane.ptr<float>(y);
+    const float* c = coarse.confidence.ptr<float>(y);
+    for (int x = 0; x < coarse.plane.cols; ++x) {
+      if (p[x] < 0.0f || !(c[x] > 0.0f)) continue;
+      ++confident;
+      nearest += p[x] > last - 0.5f;
+      farthest += p[x] < 0.5f;
+    }
+  }
+  if (confident == 0) return false;
+  const bool near = nearest > share * confident, far = farthest > share * confident;
+  if (!near && !far) return false;
+  const double width = lattice->max_inverse_depth - lattice->min_inverse_depth;
+  const double farther =
+      std::max(lattice->min_inverse_depth - width, 0.5 * lattice->min_inverse_depth);
+  const bool toward_far = far && farther < lattice->min_inverse_depth;
+  if (!near && !toward_far) return false;
+  if (near) lattice->max_inverse_depth += width;
+  if (toward_far) lattice->min_inverse_depth = farther;
+  *extended = near && toward_far ? "both" : near ? "near" : "far";
+  return true;
+}
+
 // Largest image motion (pixels) per unit of inverse depth over the frames: a
 // point at inverse depth w moves by about f |T_xy + x T_z| w.
 double MaxParallaxPerInverseDepth(const CameraModel& camera, const std::vector<Pose>& poses) {
@@ -130,12 +166,9 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
                 prepared->reference_gray.size() == size,
             "the prepared frames were made from another burst or with other high_pass_sigma_px "
             "or prefilter_sigma");
-  const InverseDepthLattice lattice = InverseDepthLattice::FromSparse(
+  InverseDepthLattice lattice = InverseDepthLattice::FromSparse(
       sparse_inverse_depths, options.inverse_depth_margin, options.planes);
   DenseDepth result;
-  result.min_inverse_depth = lattice.min_inverse_depth;
-  result.max_inverse_depth = lattice.max_inverse_depth;
-  result.planes = lattice.planes;
   StageTimer timer(&result.timings_ms);
 
   // Everything below sees the high-passed frames; the caller's stay as they are.
@@ -170,58 +203,76 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
       MakeSweepLevel(reference, frames, sweep_poses, camera, radial, scale, oversample(scale));
   cost.window_radius = options.coarse_window_radius;
   cost.shiftable_radius = options.coarse_shiftable_radius;
-  // Parallax (full-resolution pixels) between neighbouring lattice planes in
-  // the frame that moves most: what "a plane" means in the images.
-  const double plane_parallax = MaxParallaxPerInverseDepth(camera, other_poses) * lattice.step();
-  InverseDepthLattice coarse_lattice = lattice;
-  if (scale > 1) {
-    coarse_lattice.planes =
-        options.coarse_planes > 0
-            ? options.coarse_planes
-            : std::clamp(static_cast<int>(std::ceil(plane_parallax * (lattice.planes - 1) /
-                                                    (scale * kCoarsePlaneParallax))) +
-                             1,
-                         std::min(16, lattice.planes), lattice.planes);
-  }
-  result.coarse_scale = scale;
-  result.coarse_planes = coarse_lattice.planes;
-  // Coarse pixels of parallax between neighbouring coarse planes; exact
-  // projections kProjectedSpan apart, the planes between interpolated.
-  const double coarse_plane_parallax =
-      plane_parallax * (lattice.planes - 1) / std::max(1, coarse_lattice.planes - 1) / scale;
-  cost.projected_every =
-      std::max(1, static_cast<int>(std::floor(kProjectedSpan / coarse_plane_parallax)));
-  // The full-resolution window around each coarse seed: `window` planes,
-  // `stride` lattice planes apart, reaching `reach` lattice planes each way.
-  const int stride =
-      options.refine_stride > 0
-          ? options.refine_stride
-          : std::max(1, static_cast<int>(std::lround(kFinePlaneParallax / plane_parallax)));
-  const int window = std::min(2 * options.refine_radius + 1, (lattice.planes - 1) / stride + 1);
-  const int reach = (window - 1) / 2 * stride;
-  const double lattice_ratio =
-      static_cast<double>(lattice.planes - 1) / (coarse_lattice.planes - 1);
+  // The swept range is the tracks' widened by a margin. A surface nearer or
+  // farther than every inlier track (no track on it: rejected with the lens
+  // model's error in a corner, or none found) takes the end plane of the
+  // coarse sweep; where more than options.range_extension_share of the
+  // confident coarse pixels do, the range is extended by its own width on
+  // that side and the coarse level swept again, once (docs/dense.md, "The
+  // depth sweep").
+  double plane_parallax = 0.0, lattice_ratio = 1.0;
+  InverseDepthLattice coarse_lattice;
+  int stride = 1, window = 1, reach = 0;
   PlaneSelection coarse_selection;
   cv::Mat outliers;  // coarse, 255: photo-consistency outliers
-  if (options.regularize) {
-    const std::vector<cv::Mat> costs = SweepAllPlaneCosts(coarse, coarse_lattice, cost);
-    coarse_selection =
-        SelectSemiGlobal(costs, coarse.reference, options.truncation, options.semi_global);
-    // Measured where the pixel's own curve has its minimum within the fine
-    // window's reach of the regularized seed (scale 1: no window, the same plane).
-    const int coarse_reach = scale > 1 ? static_cast<int>(reach / lattice_ratio) : 0;
-    cv::Mat valley_cost;
-    coarse_selection.confidence =
-        ConfidenceOfPlanes(costs, coarse_selection.plane, coarse_reach, &valley_cost);
-    if (options.max_cost_ratio > 0.0)
-      result.outlier_fraction =
-          static_cast<double>(
-              RejectCostOutliers(valley_cost, coarse.reference, options.coarse_window_radius,
-                                 options.max_cost_ratio, &coarse_selection.confidence, &outliers)) /
-          valley_cost.total();
-  } else {
-    coarse_selection = SweepAllPlanes(coarse, coarse_lattice, cost);
+  for (int pass = 0;; ++pass) {
+    // Parallax (full-resolution pixels) between neighbouring lattice planes in
+    // the frame that moves most: what "a plane" means in the images.
+    plane_parallax = MaxParallaxPerInverseDepth(camera, other_poses) * lattice.step();
+    coarse_lattice = lattice;
+    if (scale > 1) {
+      coarse_lattice.planes =
+          options.coarse_planes > 0
+              ? options.coarse_planes
+              : std::clamp(static_cast<int>(std::ceil(plane_parallax * (lattice.planes - 1) /
+                                                      (scale * kCoarsePlaneParallax))) +
+                               1,
+                           std::min(16, lattice.planes), lattice.planes);
+    }
+    result.coarse_scale = scale;
+    result.coarse_planes = coarse_lattice.planes;
+    // Coarse pixels of parallax between neighbouring coarse planes; exact
+    // projections kProjectedSpan apart, the planes between interpolated.
+    const double coarse_plane_parallax =
+        plane_parallax * (lattice.planes - 1) / std::max(1, coarse_lattice.planes - 1) / scale;
+    cost.projected_every =
+        std::max(1, static_cast<int>(std::floor(kProjectedSpan / coarse_plane_parallax)));
+    // The full-resolution window around each coarse seed: `window` planes,
+    // `stride` lattice planes apart, reaching `reach` lattice planes each way.
+    stride = options.refine_stride > 0
+                 ? options.refine_stride
+                 : std::max(1, static_cast<int>(std::lround(kFinePlaneParallax / plane_parallax)));
+    window = std::min(2 * options.refine_radius + 1, (lattice.planes - 1) / stride + 1);
+    reach = (window - 1) / 2 * stride;
+    lattice_ratio = static_cast<double>(lattice.planes - 1) / (coarse_lattice.planes - 1);
+    outliers.release();
+    if (options.regularize) {
+      const std::vector<cv::Mat> costs = SweepAllPlaneCosts(coarse, coarse_lattice, cost);
+      coarse_selection =
+          SelectSemiGlobal(costs, coarse.reference, options.truncation, options.semi_global);
+      // Measured where the pixel's own curve has its minimum within the fine
+      // window's reach of the regularized seed (scale 1: no window, the same plane).
+      const int coarse_reach = scale > 1 ? static_cast<int>(reach / lattice_ratio) : 0;
+      cv::Mat valley_cost;
+      coarse_selection.confidence =
+          ConfidenceOfPlanes(costs, coarse_selection.plane, coarse_reach, &valley_cost);
+      if (options.max_cost_ratio > 0.0)
+        result.outlier_fraction =
+            static_cast<double>(RejectCostOutliers(
+                valley_cost, coarse.reference, options.coarse_window_radius, options.max_cost_ratio,
+                &coarse_selection.confidence, &outliers)) /
+            valley_cost.total();
+    } else {
+      coarse_selection = SweepAllPlanes(coarse, coarse_lattice, cost);
+    }
+    if (pass > 0 ||
+        !ExtendTowardClampedEnd(coarse_selection, coarse_lattice.planes,
+                                options.range_extension_share, &lattice, &result.range_extended))
+      break;
   }
+  result.min_inverse_depth = lattice.min_inverse_depth;
+  result.max_inverse_depth = lattice.max_inverse_depth;
+  result.planes = lattice.planes;
   coarse = SweepLevel();  // not read again
   timer.Lap("coarse_sweep");
   // Coarse plane indices onto the full lattice.

@@ -91,6 +91,7 @@ DepthCheck CheckDepthAgainstTracks(const SparseReconstruction& sparse, const Den
         Percent(check.lens_relief_shift) +
         " (median); the lens distorts more than k1 and k2 describe (a wide angle?), and the "
         "depth may be wrong as a whole");
+  check.range_extended = dense.range_extended;
   SharesAtRangeEnds(dense, &check.at_nearest_plane, &check.at_farthest_plane);
   if (check.at_nearest_plane > options.max_range_end_fraction)
     check.warnings.push_back(
@@ -118,6 +119,7 @@ nlohmann::json ToJson(const DepthCheck& check) {
           {"lens_relief_shift", check.lens_relief_shift},
           {"at_nearest_plane", check.at_nearest_plane},
           {"at_farthest_plane", check.at_farthest_plane},
+          {"range_extended", check.range_extended},
           {"confirmed", check.warnings.empty()}};
 }
 

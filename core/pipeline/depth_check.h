@@ -67,6 +67,9 @@ struct DepthCheck {
   // Shares of the measured pixels within one plane of the swept range's
   // nearest and farthest ends.
   double at_nearest_plane = 0.0, at_farthest_plane = 0.0;
+  // DenseDepth::range_extended: the side(s) the swept range was extended
+  // toward beyond the tracks' ("near", "far", "both"; empty: none).
+  std::string range_extended;
   std::vector<std::string> warnings;  // empty: nothing to say
 };
 
