@@ -103,14 +103,15 @@ constexpr double kFinePlaneParallax = 0.35;
 constexpr double kProjectedSpan = 2.0;
 
 // Where more than `share` of the confident coarse pixels (plane >= 0,
-// confidence > 0) won the nearest or the farthest plane of a coarse lattice
-// of `coarse_planes`, extends `lattice` by its width on that side (toward
-// infinity at most to half its smallest inverse depth, as FromSparse) and
-// names the side(s) in `extended`; false where neither end needs it.
-bool ExtendTowardClampedEnd(const PlaneSelection& coarse, int coarse_planes, double share,
-                            InverseDepthLattice* lattice, std::string* extended) {
+// confidence > 0) won the nearest plane of a coarse lattice of
+// `coarse_planes`, extends `lattice` toward the camera by its width and
+// returns true. Only toward the camera: the far end is also where a wrong
+// geometry spreads a map, and extending it there made such bursts worse
+// (docs/dense.md, "The depth sweep"); the depth check warns of either end.
+bool ExtendTowardTheCamera(const PlaneSelection& coarse, int coarse_planes, double share,
+                           InverseDepthLattice* lattice) {
   if (!(share > 0.0) || coarse_planes < 2) return false;
-  long confident = 0, nearest = 0, farthest = 0;
+  long confident = 0, nearest = 0;
   const float last = static_cast<float>(coarse_planes - 1);
   for (int y = 0; y < coarse.plane.rows; ++y) {
     const float* p = coarse.plane.ptr<float>(y);
@@ -119,20 +120,10 @@ bool ExtendTowardClampedEnd(const PlaneSelection& coarse, int coarse_planes, dou
       if (p[x] < 0.0f || !(c[x] > 0.0f)) continue;
       ++confident;
       nearest += p[x] > last - 0.5f;
-      farthest += p[x] < 0.5f;
     }
   }
-  if (confident == 0) return false;
-  const bool near = nearest > share * confident, far = farthest > share * confident;
-  if (!near && !far) return false;
-  const double width = lattice->max_inverse_depth - lattice->min_inverse_depth;
-  const double farther =
-      std::max(lattice->min_inverse_depth - width, 0.5 * lattice->min_inverse_depth);
-  const bool toward_far = far && farther < lattice->min_inverse_depth;
-  if (!near && !toward_far) return false;
-  if (near) lattice->max_inverse_depth += width;
-  if (toward_far) lattice->min_inverse_depth = farther;
-  *extended = near && toward_far ? "both" : near ? "near" : "far";
+  if (confident == 0 || nearest <= share * confident) return false;
+  lattice->max_inverse_depth += lattice->max_inverse_depth - lattice->min_inverse_depth;
   return true;
 }
 
@@ -203,13 +194,13 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
       MakeSweepLevel(reference, frames, sweep_poses, camera, radial, scale, oversample(scale));
   cost.window_radius = options.coarse_window_radius;
   cost.shiftable_radius = options.coarse_shiftable_radius;
-  // The swept range is the tracks' widened by a margin. A surface nearer or
-  // farther than every inlier track (no track on it: rejected with the lens
-  // model's error in a corner, or none found) takes the end plane of the
-  // coarse sweep; where more than options.range_extension_share of the
-  // confident coarse pixels do, the range is extended by its own width on
-  // that side and the coarse level swept again, once (docs/dense.md, "The
-  // depth sweep").
+  // The swept range is the tracks' widened by a margin. A surface nearer
+  // than every inlier track (no track on it: rejected with the lens model's
+  // error in a corner, or none found) takes the nearest plane of the coarse
+  // sweep; where more than options.range_extension_share of the confident
+  // coarse pixels do, the range is extended toward the camera by its own
+  // width and the coarse level swept again, once (docs/dense.md, "The depth
+  // sweep").
   double plane_parallax = 0.0, lattice_ratio = 1.0;
   InverseDepthLattice coarse_lattice;
   int stride = 1, window = 1, reach = 0;
@@ -265,10 +256,10 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
     } else {
       coarse_selection = SweepAllPlanes(coarse, coarse_lattice, cost);
     }
-    if (pass > 0 ||
-        !ExtendTowardClampedEnd(coarse_selection, coarse_lattice.planes,
-                                options.range_extension_share, &lattice, &result.range_extended))
+    if (pass > 0 || !ExtendTowardTheCamera(coarse_selection, coarse_lattice.planes,
+                                           options.range_extension_share, &lattice))
       break;
+    result.range_extended = true;
   }
   result.min_inverse_depth = lattice.min_inverse_depth;
   result.max_inverse_depth = lattice.max_inverse_depth;

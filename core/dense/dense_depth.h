@@ -29,9 +29,9 @@ struct DenseOptions {
   std::vector<double> frame_times;
   // Fraction of the sparse inverse-depth range added on both sides of the sweep.
   double inverse_depth_margin = 0.2;
-  // Where more than this share of the confident coarse pixels win an end
-  // plane of the swept range (a surface nearer or farther than every track),
-  // the range is extended by its own width on that side and the coarse level
+  // Where more than this share of the confident coarse pixels win the
+  // nearest plane of the swept range (a surface nearer than every track), the
+  // range is extended toward the camera by its own width and the coarse level
   // swept again, once; 0: never. (A 1080p burst whose nearest photograph had
   // no inlier track: 18 % of its pixels at the near end, the photograph 60 %
   // too far; docs/dense.md, "The depth sweep".)
@@ -155,9 +155,8 @@ struct DenseDepth {
   double min_inverse_depth = 0.0;  // the swept range
   double max_inverse_depth = 0.0;
   int planes = 0;
-  // The side(s) the range was extended toward (range_extension_share):
-  // "near", "far", "both"; empty where the tracks' range held.
-  std::string range_extended;
+  // Whether the range was extended toward the camera (range_extension_share).
+  bool range_extended = false;
   int coarse_scale = 0;         // captured pixels per coarse pixel
   int coarse_planes = 0;        // planes of the coarse sweep
   int fine_planes = 0;          // planes per pixel at full resolution ...

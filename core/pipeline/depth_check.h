@@ -52,7 +52,9 @@ struct DepthCheckOptions {
   // (docs/dense.md, "The depth sweep": 18 % of the pixels at the near end
   // there, 54 % at the far end of a burst 134 % off; at most 0.1 % near and
   // 0.33 % far on 75 other generated bursts, up to 1.6 % near on TUM fr1/xyz,
-  // where the desk's nearest edge has no tracks).
+  // where the desk's nearest edge has no tracks). The dense stage extends the
+  // range toward the camera once (DenseOptions::range_extension_share); this
+  // warns of what is left at either end after it.
   double max_range_end_fraction = 0.03;
 };
 
@@ -67,9 +69,9 @@ struct DepthCheck {
   // Shares of the measured pixels within one plane of the swept range's
   // nearest and farthest ends.
   double at_nearest_plane = 0.0, at_farthest_plane = 0.0;
-  // DenseDepth::range_extended: the side(s) the swept range was extended
-  // toward beyond the tracks' ("near", "far", "both"; empty: none).
-  std::string range_extended;
+  // DenseDepth::range_extended: the swept range was extended toward the
+  // camera beyond the tracks'.
+  bool range_extended = false;
   std::vector<std::string> warnings;  // empty: nothing to say
 };
 

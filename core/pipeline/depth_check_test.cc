@@ -108,10 +108,10 @@ TEST(DepthCheck, PixelsAtAnEndOfTheSweptRangeWarnThatTheDepthIsClamped) {
   EXPECT_NE(check.warnings[0].find("sit at the farthest swept depth"), std::string::npos)
       << check.warnings[0];
   EXPECT_DOUBLE_EQ(ToJson(check).at("at_farthest_plane").get<double>(), 40.0 / 360.0);
-  EXPECT_EQ(ToJson(check).at("range_extended").get<std::string>(), "");
-  burst.dense.range_extended = "near";
-  EXPECT_EQ(ToJson(CheckDepthAgainstTracks(burst.sparse, burst.dense)).at("range_extended"),
-            "near");
+  EXPECT_FALSE(ToJson(check).at("range_extended").get<bool>());
+  burst.dense.range_extended = true;
+  EXPECT_TRUE(
+      ToJson(CheckDepthAgainstTracks(burst.sparse, burst.dense)).at("range_extended").get<bool>());
 }
 
 }  // namespace
