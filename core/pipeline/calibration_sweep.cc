@@ -104,19 +104,23 @@ SweepOutcome RunSweepBurst(const SynthOptions& settings, const SparseOptions& op
   return outcome;
 }
 
+nlohmann::json SweepSettingsJson(const SynthOptions& settings) {
+  return {{"width", settings.width},
+          {"height", settings.height},
+          {"frames", settings.frames},
+          {"rotation_deg", settings.rotation_deg},
+          {"baseline_mm", 1000.0 * settings.baseline},
+          {"f_true", settings.f},
+          {"k1", settings.k1},
+          {"k2", settings.k2},
+          {"jpeg", settings.jpeg_quality},
+          {"seed", settings.seed}};
+}
+
 nlohmann::json ToJson(const SweepOutcome& o) {
-  nlohmann::json j = {{"width", o.settings.width},
-                      {"height", o.settings.height},
-                      {"frames", o.settings.frames},
-                      {"rotation_deg", o.settings.rotation_deg},
-                      {"baseline_mm", 1000.0 * o.settings.baseline},
-                      {"f_true", o.settings.f},
-                      {"k1", o.settings.k1},
-                      {"k2", o.settings.k2},
-                      {"jpeg", o.settings.jpeg_quality},
-                      {"seed", o.settings.seed},
-                      {"reconstructed", o.reconstructed},
-                      {"sparse_ms", o.sparse_ms}};
+  nlohmann::json j = SweepSettingsJson(o.settings);
+  j["reconstructed"] = o.reconstructed;
+  j["sparse_ms"] = o.sparse_ms;
   if (!o.reconstructed) {
     j["error"] = o.error;
     return j;

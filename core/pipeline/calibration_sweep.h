@@ -49,6 +49,9 @@ struct SweepOutcome {
   bool distortion_within_2_sigma() const;
 };
 
+// A sweep burst's settings as its JSON line names them (f_true: the true f).
+nlohmann::json SweepSettingsJson(const SynthOptions& settings);
+
 SweepOutcome RunSweepBurst(const SynthOptions& settings, const SparseOptions& options = {});
 
 nlohmann::json ToJson(const SweepOutcome& outcome);

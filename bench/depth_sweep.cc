@@ -1,0 +1,208 @@
+// The depth sweep: the calibration sweep's bursts (core/pipeline/calibration_sweep.h:
+// 320x240-1080p, tremor 0.25-2 deg, baseline 3-10 mm, k1 of either sign, JPEG
+// on and off), rendered with a camera preset's effects and run through the
+// whole pipeline, dense stage included. Each depth map is scored against the
+// burst's ground truth beside what the result says of itself: the depth check
+// (confirmed or its warnings), the relief's sigma and the calibration's verdict.
+// It measures what a user meets away from one favourable setting, and whether
+// a depth called confirmed is one to trust (docs/dense.md, "The depth sweep").
+// One JSON line per burst, then the summary line and the docs table.
+//   depth_sweep [--bursts N] [--seed S] [--camera ideal|webcam|phone]
+//               [--field-of-view normal|wide] [--only I [--keep DIR]] (DIR/burst,
+//               DIR/result: the burst and its result, for dfsm evaluate)
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "core/pipeline/calibration_sweep.h"
+#include "core/pipeline/evaluation.h"
+#include "core/pipeline/pipeline.h"
+#include "core/synth/burst_synthesizer.h"
+
+namespace dfsm {
+namespace {
+
+// A depth this far off (AbsRel, after the one global scale) is one a user
+// should not have been told to trust.
+constexpr double kUntrustedAbsRel = 0.05;
+
+struct DepthSweepOutcome {
+  SynthOptions settings;
+  bool ok = false;
+  std::string error;
+  SparseEvaluation sparse;
+  DepthEvaluation measured, filled;
+  bool confirmed = false;
+  double relief_sigma = -1.0;
+  std::string quality;
+  std::vector<std::string> warnings;
+  double total_ms = 0.0;
+};
+
+// keep: where not empty, the burst is written to keep/burst and its result
+// to keep/result, for `dfsm evaluate` and a look at the maps.
+DepthSweepOutcome RunDepthSweepBurst(const SynthOptions& settings, const std::string& keep) {
+  DepthSweepOutcome outcome;
+  outcome.settings = settings;
+  const SynthBurst synth = SynthesizeBurst(settings);
+  const Burst burst = ToBurst(synth);
+  if (!keep.empty()) WriteSynthBurst(std::filesystem::path(keep) / "burst", synth);
+  const auto start = std::chrono::steady_clock::now();
+  PipelineOutput output = RunPipeline(burst, PipelineOptions{});
+  outcome.total_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  if (!keep.empty()) WritePipelineOutputs(std::filesystem::path(keep) / "result", burst, &output);
+  outcome.ok = output.result.ok && output.sparse && output.dense;
+  if (!outcome.ok) {
+    outcome.error = output.result.error;
+    return outcome;
+  }
+  outcome.sparse =
+      EvaluateSparse(output.sparse->state.camera, output.sparse->state.poses, synth.truth);
+  const cv::Mat textured = TexturedMask(burst.gray[burst.reference()]);
+  outcome.measured = EvaluateDepth(output.dense->depth, synth.truth.depth, textured);
+  outcome.filled = EvaluateDepth(output.dense->depth_filled, synth.truth.depth, textured);
+  // What the result says of itself, as result.json says it.
+  const nlohmann::json& check = output.result.extra.at("depth_check");
+  outcome.confirmed = check.at("confirmed").get<bool>();
+  outcome.relief_sigma = check.at("relief_sigma").get<double>();
+  outcome.quality = output.result.calibration_detail.value("quality", "");
+  outcome.warnings = output.result.warnings;
+  return outcome;
+}
+
+nlohmann::json ToJson(const DepthSweepOutcome& o) {
+  nlohmann::json j = SweepSettingsJson(o.settings);
+  j["ok"] = o.ok;
+  j["total_ms"] = o.total_ms;
+  if (!o.ok) {
+    j["error"] = o.error;
+    return j;
+  }
+  j["sparse"] = ToJson(o.sparse);
+  j["depth"] = ToJson(o.measured);
+  j["filled"] = ToJson(o.filled);
+  j["confirmed"] = o.confirmed;
+  j["relief_sigma"] = o.relief_sigma;
+  j["quality"] = o.quality;
+  j["warnings"] = o.warnings;
+  return j;
+}
+
+double Median(std::vector<double> values) {
+  if (values.empty()) return 0.0;
+  std::sort(values.begin(), values.end());
+  return values[values.size() / 2];
+}
+
+// One docs-table row over a group of bursts.
+void PrintRow(const std::string& name, const std::vector<DepthSweepOutcome>& group) {
+  std::vector<double> measured, filled, coverage;
+  int ok = 0, confirmed = 0, untrusted_confirmed = 0, flagged_bad = 0, bad = 0;
+  double worst_confirmed = 0.0;
+  for (const DepthSweepOutcome& o : group) {
+    if (!o.ok) continue;
+    ++ok;
+    measured.push_back(100.0 * o.measured.abs_rel);
+    filled.push_back(100.0 * o.filled.abs_rel);
+    coverage.push_back(100.0 * o.measured.coverage);
+    const bool untrusted = o.measured.abs_rel > kUntrustedAbsRel;
+    bad += untrusted;
+    flagged_bad += untrusted && !o.confirmed;
+    if (o.confirmed) {
+      ++confirmed;
+      untrusted_confirmed += untrusted;
+      worst_confirmed = std::max(worst_confirmed, 100.0 * o.measured.abs_rel);
+    }
+  }
+  std::printf("| %s | %zu | %d | %.2f / %.2f | %.2f | %.1f | %d | %.2f | %d | %d of %d |\n",
+              name.c_str(), group.size(), ok, Median(measured),
+              measured.empty() ? 0.0 : *std::max_element(measured.begin(), measured.end()),
+              Median(filled), Median(coverage), confirmed, worst_confirmed, untrusted_confirmed,
+              flagged_bad, bad);
+}
+
+}  // namespace
+}  // namespace dfsm
+
+int main(int argc, char** argv) {
+  using namespace dfsm;
+  int bursts = 64, only = -1;
+  uint64_t seed = 1;
+  std::string camera = "phone", field_of_view = "normal", keep;
+  for (int i = 1; i < argc; ++i) {
+    if (!std::strcmp(argv[i], "--bursts") && i + 1 < argc) {
+      bursts = std::atoi(argv[++i]);
+    } else if (!std::strcmp(argv[i], "--seed") && i + 1 < argc) {
+      seed = std::strtoull(argv[++i], nullptr, 10);
+    } else if (!std::strcmp(argv[i], "--camera") && i + 1 < argc) {
+      camera = argv[++i];
+    } else if (!std::strcmp(argv[i], "--field-of-view") && i + 1 < argc) {
+      field_of_view = argv[++i];
+    } else if (!std::strcmp(argv[i], "--only") && i + 1 < argc) {
+      only = std::atoi(argv[++i]);
+    } else if (!std::strcmp(argv[i], "--keep") && i + 1 < argc) {
+      keep = argv[++i];
+    } else {
+      std::fprintf(stderr,
+                   "usage: depth_sweep [--bursts N] [--seed S] [--camera ideal|webcam|phone]\n"
+                   "                   [--field-of-view normal|wide] [--only I [--keep DIR]]\n");
+      return 2;
+    }
+  }
+  std::vector<SynthOptions> sweep;
+  try {
+    sweep = CalibrationSweepSettings(bursts, seed, ParseSweepFieldOfView(field_of_view),
+                                     CameraEffects::Preset(camera));
+  } catch (const std::invalid_argument& e) {
+    std::fprintf(stderr, "%s\n", e.what());
+    return 2;
+  }
+  if (only >= static_cast<int>(sweep.size())) {
+    std::fprintf(stderr, "--only %d: the sweep has %zu bursts (0-%zu)\n", only, sweep.size(),
+                 sweep.size() - 1);
+    return 2;
+  }
+  if (!keep.empty() && only < 0) {
+    std::fprintf(stderr, "--keep DIR writes one burst: it needs --only I\n");
+    return 2;
+  }
+  if (only >= 0) sweep = {sweep[only]};
+  std::vector<DepthSweepOutcome> outcomes;
+  for (const SynthOptions& settings : sweep) {
+    outcomes.push_back(RunDepthSweepBurst(settings, keep));
+    std::printf("%s\n", ToJson(outcomes.back()).dump().c_str());
+    std::fflush(stdout);
+  }
+
+  std::printf(
+      "\n| group | bursts | processed | median / max AbsRel %% | median filled AbsRel %% | median "
+      "coverage %% | confirmed | max AbsRel of confirmed %% | confirmed over 5 %% | over 5 %% "
+      "not confirmed |\n|---|---|---|---|---|---|---|---|---|---|\n");
+  for (const int width : {320, 640, 1280, 1920}) {
+    std::vector<DepthSweepOutcome> group;
+    for (const DepthSweepOutcome& o : outcomes)
+      if (o.settings.width == width) group.push_back(o);
+    if (!group.empty())
+      PrintRow(std::to_string(width) + "x" + std::to_string(group[0].settings.height), group);
+  }
+  for (const double tremor : {0.25, 0.5, 1.0, 2.0}) {
+    std::vector<DepthSweepOutcome> group;
+    for (const DepthSweepOutcome& o : outcomes)
+      if (o.settings.rotation_deg == tremor) group.push_back(o);
+    if (!group.empty()) {
+      char name[32];
+      std::snprintf(name, sizeof(name), "%.2g deg", tremor);
+      PrintRow(name, group);
+    }
+  }
+  PrintRow("all", outcomes);
+  return 0;
+}
