@@ -201,6 +201,7 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
   // coarse pixels do, the range is extended toward the camera by its own
   // width and the coarse level swept again, once (docs/dense.md, "The depth
   // sweep").
+  result.coarse_scale = scale;
   double plane_parallax = 0.0, lattice_ratio = 1.0;
   InverseDepthLattice coarse_lattice;
   int stride = 1, window = 1, reach = 0;
@@ -220,7 +221,6 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
                                1,
                            std::min(16, lattice.planes), lattice.planes);
     }
-    result.coarse_scale = scale;
     result.coarse_planes = coarse_lattice.planes;
     // Coarse pixels of parallax between neighbouring coarse planes; exact
     // projections kProjectedSpan apart, the planes between interpolated.

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 
+#include "core/dense/inverse_depth_lattice.h"
 #include "core/sparse/fixed_text.h"
 
 namespace dfsm {
@@ -15,9 +16,10 @@ std::string Percent(double share) { return FixedText(100.0 * share, 0) + " %"; }
 // swept range's nearest and farthest ends.
 void SharesAtRangeEnds(const DenseDepth& dense, double* nearest, double* farthest) {
   *nearest = *farthest = 0.0;
-  if (dense.planes < 2 || !(dense.max_inverse_depth > dense.min_inverse_depth)) return;
-  const double step = (dense.max_inverse_depth - dense.min_inverse_depth) / (dense.planes - 1);
-  const double near_end = dense.max_inverse_depth - step, far_end = dense.min_inverse_depth + step;
+  const InverseDepthLattice lattice{dense.min_inverse_depth, dense.max_inverse_depth, dense.planes};
+  if (lattice.planes < 2 || !(lattice.max_inverse_depth > lattice.min_inverse_depth)) return;
+  const double near_end = lattice.max_inverse_depth - lattice.step(),
+               far_end = lattice.min_inverse_depth + lattice.step();
   long measured = 0, near = 0, far = 0;
   for (int y = 0; y < dense.depth.rows; ++y) {
     const float* depth = dense.depth.ptr<float>(y);
