@@ -94,6 +94,7 @@ DepthCheck CheckDepthAgainstTracks(const SparseReconstruction& sparse, const Den
         " (median); the lens distorts more than k1 and k2 describe (a wide angle?), and the "
         "depth may be wrong as a whole");
   check.range_extended = dense.range_extended;
+  check.known_calibration_fits = !sparse.known_fit || sparse.known_fit->fits;
   SharesAtRangeEnds(dense, &check.at_nearest_plane, &check.at_farthest_plane);
   if (check.at_nearest_plane > options.max_range_end_fraction)
     check.warnings.push_back(
@@ -122,7 +123,8 @@ nlohmann::json ToJson(const DepthCheck& check) {
           {"at_nearest_plane", check.at_nearest_plane},
           {"at_farthest_plane", check.at_farthest_plane},
           {"range_extended", check.range_extended},
-          {"confirmed", check.warnings.empty()}};
+          {"known_calibration_fits", check.known_calibration_fits},
+          {"confirmed", check.Confirmed()}};
 }
 
 }  // namespace dfsm

@@ -114,5 +114,28 @@ TEST(DepthCheck, PixelsAtAnEndOfTheSweptRangeWarnThatTheDepthIsClamped) {
       ToJson(CheckDepthAgainstTracks(burst.sparse, burst.dense)).at("range_extended").get<bool>());
 }
 
+// A known calibration that does not fit the burst placed the tracks too: a map
+// that agrees with them is not confirmed, and the check adds no warning of its
+// own (the sparse stage's says why). One that fits, or none, changes nothing.
+TEST(DepthCheck, AKnownCalibrationThatDoesNotFitWithholdsConfirmation) {
+  AgreeingBurst burst;
+  EXPECT_TRUE(
+      ToJson(CheckDepthAgainstTracks(burst.sparse, burst.dense)).at("confirmed").get<bool>());
+
+  burst.sparse.known_fit.emplace();
+  burst.sparse.known_fit->fits = true;
+  DepthCheck check = CheckDepthAgainstTracks(burst.sparse, burst.dense);
+  EXPECT_TRUE(check.Confirmed());
+  EXPECT_TRUE(ToJson(check).at("known_calibration_fits").get<bool>());
+
+  burst.sparse.known_fit->fits = false;
+  check = CheckDepthAgainstTracks(burst.sparse, burst.dense);
+  EXPECT_TRUE(check.warnings.empty()) << check.warnings.front();
+  EXPECT_FALSE(check.Confirmed());
+  const nlohmann::json json = ToJson(check);
+  EXPECT_FALSE(json.at("known_calibration_fits").get<bool>());
+  EXPECT_FALSE(json.at("confirmed").get<bool>());
+}
+
 }  // namespace
 }  // namespace dfsm

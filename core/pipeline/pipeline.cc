@@ -179,7 +179,7 @@ PipelineOutput RunPipeline(const Burst& burst, const PipelineOptions& options,
           {"free_rms_px", sparse.known_fit->free_rms_px},
           {"free_camera", ToJson(sparse.known_fit->free_camera)},
           {"free_quality", CalibrationQualityName(sparse.known_fit->free_quality)},
-          {"fits", sparse.known_fit->Fits(sparse_options.max_known_fit_ratio)}};
+          {"fits", sparse.known_fit->fits}};
     result.calibration_detail["rolling_shutter"] = {
         {"mode", RollingShutterName(sparse_options.rolling_shutter)},
         {"readout", sparse.state.readout}};

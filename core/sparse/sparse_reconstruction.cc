@@ -347,8 +347,9 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
       fit.free_rms_px = free.bundle_adjustment.rms_reprojection_px;
       fit.free_camera = free.state.camera;
       fit.free_quality = free.verdict.quality;
+      fit.fits = fit.Fits(options.max_known_fit_ratio);
       sparse.known_fit = fit;
-      if (!fit.Fits(options.max_known_fit_ratio)) {
+      if (!fit.fits) {
         const std::string reason =
             "known calibration does not fit this burst: under it " +
             std::to_string(fit.known_tracks) + " tracks fit to " + FixedText(fit.known_rms_px) +

@@ -143,6 +143,11 @@ struct SparseReconstruction {
     bool Fits(double max_ratio) const {
       return known_rms_px <= max_ratio * free_rms_px && free_tracks <= max_ratio * known_tracks;
     }
+    // Fits(SparseOptions::max_known_fit_ratio), decided once by the sparse
+    // stage: where it is false, the geometry every later stage builds on is
+    // in doubt as a whole (the depth check cannot confirm a map against
+    // tracks placed by a camera that does not fit them).
+    bool fits = true;
   };
   std::optional<KnownFit> known_fit;
   // How far the relief depends on the lens model: the same tracks adjusted
