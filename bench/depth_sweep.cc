@@ -48,14 +48,15 @@ struct DepthSweepOutcome {
 
 // keep: where not empty, the burst is written to keep/burst and its result
 // to keep/result, for `dfsm evaluate` and a look at the maps.
-DepthSweepOutcome RunDepthSweepBurst(const SynthOptions& settings, const std::string& keep) {
+DepthSweepOutcome RunDepthSweepBurst(const SynthOptions& settings, const std::string& keep,
+                                     const PipelineOptions& pipeline) {
   DepthSweepOutcome outcome;
   outcome.settings = settings;
   const SynthBurst synth = SynthesizeBurst(settings);
   const Burst burst = ToBurst(synth);
   if (!keep.empty()) WriteSynthBurst(std::filesystem::path(keep) / "burst", synth);
   const auto start = std::chrono::steady_clock::now();
-  PipelineOutput output = RunPipeline(burst, PipelineOptions{});
+  PipelineOutput output = RunPipeline(burst, pipeline);
   outcome.total_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   if (!keep.empty()) WritePipelineOutputs(std::filesystem::path(keep) / "result", burst, &output);
@@ -137,6 +138,7 @@ int main(int argc, char** argv) {
   int bursts = 64, only = -1;
   uint64_t seed = 1;
   std::string camera = "phone", field_of_view = "normal", keep;
+  PipelineOptions pipeline;
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--bursts") && i + 1 < argc) {
       bursts = std::atoi(argv[++i]);
@@ -150,10 +152,13 @@ int main(int argc, char** argv) {
       only = std::atoi(argv[++i]);
     } else if (!std::strcmp(argv[i], "--keep") && i + 1 < argc) {
       keep = argv[++i];
+    } else if (!std::strcmp(argv[i], "--reweight-rounds") && i + 1 < argc) {
+      pipeline.sparse.reweight_rounds = std::atoi(argv[++i]);  // 0: every track weighs the same
     } else {
       std::fprintf(stderr,
                    "usage: depth_sweep [--bursts N] [--seed S] [--camera ideal|webcam|phone]\n"
-                   "                   [--field-of-view normal|wide] [--only I [--keep DIR]]\n");
+                   "                   [--field-of-view normal|wide] [--only I [--keep DIR]]\n"
+                   "                   [--reweight-rounds N]\n");
       return 2;
     }
   }
@@ -177,7 +182,7 @@ int main(int argc, char** argv) {
   if (only >= 0) sweep = {sweep[only]};
   std::vector<DepthSweepOutcome> outcomes;
   for (const SynthOptions& settings : sweep) {
-    outcomes.push_back(RunDepthSweepBurst(settings, keep));
+    outcomes.push_back(RunDepthSweepBurst(settings, keep, pipeline));
     std::printf("%s\n", ToJson(outcomes.back()).dump().c_str());
     std::fflush(stdout);
   }

@@ -86,6 +86,28 @@ double TruncatedTrackCost(const FeatureTracks& tracks, const SparseState& state,
   return cost;
 }
 
+// Each track's weight from its own RMS reprojection error e under `state`:
+// (m / e)^2 where e exceeds the median m of the used tracks' errors, at least
+// min_weight; 1 elsewhere. A track's ~2 (frames - 1) residuals measure its
+// noise to a few tens of percent, enough to tell a crisp corner from one
+// that tracks several times worse; those at or below the median are not
+// raised, so no few tracks can take the adjustment over.
+std::vector<double> TrackWeights(const FeatureTracks& tracks, const SparseState& state,
+                                 const std::vector<bool>& use, double min_weight) {
+  const std::vector<double> errors = TrackReprojectionErrors(tracks, state);
+  std::vector<double> used;
+  for (size_t j = 0; j < errors.size(); ++j)
+    if (use[j] && std::isfinite(errors[j])) used.push_back(errors[j]);
+  std::vector<double> weights(errors.size(), 1.0);
+  if (used.empty()) return weights;
+  std::nth_element(used.begin(), used.begin() + used.size() / 2, used.end());
+  const double median = used[used.size() / 2];
+  for (size_t j = 0; j < errors.size(); ++j)
+    if (use[j] && std::isfinite(errors[j]) && errors[j] > median)
+      weights[j] = std::max(min_weight, (median / errors[j]) * (median / errors[j]));
+  return weights;
+}
+
 double MedianTrackError(const FeatureTracks& tracks, const SparseState& state) {
   std::vector<double> errors = TrackReprojectionErrors(tracks, state);
   std::nth_element(errors.begin(), errors.begin() + errors.size() / 2, errors.end());
@@ -190,6 +212,29 @@ class StartedAdjustment {
     }
   }
 
+  // The poses and inverse depths refined with each track weighed by its own
+  // noise (SparseOptions::reweight_rounds), the camera held: the weights from
+  // the errors of the settled set, the adjustment rerun from where it stands;
+  // a second round takes the weights from the weighted solution's errors.
+  // Only on the start that won: the starts are compared as they were
+  // settled, by their fit to every track with equal weights.
+  void Reweight(const BundleAdjustmentOptions& adjust, AdjustmentAttempt* attempt) const {
+    const double initial_cost = attempt->summary.initial_cost;
+    // f, k1, k2 and the readout stay the equal-weight solution's: with the
+    // intrinsics free, the weights took the calibration's evidence away where
+    // the lens departs most from the model (the corners' tracks fit worst),
+    // and its sigmas shrank as its errors grew (docs/sparse.md).
+    BundleAdjustmentOptions held = adjust;
+    held.fix_intrinsics = true;
+    held.estimate_readout = false;
+    for (int round = 0; round < options_.reweight_rounds; ++round) {
+      attempt->weights =
+          TrackWeights(tracks_, attempt->state, attempt->use, options_.min_track_weight);
+      attempt->Adjust(tracks_, held);
+      attempt->summary.initial_cost = initial_cost;
+    }
+  }
+
  private:
   // A rolling shutter: the global-shutter rank-1 start is far off under a
   // phone's readout (rolling_shutter_rectification.h), so the adjustment
@@ -261,7 +306,13 @@ class StartedAdjustment {
 
 void AdjustmentAttempt::Adjust(const FeatureTracks& tracks,
                                const BundleAdjustmentOptions& options) {
-  summary = RunBundleAdjustment(tracks, use, &state, options);
+  if (weights.empty()) {
+    summary = RunBundleAdjustment(tracks, use, &state, options);
+  } else {
+    FeatureTracks weighted = tracks;
+    weighted.weights = weights;
+    summary = RunBundleAdjustment(weighted, use, &state, options);
+  }
   BundleAdjustmentRun run;
   run.iterations = summary.iterations;
   run.converged = summary.converged;
@@ -367,6 +418,8 @@ AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraMode
   // A probed start that won goes on from there with the whole budget.
   if (*best > 0) steps.Finish(adjust, kFocalStartIterations, &solved);
   if (starts > 1) LapIfTimed(timer, "focal_starts");
+  steps.Reweight(adjust, &solved);
+  LapIfTimed(timer, "reweight");
   return solved;
 }
 

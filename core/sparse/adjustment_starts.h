@@ -24,6 +24,9 @@ namespace dfsm {
 struct AdjustmentAttempt {
   SparseState state;
   std::vector<bool> use;  // the tracks it adjusts
+  // Per track, the weight the reweighting rounds gave it (FeatureTracks::
+  // weights); empty before them.
+  std::vector<double> weights;
   // Of the last adjustment it kept; after outlier rounds, initial_cost is the
   // one before the rounds.
   BundleAdjustmentSummary summary;
@@ -33,7 +36,7 @@ struct AdjustmentAttempt {
   double start_f = 0.0;  // the focal length it started from, pixels
 
   // One adjustment of the `use` tracks from `state`, in place, recorded in
-  // `summary` and `runs`.
+  // `summary` and `runs`; `tracks` weighted by `weights` where it has them.
   void Adjust(const FeatureTracks& tracks, const BundleAdjustmentOptions& options);
 };
 
@@ -48,7 +51,8 @@ void CheckFocalStarts(const std::vector<double>& starts);
 // Laps `timer` (where not null) with "rotation", "rank1" and "bundle_adjustment" (the first
 // start's) and, with more than one start, "focal_starts": the wall time the
 // later starts add (a wait for them after the first start, and the winner's
-// rest where a later start wins). Throws
+// rest where a later start wins); then "reweight": the winner's reweighting
+// rounds (SparseOptions::reweight_rounds; AdjustmentAttempt::weights). Throws
 // ReconstructionError, with the first start's reason, where no start reaches
 // a solution; std::invalid_argument for focal starts CheckFocalStarts refuses.
 //

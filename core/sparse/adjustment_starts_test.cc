@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <cstdint>
 #include <functional>
 #include <opencv2/core.hpp>
 #include <stdexcept>
@@ -102,8 +103,8 @@ TEST(AdjustFromStarts, LapsTheFirstStartThenTheOthers) {
     const Adjusted adjusted = AdjustOn(threads, sim, EstimatedReadout());
     std::vector<std::string> stages;
     for (const auto& [stage, ms] : adjusted.laps) stages.push_back(stage);
-    EXPECT_EQ(stages,
-              (std::vector<std::string>{"rotation", "rank1", "bundle_adjustment", "focal_starts"}))
+    EXPECT_EQ(stages, (std::vector<std::string>{"rotation", "rank1", "bundle_adjustment",
+                                                "focal_starts", "reweight"}))
         << threads << " threads";
   }
 }
@@ -139,12 +140,12 @@ TEST(AdjustFromStarts, TakesUpTheCallersPiecesAndChangesNothing) {
     if (threads == 1) {
       EXPECT_EQ(taken, 0);
       EXPECT_EQ(stages, (std::vector<std::string>{"rotation", "rank1", "bundle_adjustment",
-                                                  "focal_starts"}));
+                                                  "focal_starts", "reweight"}));
     } else {
       // The start done first took them (the other ran hundreds of ms longer).
       EXPECT_GT(taken, 0);
       EXPECT_EQ(stages, (std::vector<std::string>{"rotation", "rank1", "bundle_adjustment",
-                                                  "beside_starts", "focal_starts"}));
+                                                  "beside_starts", "focal_starts", "reweight"}));
     }
     EXPECT_EQ(attempt.state.camera.f, alone.state.camera.f) << threads << " threads";
     EXPECT_EQ(attempt.state.readout, alone.state.readout);
@@ -169,12 +170,71 @@ TEST(AdjustFromStarts, AKnownCameraStartsOnce) {
       AdjustFromStarts(sim.tracks, sim.camera, options, adjust, &timer);
   EXPECT_EQ(attempt.start_f, sim.camera.f);
   EXPECT_EQ(attempt.state.camera.f, sim.camera.f);
-  ASSERT_EQ(laps.size(), 3u);  // no focal_starts lap
-  EXPECT_EQ(laps.back().first, "bundle_adjustment");
+  ASSERT_EQ(laps.size(), 4u);  // no focal_starts lap
+  EXPECT_EQ(laps[2].first, "bundle_adjustment");
+  EXPECT_EQ(laps.back().first, "reweight");
   // One start leaves no core idle: the caller's pieces are left to it.
   SharedWork beside({[] {}});
   AdjustFromStarts(sim.tracks, sim.camera, options, adjust, nullptr, &beside);
   EXPECT_EQ(beside.taken(), 0);
+}
+
+// Tracks that are noisier than the rest (a corner in weak texture, blur)
+// weigh less in the reweighting rounds; the median track and the ones below
+// it keep weight 1, and no weight falls under min_track_weight. The camera
+// (f, k1, k2, the readout) is held at the equal-weight solution's.
+TEST(AdjustFromStarts, NoisierTracksWeighLessAndTheCameraIsHeld) {
+  TrackSimulatorOptions simulated;
+  simulated.width = 640;
+  simulated.height = 480;
+  simulated.f = 420.0;
+  simulated.k1 = -0.05;
+  simulated.k2 = 0.01;
+  simulated.rotation_deg = 1.0;
+  simulated.noise_px = 0.04;
+  simulated.seed = 5;
+  SparseOptions weighted;
+  SparseOptions equal;
+  equal.reweight_rounds = 0;
+  for (const uint64_t draw : {11, 12, 13, 14}) {
+    simulated.noise_seed = draw;
+    TrackSimulation sim = SimulateTracks(simulated);
+    // Every fourth track tracks four times worse.
+    cv::RNG rng(static_cast<uint64_t>(draw));
+    std::vector<bool> noisy(sim.tracks.num_tracks(), false);
+    for (int j = 0; j < sim.tracks.num_tracks(); j += 4) {
+      noisy[j] = true;
+      for (int i = 0; i < sim.tracks.num_frames(); ++i)
+        if (i != sim.tracks.reference)
+          sim.tracks.pixels[i].col(j) += Eigen::Vector2d(rng.gaussian(0.12), rng.gaussian(0.12));
+    }
+    const AdjustmentAttempt a = AdjustOn(2, sim, weighted).attempt;
+    const AdjustmentAttempt b = AdjustOn(2, sim, equal).attempt;
+    EXPECT_TRUE(b.weights.empty());
+    ASSERT_EQ(a.weights.size(), static_cast<size_t>(sim.tracks.num_tracks()));
+    EXPECT_EQ(a.state.camera.f, b.state.camera.f) << "draw " << draw;
+    EXPECT_EQ(a.state.camera.k1, b.state.camera.k1) << "draw " << draw;
+    EXPECT_EQ(a.state.readout, b.state.readout) << "draw " << draw;
+    double noisy_sum = 0.0;
+    int noisy_used = 0, quiet_used = 0, quiet_whole = 0;
+    for (size_t j = 0; j < a.weights.size(); ++j) {
+      EXPECT_GE(a.weights[j], weighted.min_track_weight);
+      EXPECT_LE(a.weights[j], 1.0);
+      if (!a.use[j]) continue;
+      if (noisy[j]) {
+        noisy_sum += a.weights[j], ++noisy_used;
+      } else {
+        ++quiet_used;
+        quiet_whole += a.weights[j] == 1.0;
+      }
+    }
+    ASSERT_GT(noisy_used, 10) << "draw " << draw;
+    EXPECT_LT(noisy_sum / noisy_used, 0.4) << "draw " << draw;
+    EXPECT_GT(quiet_whole, quiet_used / 2) << "draw " << draw;
+    // The rounds refined the poses (the sweeps in docs/sparse.md measure
+    // what that does to the depth).
+    EXPECT_NE(a.state.inverse_depths, b.state.inverse_depths) << "draw " << draw;
+  }
 }
 
 TEST(AdjustFromStarts, RefusesFocalStartsNoCameraHas) {

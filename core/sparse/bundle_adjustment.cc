@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <memory>
 
 #include "core/camera/rolling_shutter.h"
 #include "core/sparse/intrinsics_prior.h"
@@ -175,10 +176,13 @@ BundleAdjustmentSummary RunBundleAdjustment(const FeatureTracks& tracks,
   for (int i = 0; i < n; ++i) poses[i] = ToParameters(state->poses[i]);
   std::vector<double>& inverse_depths = state->inverse_depths;
 
+  ceres::HuberLoss huber(options.huber_px);
+  // A weighted track's loss scales the Huber loss (FeatureTracks::weights);
+  // declared before the problem, which uses them to its end.
+  std::vector<std::unique_ptr<ceres::ScaledLoss>> weighted_losses;
   ceres::Problem::Options problem_options;
   problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   ceres::Problem problem(problem_options);
-  ceres::HuberLoss huber(options.huber_px);
   auto* ordering = new ceres::ParameterBlockOrdering;
   std::vector<ceres::ResidualBlockId> reprojection_blocks, prior_blocks;
   std::vector<std::pair<int, int>> block_track_frame;  // (track, frame) of each block
@@ -187,11 +191,17 @@ BundleAdjustmentSummary RunBundleAdjustment(const FeatureTracks& tracks,
                                   state->frame_times);
   for (int j = 0; j < m; ++j) {
     if (!use[j]) continue;
+    ceres::LossFunction* loss = &huber;
+    if (tracks.weight(j) != 1.0) {
+      weighted_losses.push_back(std::make_unique<ceres::ScaledLoss>(&huber, tracks.weight(j),
+                                                                    ceres::DO_NOT_TAKE_OWNERSHIP));
+      loss = weighted_losses.back().get();
+    }
     for (int i = 0; i < n; ++i) {
       if (i == tracks.reference) continue;
       block_track_frame.emplace_back(j, i);
-      reprojection_blocks.push_back(reprojection.Add(&problem, &huber, j, i, intrinsics, &poses,
-                                                     &inverse_depths[j], &readout));
+      reprojection_blocks.push_back(
+          reprojection.Add(&problem, loss, j, i, intrinsics, &poses, &inverse_depths[j], &readout));
     }
     // Inverse depths first: Schur eliminates them, leaving a small dense
     // system over the poses and intrinsics.
@@ -270,6 +280,8 @@ BundleAdjustmentSummary RunBundleAdjustment(const FeatureTracks& tracks,
                               r_minus);
         for (int k = 0; k < 2; ++k) B(k, axis) = (r_plus[k] - r_minus[k]) / (2.0 * kStep);
       }
+      // Whitened like the residuals the problem evaluates (its loss applied).
+      B *= std::sqrt(tracks.weight(j));
       jacobians.block_track.push_back(j);
       jacobians.reference_jacobians.push_back(B);
     }

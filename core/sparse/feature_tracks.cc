@@ -18,6 +18,9 @@ FeatureTracks FeatureTracks::Select(const std::vector<bool>& keep) const {
       if (keep[j]) out.col(k++) = frame.col(j);
     selected.pixels.push_back(std::move(out));
   }
+  if (!weights.empty())
+    for (size_t j = 0; j < weights.size(); ++j)
+      if (keep[j]) selected.weights.push_back(weights[j]);
   return selected;
 }
 

@@ -117,6 +117,9 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
         options.known->mode == KnownCalibrationMode::kFixed ? "known-fixed" : "known-prior";
   }
   options.rolling_shutter.Check();
+  if (options.reweight_rounds < 0 ||
+      !(options.min_track_weight > 0.0 && options.min_track_weight <= 1.0))
+    throw std::invalid_argument("reweight_rounds must be >= 0 and min_track_weight in (0, 1]");
   if (options.rolling_shutter.mode == RollingShutterOptions::Mode::kEstimate)
     ba_options.estimate_readout = true;
   // The solution from the starts; the rest below (a fallback refit) goes on

@@ -70,6 +70,18 @@ struct SparseOptions {
   // depth edges, and keeping them costs 10-25 % of focal accuracy at VGA.
   double outlier_px = 0.3;
   int outlier_rounds = 3;
+  // Then the poses and inverse depths are refined with each track weighed by
+  // its own noise, `reweight_rounds` times: a track whose RMS reprojection
+  // error e exceeds the median track's m weighs (m / e)^2, at least
+  // min_track_weight; the others 1 (AdjustmentAttempt::weights). The tracks'
+  // noise is not one sigma: a corner in weak texture, blur or JPEG blocks
+  // tracks several times worse than a crisp one, and with equal weights those
+  // few set much of the rotations' error, which the dense stage reads as an
+  // inverse-depth offset. f, k1, k2 and the readout are held (with them
+  // free the calibration lost its corners' evidence and its sigmas their
+  // honesty). docs/sparse.md, "Tracks weighted by their own noise". 0: off.
+  int reweight_rounds = 2;
+  double min_track_weight = 0.1;
   // Focal lengths the self-calibration starts from, as fractions of
   // max(width, height) (1: the paper's guess, CameraModel::Initial). The
   // first start runs the whole adjustment; each later one is probed beside it
