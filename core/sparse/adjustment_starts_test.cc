@@ -18,7 +18,7 @@ namespace {
 
 // A wide phone camera: a rolling shutter whose readout the adjustment
 // estimates (so the readout restarts run) and two focal starts.
-TrackSimulation PhoneTracks() {
+TrackSimulatorOptions PhoneCamera() {
   TrackSimulatorOptions options;
   options.width = 640;
   options.height = 480;
@@ -29,8 +29,10 @@ TrackSimulation PhoneTracks() {
   options.noise_px = 0.05;
   options.readout = 0.6;
   options.seed = 5;
-  return SimulateTracks(options);
+  return options;
 }
+
+TrackSimulation PhoneTracks() { return SimulateTracks(PhoneCamera()); }
 
 SparseOptions EstimatedReadout() {
   SparseOptions options;
@@ -184,15 +186,10 @@ TEST(AdjustFromStarts, AKnownCameraStartsOnce) {
 // it keep weight 1, and no weight falls under min_track_weight. The camera
 // (f, k1, k2, the readout) is held at the equal-weight solution's.
 TEST(AdjustFromStarts, NoisierTracksWeighLessAndTheCameraIsHeld) {
-  TrackSimulatorOptions simulated;
-  simulated.width = 640;
-  simulated.height = 480;
-  simulated.f = 420.0;
-  simulated.k1 = -0.05;
-  simulated.k2 = 0.01;
-  simulated.rotation_deg = 1.0;
+  // The phone camera's scene with a global shutter.
+  TrackSimulatorOptions simulated = PhoneCamera();
   simulated.noise_px = 0.04;
-  simulated.seed = 5;
+  simulated.readout = 0.0;
   SparseOptions weighted;
   SparseOptions equal;
   equal.reweight_rounds = 0;
