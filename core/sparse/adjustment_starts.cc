@@ -8,6 +8,7 @@
 #include <limits>
 #include <optional>
 #include <random>
+#include <string>
 
 #include "core/io/parallel_tasks.h"
 #include "core/io/shared_work.h"
@@ -321,22 +322,29 @@ void AdjustmentAttempt::Adjust(const FeatureTracks& tracks,
   runs.push_back(run);
 }
 
-void CheckFocalStarts(const std::vector<double>& starts) {
-  if (starts.empty())
+void CheckAdjustmentOptions(const SparseOptions& options) {
+  if (options.focal_starts.empty())
     throw std::invalid_argument(
         "focal_starts: at least one start is needed (1: the paper's guess)");
-  for (const double start : starts)
+  for (const double start : options.focal_starts)
     if (!(start >= kFocalStartRange[0] && start <= kFocalStartRange[1]))
       throw std::invalid_argument("focal_starts: " + FixedText(start) + " is outside [" +
                                   FixedText(kFocalStartRange[0]) + ", " +
                                   FixedText(kFocalStartRange[1]) + "] of max(width, height)");
+  if (options.reweight_rounds < 0)
+    throw std::invalid_argument(
+        "reweight_rounds must be >= 0 (0: every track weighs the same), got " +
+        std::to_string(options.reweight_rounds));
+  if (!(options.min_track_weight > 0.0 && options.min_track_weight <= 1.0))
+    throw std::invalid_argument("min_track_weight must be in (0, 1], got " +
+                                FixedText(options.min_track_weight));
 }
 
 AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraModel& initial,
                                    const SparseOptions& options,
                                    const BundleAdjustmentOptions& adjust, StageTimer* timer,
                                    SharedWork* beside) {
-  CheckFocalStarts(options.focal_starts);
+  CheckAdjustmentOptions(options);
   const StartedAdjustment steps(tracks, options);
   // Each focal start is initialized and adjusted once, side by side: the
   // first (timed) to the end of its first adjustment, a later one probed,

@@ -40,9 +40,10 @@ struct AdjustmentAttempt {
   void Adjust(const FeatureTracks& tracks, const BundleAdjustmentOptions& options);
 };
 
-// Throws std::invalid_argument for an empty list or a start outside the range
-// a camera can have.
-void CheckFocalStarts(const std::vector<double>& starts);
+// Throws std::invalid_argument naming the option of `options` that
+// AdjustFromStarts cannot run with: no focal start, or one outside the range
+// a camera can have; reweight_rounds below 0; min_track_weight outside (0, 1].
+void CheckAdjustmentOptions(const SparseOptions& options);
 
 // Adjusts `tracks` from `initial` (a known camera, or CameraModel::Initial),
 // with `adjust` (options.bundle_adjustment as the known calibration and the
@@ -54,7 +55,7 @@ void CheckFocalStarts(const std::vector<double>& starts);
 // rest where a later start wins); then "reweight": the winner's reweighting
 // rounds (SparseOptions::reweight_rounds; AdjustmentAttempt::weights). Throws
 // ReconstructionError, with the first start's reason, where no start reaches
-// a solution; std::invalid_argument for focal starts CheckFocalStarts refuses.
+// a solution; std::invalid_argument for options CheckAdjustmentOptions refuses.
 //
 // `beside` (may be null): pieces of the caller's work that do not depend on
 // this one (ReconstructSparse's). With more than one start and more than one

@@ -117,9 +117,6 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
         options.known->mode == KnownCalibrationMode::kFixed ? "known-fixed" : "known-prior";
   }
   options.rolling_shutter.Check();
-  if (options.reweight_rounds < 0 ||
-      !(options.min_track_weight > 0.0 && options.min_track_weight <= 1.0))
-    throw std::invalid_argument("reweight_rounds must be >= 0 and min_track_weight in (0, 1]");
   if (options.rolling_shutter.mode == RollingShutterOptions::Mode::kEstimate)
     ba_options.estimate_readout = true;
   // The solution from the starts; the rest below (a fallback refit) goes on
@@ -312,7 +309,7 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
   CheckFrameTimes(options.frame_times, static_cast<int>(frames.size()));
   // Before the tracking, so that a bad option costs no seconds of work;
   // AdjustFromStarts checks them again for its other callers.
-  CheckFocalStarts(options.focal_starts);
+  CheckAdjustmentOptions(options);
   SparseReconstruction tracked;
   StageTimer timer(&tracked.timings_ms);
   tracked.tracks = TrackGridedFeatures(frames, reference, options.features, &tracked.feature_stats);
