@@ -105,7 +105,7 @@ double Median(std::vector<double> values) {
 
 // One docs-table row over a group of bursts.
 void PrintRow(const std::string& name, const std::vector<DepthSweepOutcome>& group) {
-  std::vector<double> measured, filled, coverage;
+  std::vector<double> measured, filled, coverage, after_offset;
   int ok = 0, confirmed = 0, untrusted_confirmed = 0, flagged_bad = 0, bad = 0;
   double worst_confirmed = 0.0;
   for (const DepthSweepOutcome& o : group) {
@@ -114,6 +114,7 @@ void PrintRow(const std::string& name, const std::vector<DepthSweepOutcome>& gro
     measured.push_back(100.0 * o.measured.abs_rel);
     filled.push_back(100.0 * o.filled.abs_rel);
     coverage.push_back(100.0 * o.measured.coverage);
+    after_offset.push_back(100.0 * o.measured.abs_rel_after_offset);
     const bool untrusted = o.measured.abs_rel > kUntrustedAbsRel;
     bad += untrusted;
     flagged_bad += untrusted && !o.confirmed;
@@ -123,11 +124,11 @@ void PrintRow(const std::string& name, const std::vector<DepthSweepOutcome>& gro
       worst_confirmed = std::max(worst_confirmed, 100.0 * o.measured.abs_rel);
     }
   }
-  std::printf("| %s | %zu | %d | %.2f / %.2f | %.2f | %.1f | %d | %.2f | %d | %d of %d |\n",
+  std::printf("| %s | %zu | %d | %.2f / %.2f | %.2f | %.1f | %d | %.2f | %d | %d of %d | %.2f |\n",
               name.c_str(), group.size(), ok, Median(measured),
               measured.empty() ? 0.0 : *std::max_element(measured.begin(), measured.end()),
               Median(filled), Median(coverage), confirmed, worst_confirmed, untrusted_confirmed,
-              flagged_bad, bad);
+              flagged_bad, bad, Median(after_offset));
 }
 
 }  // namespace
@@ -190,7 +191,8 @@ int main(int argc, char** argv) {
   std::printf(
       "\n| group | bursts | processed | median / max AbsRel %% | median filled AbsRel %% | median "
       "coverage %% | confirmed | max AbsRel of confirmed %% | confirmed over 5 %% | over 5 %% "
-      "not confirmed |\n|---|---|---|---|---|---|---|---|---|---|\n");
+      "not confirmed | median AbsRel after the inverse-depth offset %% |\n"
+      "|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const int width : {320, 640, 1280, 1920}) {
     std::vector<DepthSweepOutcome> group;
     for (const DepthSweepOutcome& o : outcomes)

@@ -28,6 +28,19 @@ struct DepthEvaluation {
   double within_25_percent = 0.0;  // the same below 1.25 (the delta < 1.25 of depth benchmarks)
   double coverage = 0.0;           // share of textured pixels with an estimate
   int evaluated_pixels = 0;
+  // The relief's share of the error. In small motion a frame's rotation error
+  // and an offset of every inverse depth give nearly the same flow, so a map
+  // can be right but for an offset b in inverse depth (docs/sparse.md, "The
+  // relief's uncertainty"). With w = 1 / d the map's inverse depth and w* the
+  // truth's, w* = a w + b is fitted over the same pixels by least absolute
+  // relative residuals, |(a w + b) / w* - 1| (robust to the few wild pixels
+  // beside depth edges). `inverse_depth_offset` is
+  // b / (a mean w): the offset as a share of the map's mean inverse depth,
+  // scale removed; `abs_rel_after_offset` the mean |d' - d*| / d* of
+  // d' = 1 / (a w + b), what is left once that one offset is taken out (1
+  // where a w + b <= 0). 0 and abs_rel where the fit is singular.
+  double inverse_depth_offset = 0.0;
+  double abs_rel_after_offset = 0.0;
 };
 
 // Textured pixels: local (7x7) standard deviation of the reference above
