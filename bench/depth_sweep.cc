@@ -41,6 +41,7 @@ struct DepthSweepOutcome {
   DepthEvaluation measured, filled;
   bool confirmed = false;
   double relief_sigma = -1.0;
+  nlohmann::json depth_check;  // result.json's, whole
   std::string quality;
   std::vector<std::string> warnings;
   double total_ms = 0.0;
@@ -74,6 +75,7 @@ DepthSweepOutcome RunDepthSweepBurst(const SynthOptions& settings, const std::st
   const nlohmann::json& check = output.result.extra.at("depth_check");
   outcome.confirmed = check.at("confirmed").get<bool>();
   outcome.relief_sigma = check.at("relief_sigma").get<double>();
+  outcome.depth_check = check;
   outcome.quality = output.result.calibration_detail.value("quality", "");
   outcome.warnings = output.result.warnings;
   return outcome;
@@ -92,6 +94,7 @@ nlohmann::json ToJson(const DepthSweepOutcome& o) {
   j["filled"] = ToJson(o.filled);
   j["confirmed"] = o.confirmed;
   j["relief_sigma"] = o.relief_sigma;
+  j["depth_check"] = o.depth_check;
   j["quality"] = o.quality;
   j["warnings"] = o.warnings;
   return j;
