@@ -40,7 +40,6 @@ struct DepthSweepOutcome {
   SparseEvaluation sparse;
   DepthEvaluation measured, filled;
   bool confirmed = false;
-  double relief_sigma = -1.0;
   nlohmann::json depth_check;  // result.json's, whole
   std::string quality;
   std::vector<std::string> warnings;
@@ -74,7 +73,6 @@ DepthSweepOutcome RunDepthSweepBurst(const SynthOptions& settings, const std::st
   // What the result says of itself, as result.json says it.
   const nlohmann::json& check = output.result.extra.at("depth_check");
   outcome.confirmed = check.at("confirmed").get<bool>();
-  outcome.relief_sigma = check.at("relief_sigma").get<double>();
   outcome.depth_check = check;
   outcome.quality = output.result.calibration_detail.value("quality", "");
   outcome.warnings = output.result.warnings;
@@ -93,7 +91,7 @@ nlohmann::json ToJson(const DepthSweepOutcome& o) {
   j["depth"] = ToJson(o.measured);
   j["filled"] = ToJson(o.filled);
   j["confirmed"] = o.confirmed;
-  j["relief_sigma"] = o.relief_sigma;
+  j["relief_sigma"] = o.depth_check.at("relief_sigma");
   j["depth_check"] = o.depth_check;
   j["quality"] = o.quality;
   j["warnings"] = o.warnings;

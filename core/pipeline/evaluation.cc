@@ -43,48 +43,33 @@ cv::Mat TexturedMask(const cv::Mat& reference_gray, double min_texture_std) {
 
 namespace {
 
-// Calls `visit(w, w*)` for every pixel EvaluateDepth scores.
-template <typename Visit>
-void ForEachScoredPixel(const cv::Mat& depth, const cv::Mat& truth_depth,
-                        const cv::Mat& textured_mask, Visit visit) {
-  for (int v = 0; v < depth.rows; ++v)
-    for (int u = 0; u < depth.cols; ++u) {
-      const float truth = truth_depth.at<float>(v, u);
-      if (truth <= 0.0f || (!textured_mask.empty() && !textured_mask.at<uchar>(v, u))) continue;
-      const float estimate = depth.at<float>(v, u);
-      if (estimate > 0.0f && std::isfinite(estimate)) visit(1.0 / estimate, 1.0 / truth);
-    }
-}
-
-// DepthEvaluation::inverse_depth_offset and abs_rel_after_offset: minimizes
-// sum |(a w + b) / w* - 1| (relative, as AbsRel is, and robust: a least-squares
-// fit followed the few wild pixels beside depth edges, and on a phone VGA map
-// "after" came out at twice the AbsRel) by iteratively reweighted least
-// squares from the median scale, b = 0.
-void FitInverseDepthOffset(const cv::Mat& depth, const cv::Mat& truth_depth,
-                           const cv::Mat& textured_mask, DepthEvaluation* evaluation) {
+// DepthEvaluation::inverse_depth_offset and abs_rel_after_offset over the
+// scored pixels' (estimate, truth) depths: minimizes sum |(a w + b) / w* - 1|
+// (relative, as AbsRel is, and robust: a least-squares fit followed the few
+// wild pixels beside depth edges, and on a phone VGA map "after" came out at
+// twice the AbsRel) by iteratively reweighted least squares from the median
+// scale, b = 0.
+void FitInverseDepthOffset(const std::vector<cv::Vec2f>& scored, DepthEvaluation* evaluation) {
   evaluation->inverse_depth_offset = 0.0;
   evaluation->abs_rel_after_offset = evaluation->abs_rel;
-  if (evaluation->evaluated_pixels < 2 || !(evaluation->scale > 0.0)) return;
+  if (scored.size() < 2 || !(evaluation->scale > 0.0)) return;
   constexpr int kRounds = 20;
   constexpr double kMinResidual = 1e-4;  // the L1 weight's floor
-  double a = 1.0 / evaluation->scale, b = 0.0, sum_w = 0.0;
-  int n = 0;
+  double sum_w = 0.0;
+  for (const cv::Vec2f& depths : scored) sum_w += 1.0 / depths[0];
+  double a = 1.0 / evaluation->scale, b = 0.0;
   for (int round = 0; round < kRounds; ++round) {
     Eigen::Matrix2d normal = Eigen::Matrix2d::Zero();
     Eigen::Vector2d rhs = Eigen::Vector2d::Zero();
-    sum_w = 0.0;
-    n = 0;
-    ForEachScoredPixel(depth, truth_depth, textured_mask, [&](double w, double w_true) {
+    for (const cv::Vec2f& depths : scored) {
+      const double w = 1.0 / depths[0], w_true = 1.0 / depths[1];
       // Residual (a w + b) / w* - 1, linear in a and b.
       const Eigen::Vector2d row(w / w_true, 1.0 / w_true);
       const double weight =
           1.0 / std::max(kMinResidual, std::abs(row.dot(Eigen::Vector2d(a, b)) - 1.0));
       normal += weight * row * row.transpose();
       rhs += weight * row;
-      sum_w += w;
-      ++n;
-    });
+    }
     const Eigen::FullPivLU<Eigen::Matrix2d> lu(normal);
     if (!lu.isInvertible()) return;
     const Eigen::Vector2d ab = lu.solve(rhs);
@@ -93,13 +78,14 @@ void FitInverseDepthOffset(const cv::Mat& depth, const cv::Mat& truth_depth,
     b = ab[1];
   }
   if (!(a > 0.0)) return;
-  evaluation->inverse_depth_offset = b / (a * sum_w / n);
+  evaluation->inverse_depth_offset = b / (a * sum_w / scored.size());
   double after = 0.0;
-  ForEachScoredPixel(depth, truth_depth, textured_mask, [&](double w, double w_true) {
+  for (const cv::Vec2f& depths : scored) {
+    const double w = 1.0 / depths[0], w_true = 1.0 / depths[1];
     const double fitted = a * w + b;
     after += fitted > 0.0 ? std::abs(w_true / fitted - 1.0) : 1.0;
-  });
-  evaluation->abs_rel_after_offset = after / n;
+  }
+  evaluation->abs_rel_after_offset = after / scored.size();
 }
 
 }  // namespace
@@ -110,6 +96,7 @@ DepthEvaluation EvaluateDepth(const cv::Mat& depth, const cv::Mat& truth_depth,
             depth.size() == truth_depth.size());
   DepthEvaluation evaluation;
   std::vector<float> ratios;
+  std::vector<cv::Vec2f> scored;  // (estimate, truth) of each ratio's pixel
   int textured = 0, covered = 0;
   for (int v = 0; v < depth.rows; ++v) {
     for (int u = 0; u < depth.cols; ++u) {
@@ -120,6 +107,7 @@ DepthEvaluation EvaluateDepth(const cv::Mat& depth, const cv::Mat& truth_depth,
       if (estimate > 0.0f && std::isfinite(estimate)) {
         ++covered;
         ratios.push_back(truth / estimate);
+        scored.emplace_back(estimate, truth);
       }
     }
   }
@@ -145,7 +133,7 @@ DepthEvaluation EvaluateDepth(const cv::Mat& depth, const cv::Mat& truth_depth,
   evaluation.within_5_percent = static_cast<double>(within) / ratios.size();
   evaluation.within_25_percent = static_cast<double>(within_25) / ratios.size();
   evaluation.evaluated_pixels = static_cast<int>(ratios.size());
-  FitInverseDepthOffset(depth, truth_depth, textured_mask, &evaluation);
+  FitInverseDepthOffset(scored, &evaluation);
   return evaluation;
 }
 
