@@ -56,12 +56,18 @@ RadialInverse::RadialInverse(const CameraModel& camera) {
                                   "distorted radius " +
                                   std::to_string(std::sqrt(r2)) + ")");
   }
-  // The captured image's largest undistorted radius is then at a corner.
+  // The captured image's largest undistorted radius is then at a corner (one
+  // pixel out, for a bilinear sample's neighbours): no sample beyond it lands
+  // on the image, so the fit need not reach further. The 1 % margin is for
+  // rounding only. A wider one (10 % until 2026-11-29) reached toward the fold
+  // of a wide lens just outside its image, where the inverse grows like a
+  // square root that no polynomial of degree 10 follows, and refused cameras
+  // that fit their burst (docs/dense.md, "The radial inverse's range").
   double max_r2 = 0.0;
   for (const double u : {-1.0, static_cast<double>(camera.width)})
     for (const double v : {-1.0, static_cast<double>(camera.height)})
       max_r2 = std::max(max_r2, camera.PixelToUndistorted({u, v}).squaredNorm());
-  max_r2 = 1.1 * max_r2 + 1e-12;
+  max_r2 = 1.01 * max_r2 + 1e-12;
 
   constexpr int kNodes = 400;
   Eigen::VectorXd t(kNodes), ratio(kNodes);
@@ -81,6 +87,7 @@ RadialInverse::RadialInverse(const CameraModel& camera) {
   // inverse's tolerance").
   constexpr double kTolerance = 1e-6;
   constexpr double kTolerancePx = 0.01;
+  constexpr int kLawsonIterations = 40;
   double best_error = std::numeric_limits<double>::infinity();
   float best[kMaxDegree + 1] = {};
   for (int degree = 2; degree <= kMaxDegree; ++degree) {
@@ -100,6 +107,34 @@ RadialInverse::RadialInverse(const CameraModel& camera) {
     if (fit_error_ < best_error) {
       best_error = fit_error_;
       std::copy(std::begin(coefficients_), std::end(coefficients_), std::begin(best));
+    }
+  }
+  // Near a fold the least-squares fit's largest error sits at the last
+  // nodes. Lawson's iteration reweights the nodes by their errors toward the
+  // fit of least largest error (minimax) of the highest degree.
+  {
+    const int degree = kMaxDegree;
+    Eigen::MatrixXd vandermonde(kNodes, degree + 1);
+    for (int n = 0; n < kNodes; ++n)
+      for (int d = 0; d <= degree; ++d) vandermonde(n, d) = std::pow(t(n), d);
+    Eigen::VectorXd weight = Eigen::VectorXd::Constant(kNodes, 1.0 / kNodes);
+    for (int iteration = 0; iteration < kLawsonIterations; ++iteration) {
+      const Eigen::VectorXd root = weight.cwiseSqrt();
+      const Eigen::VectorXd fit =
+          (root.asDiagonal() * vandermonde).colPivHouseholderQr().solve(root.cwiseProduct(ratio));
+      for (int d = 0; d <= degree; ++d) coefficients_[d] = static_cast<float>(fit(d));
+      const Eigen::VectorXd error = (vandermonde * fit - ratio).cwiseAbs();
+      double worst = 0.0;
+      for (int n = 0; n < kNodes; ++n)
+        worst = std::max(worst, std::abs(Ratio(static_cast<float>(t(n) * max_r2)) - ratio(n)));
+      if (worst < best_error) {
+        best_error = worst;
+        std::copy(std::begin(coefficients_), std::end(coefficients_), std::begin(best));
+      }
+      weight = weight.cwiseProduct(error);
+      const double sum = weight.sum();
+      if (!(sum > 0.0)) break;
+      weight /= sum;
     }
   }
   fit_error_ = best_error;

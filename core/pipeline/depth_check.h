@@ -78,11 +78,22 @@ struct DepthCheck {
   // 15.7 % AbsRel, the map within 0.5 % of the tracks). The sparse stage
   // already warns; the check only withholds `confirmed`.
   bool known_calibration_fits = true;
+  // False where the dense stage could not use the camera the adjustment
+  // estimated and the tracks were refitted with fewer lens terms
+  // (SparseReconstruction::calibration_used "fallback-k1" or "fallback-k0").
+  // The refit's relief is the one the burst's own lens model did not choose,
+  // and how far it moved is not measured (lens_relief_shift is -1): on the
+  // wide depth sweep, such maps came out 6-12 % off while agreeing with their
+  // tracks (docs/dense.md, "The radial inverse's range"). The sparse stage
+  // already warns; the check only withholds `confirmed`.
+  bool estimated_camera_used = true;
   std::vector<std::string> warnings;  // empty: nothing to say
 
   // The map agrees with the tracks and nothing upstream doubts the geometry
   // they were placed in.
-  bool Confirmed() const { return warnings.empty() && known_calibration_fits; }
+  bool Confirmed() const {
+    return warnings.empty() && known_calibration_fits && estimated_camera_used;
+  }
 };
 
 DepthCheck CheckDepthAgainstTracks(const SparseReconstruction& sparse, const DenseDepth& dense,

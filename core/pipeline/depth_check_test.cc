@@ -74,6 +74,29 @@ TEST(DepthCheck, AReliefThatDependsOnTheLensModelWarns) {
   EXPECT_TRUE(CheckDepthAgainstTracks(burst.sparse, burst.dense).warnings.empty());
 }
 
+// A map computed with a camera refitted with fewer lens terms than the
+// adjustment estimated (the dense stage could not invert the estimate) agrees
+// with the refit's tracks, which confirms nothing: the check says so in its
+// JSON and withholds `confirmed`; the sparse stage's warning says why.
+TEST(DepthCheck, AFallbackCameraIsNotConfirmed) {
+  AgreeingBurst burst;
+  for (const char* used : {"self", "known-fixed", "known-prior", "fallback-known"}) {
+    burst.sparse.calibration_used = used;
+    const DepthCheck check = CheckDepthAgainstTracks(burst.sparse, burst.dense);
+    EXPECT_TRUE(check.estimated_camera_used) << used;
+    EXPECT_TRUE(check.Confirmed()) << used;
+  }
+  for (const char* used : {"fallback-k1", "fallback-k0"}) {
+    burst.sparse.calibration_used = used;
+    const DepthCheck check = CheckDepthAgainstTracks(burst.sparse, burst.dense);
+    EXPECT_TRUE(check.warnings.empty()) << used;
+    EXPECT_FALSE(check.estimated_camera_used) << used;
+    const nlohmann::json json = ToJson(check);
+    EXPECT_FALSE(json.at("estimated_camera_used").get<bool>()) << used;
+    EXPECT_FALSE(json.at("confirmed").get<bool>()) << used;
+  }
+}
+
 // A surface nearer (or farther) than every track is swept only to the range's
 // end and takes the end plane: above 3 % of the measured pixels there, the
 // depth is not confirmed, and below it says nothing.
