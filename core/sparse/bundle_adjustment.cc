@@ -285,7 +285,7 @@ BundleAdjustmentSummary RunBundleAdjustment(const FeatureTracks& tracks,
       jacobians.block_track.push_back(j);
       jacobians.reference_jacobians.push_back(B);
     }
-    jacobians.noise_inflation = options.uncertainty_inflation;
+    jacobians.noise_inflation = UncertaintyInflation(options, state->camera);
     jacobians.inverse_depths = inverse_depths;
     *uncertainty = MarginalIntrinsicsCovariance(jacobians);
     PropagateToDistortion(state->camera, uncertainty);
@@ -328,6 +328,19 @@ std::vector<double> TrackReprojectionErrors(const FeatureTracks& tracks, const S
     errors[j] = n > 1 ? std::sqrt(sum / (n - 1)) : 0.0;
   }
   return errors;
+}
+
+double UncertaintyInflation(const BundleAdjustmentOptions& options, const CameraModel& camera) {
+  const double side = std::max(camera.width, camera.height);
+  const double ratio = camera.f > 0.0 && side > 0.0 ? camera.f / side : 0.0;
+  // The bias it covers is the estimate's: a camera held or given as a prior
+  // does not take it.
+  const bool estimated = !options.fix_intrinsics && options.known_f_sigma_percent == 0.0;
+  if (!estimated || !(ratio > 0.0) || ratio >= options.wide_angle_focal_ratio ||
+      options.wide_angle_inflation_exponent == 0.0)
+    return options.uncertainty_inflation;
+  return options.uncertainty_inflation *
+         std::pow(options.wide_angle_focal_ratio / ratio, options.wide_angle_inflation_exponent);
 }
 
 }  // namespace dfsm

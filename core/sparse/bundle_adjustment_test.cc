@@ -81,6 +81,46 @@ TEST(BundleAdjustment, SelfCalibratesFromTheRankOneStart) {
   }
 }
 
+// The covariance's noise inflation grows for a wide lens it estimated only: a
+// camera at or above 0.9 x its longer side keeps the measured 2.8; at 0.6 x
+// it takes 2.8 (0.9 / 0.6)^4; the ratio is of the longer side, portrait or
+// not.
+TEST(BundleAdjustment, UncertaintyInflationGrowsForAWideLensOnly) {
+  BundleAdjustmentOptions options;
+  CameraModel camera = CameraModel::Initial(1920, 1080);
+  for (const double ratio : {1.5, 1.1, 0.9}) {
+    camera.f = ratio * 1920;
+    EXPECT_DOUBLE_EQ(UncertaintyInflation(options, camera), options.uncertainty_inflation);
+  }
+  camera.f = 0.6 * 1920;
+  EXPECT_NEAR(UncertaintyInflation(options, camera), 2.8 * std::pow(1.5, 4), 1e-9);
+  CameraModel portrait = CameraModel::Initial(1080, 1920);
+  portrait.f = camera.f;
+  EXPECT_DOUBLE_EQ(UncertaintyInflation(options, portrait), UncertaintyInflation(options, camera));
+  // A camera held, or given as a prior, is not the biased estimate.
+  BundleAdjustmentOptions held = options, prior = options;
+  held.fix_intrinsics = true;
+  prior.known_f_sigma_percent = 2.0;
+  EXPECT_DOUBLE_EQ(UncertaintyInflation(held, camera), options.uncertainty_inflation);
+  EXPECT_DOUBLE_EQ(UncertaintyInflation(prior, camera), options.uncertainty_inflation);
+  options.wide_angle_inflation_exponent = 0.0;
+  EXPECT_DOUBLE_EQ(UncertaintyInflation(options, camera), options.uncertainty_inflation);
+  // The same inflation reaches the covariance the adjustment reports, for a
+  // simulated wide lens (0.6 x the width).
+  TrackSimulatorOptions simulated;
+  simulated.noise_px = 0.05;
+  simulated.seed = 4;
+  simulated.f = 0.6 * simulated.width;
+  const TrackSimulation sim = SimulateTracks(simulated);
+  std::vector<bool> use;
+  SparseState state = RankOneStart(sim, &use);
+  const BundleAdjustmentOptions with_covariance;
+  CalibrationUncertainty uncertainty;
+  RunBundleAdjustment(sim.tracks, use, &state, with_covariance, &uncertainty);
+  EXPECT_GT(uncertainty.inflation, 1.5 * with_covariance.uncertainty_inflation) << state.camera.f;
+  EXPECT_DOUBLE_EQ(uncertainty.inflation, UncertaintyInflation(with_covariance, state.camera));
+}
+
 TEST(BundleAdjustment, ReportsReprojectionErrorPerTrack) {
   TrackSimulatorOptions options;
   options.seed = 4;
