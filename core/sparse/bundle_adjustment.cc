@@ -288,6 +288,7 @@ BundleAdjustmentSummary RunBundleAdjustment(const FeatureTracks& tracks,
     jacobians.noise_inflation = UncertaintyInflation(options, state->camera);
     jacobians.inverse_depths = inverse_depths;
     *uncertainty = MarginalIntrinsicsCovariance(jacobians);
+    uncertainty->wide_angle_factor = WideAngleFactor(options, state->camera);
     PropagateToDistortion(state->camera, uncertainty);
   }
   for (int i = 0; i < n; ++i)
@@ -330,7 +331,7 @@ std::vector<double> TrackReprojectionErrors(const FeatureTracks& tracks, const S
   return errors;
 }
 
-double UncertaintyInflation(const BundleAdjustmentOptions& options, const CameraModel& camera) {
+double WideAngleFactor(const BundleAdjustmentOptions& options, const CameraModel& camera) {
   const double side = std::max(camera.width, camera.height);
   const double ratio = camera.f > 0.0 && side > 0.0 ? camera.f / side : 0.0;
   // The bias it covers is the estimate's: a camera held or given as a prior
@@ -338,9 +339,12 @@ double UncertaintyInflation(const BundleAdjustmentOptions& options, const Camera
   const bool estimated = !options.fix_intrinsics && options.known_f_sigma_percent == 0.0;
   if (!estimated || !(ratio > 0.0) || ratio >= options.wide_angle_focal_ratio ||
       options.wide_angle_inflation_exponent == 0.0)
-    return options.uncertainty_inflation;
-  return options.uncertainty_inflation *
-         std::pow(options.wide_angle_focal_ratio / ratio, options.wide_angle_inflation_exponent);
+    return 1.0;
+  return std::pow(options.wide_angle_focal_ratio / ratio, options.wide_angle_inflation_exponent);
+}
+
+double UncertaintyInflation(const BundleAdjustmentOptions& options, const CameraModel& camera) {
+  return options.uncertainty_inflation * WideAngleFactor(options, camera);
 }
 
 }  // namespace dfsm

@@ -66,8 +66,10 @@ struct BundleAdjustmentOptions {
   double wide_angle_inflation_exponent = 4.0;
 };
 
-// The noise inflation the covariance of `camera`'s adjustment takes:
-// uncertainty_inflation, times the wide-angle factor above.
+// The wide-angle factor above for `camera` (1 where it does not apply), and
+// the noise inflation the covariance of its adjustment takes:
+// uncertainty_inflation times that factor.
+double WideAngleFactor(const BundleAdjustmentOptions& options, const CameraModel& camera);
 double UncertaintyInflation(const BundleAdjustmentOptions& options, const CameraModel& camera);
 
 // The state the adjustment refines; the principal point stays at its value.

@@ -119,6 +119,9 @@ TEST(BundleAdjustment, UncertaintyInflationGrowsForAWideLensOnly) {
   RunBundleAdjustment(sim.tracks, use, &state, with_covariance, &uncertainty);
   EXPECT_GT(uncertainty.inflation, 1.5 * with_covariance.uncertainty_inflation) << state.camera.f;
   EXPECT_DOUBLE_EQ(uncertainty.inflation, UncertaintyInflation(with_covariance, state.camera));
+  EXPECT_DOUBLE_EQ(uncertainty.wide_angle_factor, WideAngleFactor(with_covariance, state.camera));
+  EXPECT_NEAR(uncertainty.inflation,
+              with_covariance.uncertainty_inflation * uncertainty.wide_angle_factor, 1e-12);
 }
 
 TEST(BundleAdjustment, ReportsReprojectionErrorPerTrack) {

@@ -81,9 +81,15 @@ CalibrationVerdict JudgeCalibration(const CameraModel& camera,
   } else {
     const double sigma_f = uncertainty.sigma_f_percent(camera.f);
     if (sigma_f > options.max_sigma_f_percent)
-      degenerate.push_back("focal length not observed: sigma_f " + FixedText(sigma_f) + " % > " +
-                           FixedText(options.max_sigma_f_percent, 1) +
-                           " % (the prior, not the burst, sets f)");
+      degenerate.push_back(
+          "focal length not observed: sigma_f " + FixedText(sigma_f) + " % > " +
+          FixedText(options.max_sigma_f_percent, 1) + " % " +
+          (uncertainty.wide_angle_factor > 1.0
+               ? "(a wide lens: the sigma is inflated " +
+                     FixedText(uncertainty.wide_angle_factor, 1) +
+                     "x for the lens model's error at this field of view; a known calibration of "
+                     "the camera avoids it)"
+               : std::string("(the prior, not the burst, sets f)")));
     else if (sigma_f > options.max_reliable_sigma_f_percent)
       uncertain.push_back("weak focal length: sigma_f " + FixedText(sigma_f) + " % > " +
                           FixedText(options.max_reliable_sigma_f_percent) + " %");

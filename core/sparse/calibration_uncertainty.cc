@@ -238,7 +238,8 @@ nlohmann::json ToJson(const CalibrationUncertainty& uncertainty, double f) {
           {"distortion_sigma_max_px", uncertainty.distortion_sigma_max_px},
           {"residual_sigma_px", uncertainty.residual_sigma_px},
           {"degrees_of_freedom", uncertainty.degrees_of_freedom},
-          {"inflation", uncertainty.inflation}};
+          {"inflation", uncertainty.inflation},
+          {"wide_angle_factor", uncertainty.wide_angle_factor}};
 }
 
 }  // namespace dfsm

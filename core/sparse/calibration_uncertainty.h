@@ -32,8 +32,12 @@ struct CalibrationUncertainty {
   // scale of the covariance.
   double residual_sigma_px = 0.0;
   int degrees_of_freedom = 0;
-  // The noise inflation the covariance was computed with (1: none).
+  // The noise inflation the covariance was computed with (1: none), and the
+  // share of it that is the wide-angle factor (BundleAdjustmentOptions::
+  // wide_angle_*; 1: none): a wide lens's sigma counts the model's error at
+  // its field of view, not only the burst's noise.
   double inflation = 1.0;
+  double wide_angle_factor = 1.0;
   // Propagated to the grid of MeanDistortionError: the standard deviation of
   // where the estimated D->U model sends a pixel in the undistorted image, in
   // pixels, mean and largest over the grid (f enters only through the

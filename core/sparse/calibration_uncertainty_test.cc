@@ -279,8 +279,17 @@ TEST(CalibrationQuality, NamesEveryReasonAndTellsUncertainFromReliable) {
   EXPECT_EQ(verdict.reasons[1], "few tracks: 30 < 60");
   EXPECT_EQ(verdict.reasons[2], "high residual: RMS 0.90 px > 0.50 px");
   uncertainty.covariance(0, 0) = std::pow(0.2 * camera.f, 2);  // 20 %: the prior's
-  EXPECT_EQ(JudgeCalibration(camera, uncertainty, evidence).quality,
-            CalibrationQuality::kDegenerate);
+  verdict = JudgeCalibration(camera, uncertainty, evidence);
+  EXPECT_EQ(verdict.quality, CalibrationQuality::kDegenerate);
+  EXPECT_NE(verdict.reasons[0].find("the prior, not the burst, sets f"), std::string::npos);
+  // A wide lens's sigma carries the wide-angle factor: the reason says so
+  // instead of blaming the prior.
+  uncertainty.wide_angle_factor = 3.2;
+  verdict = JudgeCalibration(camera, uncertainty, evidence);
+  EXPECT_EQ(verdict.quality, CalibrationQuality::kDegenerate);
+  EXPECT_NE(verdict.reasons[0].find("a wide lens: the sigma is inflated 3.2x"), std::string::npos)
+      << verdict.reasons[0];
+  EXPECT_EQ(verdict.reasons[0].find("the prior"), std::string::npos) << verdict.reasons[0];
 }
 
 TEST(CalibrationQuality, OptionsCheckNamesTheBadThreshold) {
