@@ -90,52 +90,47 @@ RadialInverse::RadialInverse(const CameraModel& camera) {
   constexpr int kLawsonIterations = 40;
   double best_error = std::numeric_limits<double>::infinity();
   float best[kMaxDegree + 1] = {};
-  for (int degree = 2; degree <= kMaxDegree; ++degree) {
-    Eigen::MatrixXd vandermonde(kNodes, degree + 1);
+  max_r2_ = static_cast<float>(max_r2);
+  inverse_max_r2_ = static_cast<float>(1.0 / max_r2);
+  const auto vandermonde = [&](int degree) {
+    Eigen::MatrixXd powers(kNodes, degree + 1);
     for (int n = 0; n < kNodes; ++n)
-      for (int d = 0; d <= degree; ++d) vandermonde(n, d) = std::pow(t(n), d);
-    const Eigen::VectorXd fit = vandermonde.colPivHouseholderQr().solve(ratio);
+      for (int d = 0; d <= degree; ++d) powers(n, d) = std::pow(t(n), d);
+    return powers;
+  };
+  // Takes `fit` as the coefficients and returns its largest error over the
+  // nodes as Ratio() evaluates it (in float), keeping it if it is the best so
+  // far.
+  const auto take = [&](const Eigen::VectorXd& fit) {
     std::fill(std::begin(coefficients_), std::end(coefficients_), 0.0f);
-    for (int d = 0; d <= degree; ++d) coefficients_[d] = static_cast<float>(fit(d));
-    max_r2_ = static_cast<float>(max_r2);
-    inverse_max_r2_ = static_cast<float>(1.0 / max_r2);
-    fit_error_ = 0.0;
+    for (int d = 0; d < fit.size(); ++d) coefficients_[d] = static_cast<float>(fit(d));
+    double worst = 0.0;
     for (int n = 0; n < kNodes; ++n)
-      fit_error_ =
-          std::max(fit_error_, std::abs(Ratio(static_cast<float>(t(n) * max_r2)) - ratio(n)));
-    if (fit_error_ < kTolerance) return;
-    if (fit_error_ < best_error) {
-      best_error = fit_error_;
+      worst = std::max(worst, std::abs(Ratio(static_cast<float>(t(n) * max_r2)) - ratio(n)));
+    if (worst < best_error) {
+      best_error = worst;
       std::copy(std::begin(coefficients_), std::end(coefficients_), std::begin(best));
     }
+    return worst;
+  };
+  for (int degree = 2; degree <= kMaxDegree; ++degree) {
+    fit_error_ = take(vandermonde(degree).colPivHouseholderQr().solve(ratio));
+    if (fit_error_ < kTolerance) return;
   }
   // Near a fold the least-squares fit's largest error sits at the last
   // nodes. Lawson's iteration reweights the nodes by their errors toward the
   // fit of least largest error (minimax) of the highest degree.
-  {
-    const int degree = kMaxDegree;
-    Eigen::MatrixXd vandermonde(kNodes, degree + 1);
-    for (int n = 0; n < kNodes; ++n)
-      for (int d = 0; d <= degree; ++d) vandermonde(n, d) = std::pow(t(n), d);
-    Eigen::VectorXd weight = Eigen::VectorXd::Constant(kNodes, 1.0 / kNodes);
-    for (int iteration = 0; iteration < kLawsonIterations; ++iteration) {
-      const Eigen::VectorXd root = weight.cwiseSqrt();
-      const Eigen::VectorXd fit =
-          (root.asDiagonal() * vandermonde).colPivHouseholderQr().solve(root.cwiseProduct(ratio));
-      for (int d = 0; d <= degree; ++d) coefficients_[d] = static_cast<float>(fit(d));
-      const Eigen::VectorXd error = (vandermonde * fit - ratio).cwiseAbs();
-      double worst = 0.0;
-      for (int n = 0; n < kNodes; ++n)
-        worst = std::max(worst, std::abs(Ratio(static_cast<float>(t(n) * max_r2)) - ratio(n)));
-      if (worst < best_error) {
-        best_error = worst;
-        std::copy(std::begin(coefficients_), std::end(coefficients_), std::begin(best));
-      }
-      weight = weight.cwiseProduct(error);
-      const double sum = weight.sum();
-      if (!(sum > 0.0)) break;
-      weight /= sum;
-    }
+  const Eigen::MatrixXd powers = vandermonde(kMaxDegree);
+  Eigen::VectorXd weight = Eigen::VectorXd::Constant(kNodes, 1.0 / kNodes);
+  for (int iteration = 0; iteration < kLawsonIterations; ++iteration) {
+    const Eigen::VectorXd root = weight.cwiseSqrt();
+    const Eigen::VectorXd fit =
+        (root.asDiagonal() * powers).colPivHouseholderQr().solve(root.cwiseProduct(ratio));
+    take(fit);
+    weight = weight.cwiseProduct((powers * fit - ratio).cwiseAbs());
+    const double sum = weight.sum();
+    if (!(sum > 0.0)) break;
+    weight /= sum;
   }
   fit_error_ = best_error;
   std::copy(std::begin(best), std::end(best), std::begin(coefficients_));
