@@ -40,10 +40,11 @@ struct DenseOptions {
   // Coarse-to-fine: every plane is swept at 1/coarse_scale of the resolution;
   // full resolution then searches 2 * refine_radius + 1 planes of the same
   // lattice around the upsampled coarse winner. coarse_scale 1 sweeps every
-  // plane at full resolution (slow; for comparisons). 0: width / 320 within
-  // [2, 4] (4 at 1080p, 3 at 960, 2 below 960 px, where a 1/4 level is too small to
-  // seed the narrow window: on the 512x288 flower burst 47 % of the pixels got
-  // a depth at 1/4, 85 % at 1/2).
+  // plane at full resolution (slow; for comparisons). 0: the scale in [2, 4]
+  // that leaves the coarse level nearest 480 columns (4 from 1680 px wide: 1080p;
+  // 3 from 1200: 720p; 2 below, where a 1/4 level is too small to seed the
+  // narrow window: on the 512x288 flower burst 47 % of the pixels got a depth
+  // at 1/4, 85 % at 1/2; see kCoarseLevelWidth in dense_depth.cc).
   int coarse_scale = 0;
   // Planes of the coarse sweep, spanning the same range. 0: as many as give
   // 0.2 coarse pixels of parallax between neighbours (at most `planes`): at
@@ -176,6 +177,10 @@ struct DenseDepth {
 // up as the stage goes, so pass them moved). Throws std::invalid_argument
 // naming the problem for inputs and options out of range, and for prepared
 // frames made of another burst or with other options.
+// The coarse level's scale for a burst `width` pixels wide: options.coarse_scale
+// where positive, the default rule (DenseOptions::coarse_scale) otherwise.
+int CoarseScale(int width, const DenseOptions& options);
+
 DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
                              const std::vector<Pose>& poses,
                              const std::vector<double>& sparse_inverse_depths,

@@ -9,6 +9,7 @@
 #include <string>
 #include <tuple>
 #include <utility>
+#include <vector>
 
 #include "core/pipeline/evaluation.h"
 
@@ -194,6 +195,28 @@ TEST_P(DenseDepthPlaneTest, AccurateAndAlignedWithTheCapturedGrid) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Slant, DenseDepthPlaneTest, ::testing::Values(0, 1));
+
+// The coarse level stays near 480 columns: a level much coarser than that
+// for the image blurs the seed and the confidence across depth edges (720p
+// at 1/4 did, docs/dense.md "The coarse level's width"), a much finer one
+// costs the sweep the cube of the scale.
+TEST(DenseDepth, TheCoarseLevelKeepsAboutFourHundredAndEightyColumns) {
+  const DenseOptions defaults;
+  for (const auto& [width, scale] : std::vector<std::pair<int, int>>{{320, 2},
+                                                                     {512, 2},
+                                                                     {640, 2},
+                                                                     {960, 2},
+                                                                     {1199, 2},
+                                                                     {1280, 3},
+                                                                     {1440, 3},
+                                                                     {1679, 3},
+                                                                     {1920, 4},
+                                                                     {3840, 4}})
+    EXPECT_EQ(CoarseScale(width, defaults), scale) << width << " px wide";
+  DenseOptions fixed;
+  fixed.coarse_scale = 1;
+  EXPECT_EQ(CoarseScale(1920, fixed), 1);
+}
 
 // The pipeline has the frames made beside the sparse stage: handed in, they
 // give the bits the stage gives making them itself.
