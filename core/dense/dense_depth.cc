@@ -37,6 +37,18 @@ namespace {
 // coarse sweep, past the issue's time budget.
 constexpr double kCoarseLevelWidth = 480.0;
 
+// A coarse level narrower than this seeds the full-resolution window less
+// precisely (each coarse pixel spans more of the scene), and the default
+// window reaches one plane further each way there: bursts under 800 px wide,
+// whose coarse level has 320 columns or fewer. On TUM fr1/xyz (640x480, real
+// frames) 7 planes left a window-edge hole wherever the seed missed by more
+// than +-1 pixel of parallax: 9 planes measure 6-9 points more of the pixels
+// (window 0-9: 37.9 -> 43.9 %) at the same AbsRel (median 4.1 %); at 720p and
+// 1080p (427 and 480 columns) 9 planes were no better on generated bursts and
+// cost the 1080p budget a quarter of the fine sweep (docs/dense.md, "The
+// full-resolution window").
+constexpr int kNarrowCoarseLevelWidth = 400;
+
 void Require(bool condition, const std::string& message) {
   if (!condition) throw std::invalid_argument("dense: " + message);
 }
@@ -75,7 +87,7 @@ void ValidateInputs(const Burst& burst, const CameraModel& camera, const std::ve
           "image " + std::to_string(burst.width()) + "x" + std::to_string(burst.height()) +
               " too small for coarse_scale " + std::to_string(scale));
   if (options.regularize) options.semi_global.Check();
-  Require(options.refine_radius >= 1, "refine_radius must be >= 1");
+  Require(options.refine_radius >= 0, "refine_radius must be >= 0 (0: from the coarse level)");
   Require(options.range_extension_share >= 0.0 && options.range_extension_share <= 1.0,
           "range_extension_share must be between 0 (never) and 1");
   Require(options.seed_prior >= 0.0, "seed_prior must be >= 0 (0: off)");
@@ -150,6 +162,11 @@ double MaxParallaxPerInverseDepth(const CameraModel& camera, const std::vector<P
 int CoarseScale(int width, const DenseOptions& options) {
   if (options.coarse_scale > 0) return options.coarse_scale;
   return std::clamp(static_cast<int>(std::lround(width / kCoarseLevelWidth)), 2, 4);
+}
+
+int RefineRadius(int width, const DenseOptions& options) {
+  if (options.refine_radius > 0) return options.refine_radius;
+  return width / CoarseScale(width, options) < kNarrowCoarseLevelWidth ? 4 : 3;
 }
 
 DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
@@ -245,7 +262,8 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
     stride = options.refine_stride > 0
                  ? options.refine_stride
                  : std::max(1, static_cast<int>(std::lround(kFinePlaneParallax / plane_parallax)));
-    window = std::min(2 * options.refine_radius + 1, (lattice.planes - 1) / stride + 1);
+    window =
+        std::min(2 * RefineRadius(burst.width(), options) + 1, (lattice.planes - 1) / stride + 1);
     reach = (window - 1) / 2 * stride;
     lattice_ratio = static_cast<double>(lattice.planes - 1) / (coarse_lattice.planes - 1);
     outliers.release();

@@ -68,8 +68,10 @@ struct DenseOptions {
   double max_cost_ratio = 3.0;
   // The full-resolution window: 2 * refine_radius + 1 planes, refine_stride
   // lattice planes apart (0: the stride that puts ~0.35 pixel of parallax
-  // between them), so the window spans a similar parallax at every lattice density.
-  int refine_radius = 3;
+  // between them), so the window spans a similar parallax at every lattice
+  // density. refine_radius 0: 4 where the coarse level is narrower than 400
+  // columns (bursts under 800 px wide), 3 elsewhere (RefineRadius).
+  int refine_radius = 0;
   int refine_stride = 0;
   // The upsampled coarse winner as a prior in that window (SeedPrior,
   // plane_selection.h): a plane d pixels of parallax (in the frame that moves
@@ -180,6 +182,11 @@ struct DenseDepth {
 // The coarse level's scale for a burst `width` pixels wide: options.coarse_scale
 // where positive, the default rule (DenseOptions::coarse_scale) otherwise.
 int CoarseScale(int width, const DenseOptions& options);
+
+// The full-resolution window's half-width in planes for a burst `width`
+// pixels wide: options.refine_radius where positive, the default rule
+// (DenseOptions::refine_radius) otherwise.
+int RefineRadius(int width, const DenseOptions& options);
 
 DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
                              const std::vector<Pose>& poses,

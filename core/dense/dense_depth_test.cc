@@ -218,6 +218,18 @@ TEST(DenseDepth, TheCoarseLevelKeepsAboutFourHundredAndEightyColumns) {
   EXPECT_EQ(CoarseScale(1920, fixed), 1);
 }
 
+// Below 800 px wide the coarse level has 320 columns or fewer and seeds the
+// window less precisely: the window reaches one plane further each way.
+TEST(DenseDepth, TheWindowReachesFurtherAboveANarrowCoarseLevel) {
+  const DenseOptions defaults;
+  for (const auto& [width, radius] : std::vector<std::pair<int, int>>{
+           {320, 4}, {512, 4}, {640, 4}, {799, 4}, {960, 3}, {1280, 3}, {1920, 3}})
+    EXPECT_EQ(RefineRadius(width, defaults), radius) << width << " px wide";
+  DenseOptions fixed;
+  fixed.refine_radius = 2;
+  EXPECT_EQ(RefineRadius(640, fixed), 2);
+}
+
 // The pipeline has the frames made beside the sparse stage: handed in, they
 // give the bits the stage gives making them itself.
 TEST(DenseDepth, FramesPreparedBeforeGiveTheSameDepth) {
