@@ -95,8 +95,7 @@ DepthCheck CheckDepthAgainstTracks(const SparseReconstruction& sparse, const Den
         "depth may be wrong as a whole");
   check.range_extended = dense.range_extended;
   check.known_calibration_fits = !sparse.known_fit || sparse.known_fit->fits;
-  check.estimated_camera_used =
-      sparse.calibration_used != "fallback-k1" && sparse.calibration_used != "fallback-k0";
+  check.estimated_camera_used = !sparse.DroppedLensTerms();
   SharesAtRangeEnds(dense, &check.at_nearest_plane, &check.at_farthest_plane);
   if (check.at_nearest_plane > options.max_range_end_fraction)
     check.warnings.push_back(

@@ -80,7 +80,7 @@ struct DepthCheck {
   bool known_calibration_fits = true;
   // False where the dense stage could not use the camera the adjustment
   // estimated and the tracks were refitted with fewer lens terms
-  // (SparseReconstruction::calibration_used "fallback-k1" or "fallback-k0").
+  // (SparseReconstruction::DroppedLensTerms).
   // The refit's relief is the one the burst's own lens model did not choose,
   // and how far it moved is not measured (lens_relief_shift is -1): on the
   // wide depth sweep, such maps came out 6-12 % off while agreeing with their

@@ -82,6 +82,10 @@ std::vector<double> SparseReconstruction::InlierInverseDepths() const {
   return inverse_depths;
 }
 
+bool SparseReconstruction::DroppedLensTerms() const {
+  return calibration_used == kFallbackK1 || calibration_used == kFallbackK0;
+}
+
 namespace {
 
 // Everything after the tracking (`sparse` holds the tracks): the
@@ -241,9 +245,11 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
         start.f = estimated.camera.f;
       CameraModel k1_only = start;
       if (std::isfinite(estimated.camera.k1)) k1_only.k1 = estimated.camera.k1;
-      fallbacks.push_back({k1_only, ba_options, "fallback-k1", "refitted with k2 = 0 instead"});
+      fallbacks.push_back(
+          {k1_only, ba_options, SparseReconstruction::kFallbackK1, "refitted with k2 = 0 instead"});
       fallbacks.back().options.distortion_terms = std::min(1, ba_options.distortion_terms);
-      fallbacks.push_back({start, ba_options, "fallback-k0", "refitted with k1 = k2 = 0 instead"});
+      fallbacks.push_back({start, ba_options, SparseReconstruction::kFallbackK0,
+                           "refitted with k1 = k2 = 0 instead"});
       fallbacks.back().options.distortion_terms = 0;
     }
     for (size_t n = 0; n < fallbacks.size(); ++n) {

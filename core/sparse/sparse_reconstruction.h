@@ -175,8 +175,8 @@ struct SparseReconstruction {
   double lens_relief_shift = -1.0;
   // The camera the adjustment estimated, when a fallback replaced it.
   std::optional<CameraModel> rejected_camera;
-  // "self" | "known-fixed" | "known-prior" | "fallback-known" | "fallback-k1" |
-  // "fallback-k0"
+  // "self" | "known-fixed" | "known-prior" | "fallback-known" |
+  // kFallbackK1 | kFallbackK0
   std::string calibration_used = "self";
   std::vector<std::string> warnings;
   RankOneResult rank_one;  // diagnostics of the initialization (rank1 mode)
@@ -185,6 +185,15 @@ struct SparseReconstruction {
 
   // Inverse depths of the inlier tracks.
   std::vector<double> InlierInverseDepths() const;
+  // Whether the tracks were refitted with fewer lens terms than the
+  // adjustment estimated (calibration_used kFallbackK1 or kFallbackK0): the
+  // relief is then one the burst's own lens model did not choose.
+  bool DroppedLensTerms() const;
+
+  // calibration_used where the dense stage could not use the estimate and
+  // the tracks were refitted with k2 = 0, or with k1 = k2 = 0.
+  static constexpr const char* kFallbackK1 = "fallback-k1";
+  static constexpr const char* kFallbackK0 = "fallback-k0";
 };
 
 // Throws ReconstructionError for bursts that cannot be reconstructed.
