@@ -10,6 +10,10 @@
 //   depth_sweep [--bursts N] [--seed S] [--camera ideal|webcam|phone]
 //               [--field-of-view normal|wide] [--only I [--keep DIR]] (DIR/burst,
 //               DIR/result: the burst and its result, for dfsm evaluate)
+//   depth_sweep --defaults N [--camera ...]: instead of the sweep, the camera
+//               preset at the generator's default strengths, seeds 1-N at every
+//               size (DefaultStrengthSettings): the bursts the targets
+//               name; a table of means and medians per size follows the docs table.
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -132,12 +136,45 @@ void PrintRow(const std::string& name, const std::vector<DepthSweepOutcome>& gro
               flagged_bad, bad, Median(after_offset));
 }
 
+// The figures per size: AbsRel of depth.tiff and of depth_filled.tiff
+// (mean and median), and the filled map's share within 5 % and coverage.
+void PrintTargetRows(const std::vector<DepthSweepOutcome>& outcomes) {
+  std::printf(
+      "\n| size | bursts | processed | AbsRel mean / median %% | filled AbsRel mean / median %% | "
+      "filled within 5 %% median (min) %% | filled coverage median %% |\n"
+      "|---|---|---|---|---|---|---|\n");
+  for (const SweepSize& size : SweepSizes()) {
+    std::vector<double> measured, filled, within, coverage;
+    int bursts = 0;
+    for (const DepthSweepOutcome& o : outcomes) {
+      if (o.settings.width != size.width || o.settings.height != size.height) continue;
+      ++bursts;
+      if (!o.ok) continue;
+      measured.push_back(100.0 * o.measured.abs_rel);
+      filled.push_back(100.0 * o.filled.abs_rel);
+      within.push_back(100.0 * o.filled.within_5_percent);
+      coverage.push_back(100.0 * o.filled.coverage);
+    }
+    if (bursts == 0) continue;
+    const auto mean = [](const std::vector<double>& v) {
+      double sum = 0.0;
+      for (const double x : v) sum += x;
+      return v.empty() ? 0.0 : sum / v.size();
+    };
+    std::printf("| %dx%d | %d | %zu | %.2f / %.2f | %.2f / %.2f | %.1f (%.1f) | %.1f |\n",
+                size.width, size.height, bursts, measured.size(), mean(measured), Median(measured),
+                mean(filled), Median(filled), Median(within),
+                within.empty() ? 0.0 : *std::min_element(within.begin(), within.end()),
+                Median(coverage));
+  }
+}
+
 }  // namespace
 }  // namespace dfsm
 
 int main(int argc, char** argv) {
   using namespace dfsm;
-  int bursts = 64, only = -1;
+  int bursts = 64, only = -1, defaults = 0;
   uint64_t seed = 1;
   std::string camera = "phone", field_of_view = "normal", keep;
   PipelineOptions pipeline;
@@ -150,6 +187,8 @@ int main(int argc, char** argv) {
       camera = argv[++i];
     } else if (!std::strcmp(argv[i], "--field-of-view") && i + 1 < argc) {
       field_of_view = argv[++i];
+    } else if (!std::strcmp(argv[i], "--defaults") && i + 1 < argc) {
+      defaults = std::atoi(argv[++i]);
     } else if (!std::strcmp(argv[i], "--only") && i + 1 < argc) {
       only = std::atoi(argv[++i]);
     } else if (!std::strcmp(argv[i], "--keep") && i + 1 < argc) {
@@ -160,14 +199,19 @@ int main(int argc, char** argv) {
       std::fprintf(stderr,
                    "usage: depth_sweep [--bursts N] [--seed S] [--camera ideal|webcam|phone]\n"
                    "                   [--field-of-view normal|wide] [--only I [--keep DIR]]\n"
-                   "                   [--reweight-rounds N]\n");
+                   "                   [--reweight-rounds N]\n"
+                   "       depth_sweep --defaults N [--camera ...] [--only I [--keep DIR]]\n");
       return 2;
     }
   }
   std::vector<SynthOptions> sweep;
   try {
-    sweep = CalibrationSweepSettings(bursts, seed, ParseSweepFieldOfView(field_of_view),
-                                     CameraEffects::Preset(camera));
+    if (defaults > 0)
+      sweep = DefaultStrengthSettings(defaults, CameraEffects::Preset(camera),
+                                      CameraEffects::PresetJpegQuality(camera));
+    else
+      sweep = CalibrationSweepSettings(bursts, seed, ParseSweepFieldOfView(field_of_view),
+                                       CameraEffects::Preset(camera));
   } catch (const std::invalid_argument& e) {
     std::fprintf(stderr, "%s\n", e.what());
     return 2;
@@ -194,12 +238,12 @@ int main(int argc, char** argv) {
       "coverage %% | confirmed | max AbsRel of confirmed %% | confirmed over 5 %% | over 5 %% "
       "not confirmed | median AbsRel after the inverse-depth offset %% |\n"
       "|---|---|---|---|---|---|---|---|---|---|---|\n");
-  for (const int width : {320, 640, 1280, 1920}) {
+  for (const SweepSize& size : SweepSizes()) {
     std::vector<DepthSweepOutcome> group;
     for (const DepthSweepOutcome& o : outcomes)
-      if (o.settings.width == width) group.push_back(o);
+      if (o.settings.width == size.width) group.push_back(o);
     if (!group.empty())
-      PrintRow(std::to_string(width) + "x" + std::to_string(group[0].settings.height), group);
+      PrintRow(std::to_string(size.width) + "x" + std::to_string(size.height), group);
   }
   for (const double tremor : {0.25, 0.5, 1.0, 2.0}) {
     std::vector<DepthSweepOutcome> group;
@@ -212,5 +256,6 @@ int main(int argc, char** argv) {
     }
   }
   PrintRow("all", outcomes);
+  if (defaults > 0) PrintTargetRows(outcomes);
   return 0;
 }

@@ -24,7 +24,7 @@ struct SemiGlobalOptions {
   // levels it is halved, and lowered toward P1 across stronger ones, so that
   // depth edges follow image edges. Both far above the cost differences
   // between planes: the coarse level only has to find the right valley, and
-  // the full-resolution window (+-3 planes) places the depth within it. Swept
+  // the full-resolution window (+-3 or +-4 planes) places the depth within it. Swept
   // from 0.1/1 to 16/128 on generated bursts and TUM fr1/xyz (docs/dense.md,
   // "Regularized depth"): better on both up to 8/64, flat beyond.
   float small_step_penalty = 8.0f;

@@ -16,6 +16,27 @@ SweepFieldOfView ParseSweepFieldOfView(const std::string& name) {
   throw std::invalid_argument("field of view '" + name + "': expected normal or wide");
 }
 
+const std::vector<SweepSize>& SweepSizes() {
+  static const std::vector<SweepSize> sizes = {{320, 240}, {640, 480}, {1280, 720}, {1920, 1080}};
+  return sizes;
+}
+
+std::vector<SynthOptions> DefaultStrengthSettings(int seeds, const CameraEffects& effects,
+                                                  int jpeg_quality) {
+  std::vector<SynthOptions> settings;
+  for (const SweepSize& size : SweepSizes())
+    for (int seed = 1; seed <= seeds; ++seed) {
+      SynthOptions options;
+      options.width = size.width;
+      options.height = size.height;
+      options.effects = effects;
+      options.jpeg_quality = jpeg_quality;
+      options.seed = static_cast<uint64_t>(seed);
+      settings.push_back(options);
+    }
+  return settings;
+}
+
 std::vector<SynthOptions> CalibrationSweepSettings(int count, uint64_t seed,
                                                    SweepFieldOfView field_of_view,
                                                    const CameraEffects& effects) {
@@ -25,10 +46,7 @@ std::vector<SynthOptions> CalibrationSweepSettings(int count, uint64_t seed,
   const bool wide = field_of_view == SweepFieldOfView::kWide;
   const double f_low = wide ? kWideLow : kNormalLow;
   const double f_high = wide ? kNormalLow : kNormalHigh;
-  struct Size {
-    int width, height;
-  };
-  const Size sizes[] = {{320, 240}, {640, 480}, {1280, 720}, {1920, 1080}};
+  const std::vector<SweepSize>& sizes = SweepSizes();
   const double tremors[] = {0.25, 0.5, 1.0, 2.0};
   std::mt19937_64 random(seed);
   std::mt19937_64 redraw(seed + 0x9e3779b97f4a7c15ull);
@@ -36,9 +54,9 @@ std::vector<SynthOptions> CalibrationSweepSettings(int count, uint64_t seed,
   std::vector<SynthOptions> settings;
   for (int i = 0; i < count; ++i) {
     SynthOptions options;
-    options.width = sizes[i % 4].width;
-    options.height = sizes[i % 4].height;
-    options.rotation_deg = tremors[(i / 4) % 4];
+    options.width = sizes[i % sizes.size()].width;
+    options.height = sizes[i % sizes.size()].height;
+    options.rotation_deg = tremors[(i / sizes.size()) % 4];
     options.baseline = 0.003 + 0.007 * uniform(random);
     // k1 -0.3..0.3 and k2 of the opposite sign, up to a third of its size (as
     // fitted real lenses tend to have) at the normal range's widest lens, f
