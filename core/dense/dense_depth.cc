@@ -39,10 +39,10 @@ constexpr double kCoarseLevelWidth = 480.0;
 
 // A coarse level narrower than this seeds the full-resolution window less
 // precisely (each coarse pixel spans more of the scene), and the default
-// window reaches one plane further each way there: bursts under 800 px wide,
-// whose coarse level has 320 columns or fewer. On TUM fr1/xyz (640x480, real
-// frames) 7 planes left a window-edge hole wherever the seed missed by more
-// than +-1 pixel of parallax: 9 planes measure 6-9 points more of the pixels
+// window reaches one plane further each way there: bursts under 800 px wide
+// (640x480: 320 columns). On TUM fr1/xyz (640x480, real frames) 7 planes
+// left a window-edge hole wherever the seed missed by more than +-1 pixel of
+// parallax: 9 planes measure 5-12 points more of the pixels
 // (window 0-9: 37.9 -> 43.9 %) at the same AbsRel (median 4.1 %); at 720p and
 // 1080p (427 and 480 columns) 9 planes were no better on generated bursts and
 // cost the 1080p budget a quarter of the fine sweep (docs/dense.md, "The
