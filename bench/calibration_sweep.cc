@@ -117,11 +117,11 @@ int main(int argc, char** argv) {
                 100.0 * s.distortion_within_2_sigma, s.reliable, s.uncertain, s.degenerate,
                 s.reliable_max_f_error_percent);
   };
-  for (const int width : {320, 640, 1280, 1920}) {
+  for (const SweepSize& size : SweepSizes()) {
     std::vector<SweepOutcome> group;
     for (const SweepOutcome& o : outcomes)
-      if (o.settings.width == width) group.push_back(o);
-    if (!group.empty()) row(std::to_string(width).c_str(), group);
+      if (o.settings.width == size.width) group.push_back(o);
+    if (!group.empty()) row(std::to_string(size.width).c_str(), group);
   }
   row("all", outcomes);
   return 0;

@@ -26,9 +26,9 @@
 namespace dfsm {
 namespace {
 
-// The coarse level's width the default scale aims at: the integer scale in
-// [2, 4] that brings the width nearest to it (1080p: 4, 480 columns; 720p: 3,
-// 427; 640x480: 2, 320). A coarse pixel seeds the full-resolution window and
+// The coarse level's width the default scale aims at: the scale is the
+// integer in [2, 4] nearest width / kCoarseLevelWidth (1080p: 4, 480
+// columns; 720p: 3, 427; 640x480: 2, 320). A coarse pixel seeds the full-resolution window and
 // gives it its confidence, so a level too coarse for the image blurs both
 // across depth edges: at 1280x720 the rule that preceded this one (width /
 // 320, 4 at 720p: 320 columns) left the depth sweep's 720p bursts 3.27 %

@@ -40,9 +40,9 @@ struct DenseOptions {
   // Coarse-to-fine: every plane is swept at 1/coarse_scale of the resolution;
   // full resolution then searches 2 * refine_radius + 1 planes of the same
   // lattice around the upsampled coarse winner. coarse_scale 1 sweeps every
-  // plane at full resolution (slow; for comparisons). 0: the scale in [2, 4]
-  // that leaves the coarse level nearest 480 columns (4 from 1680 px wide: 1080p;
-  // 3 from 1200: 720p; 2 below, where a 1/4 level is too small to seed the
+  // plane at full resolution (slow; for comparisons). 0: the integer in [2, 4]
+  // nearest width / 480 (4 from 1680 px wide: 1080p; 3 from 1200: 720p; 2
+  // below, where a 1/4 level is too small to seed the
   // narrow window: on the 512x288 flower burst 47 % of the pixels got a depth
   // at 1/4, 85 % at 1/2; see kCoarseLevelWidth in dense_depth.cc).
   int coarse_scale = 0;
@@ -171,14 +171,6 @@ struct DenseDepth {
   std::vector<std::pair<std::string, double>> timings_ms;  // sub-stages, in order
 };
 
-// `poses` are X_i = R_i X_ref + T_i for every frame of `burst` (reference
-// included); `sparse_inverse_depths` are the inverse depths (same scale as T)
-// of the sparse tracks, used to choose the swept range. `prepared`: the
-// frames PrepareDenseFrames made of this burst with options.high_pass_sigma_px
-// and options.prefilter_sigma (made here where absent; their memory is given
-// up as the stage goes, so pass them moved). Throws std::invalid_argument
-// naming the problem for inputs and options out of range, and for prepared
-// frames made of another burst or with other options.
 // The coarse level's scale for a burst `width` pixels wide: options.coarse_scale
 // where positive, the default rule (DenseOptions::coarse_scale) otherwise.
 int CoarseScale(int width, const DenseOptions& options);
@@ -188,6 +180,14 @@ int CoarseScale(int width, const DenseOptions& options);
 // (DenseOptions::refine_radius) otherwise.
 int RefineRadius(int width, const DenseOptions& options);
 
+// `poses` are X_i = R_i X_ref + T_i for every frame of `burst` (reference
+// included); `sparse_inverse_depths` are the inverse depths (same scale as T)
+// of the sparse tracks, used to choose the swept range. `prepared`: the
+// frames PrepareDenseFrames made of this burst with options.high_pass_sigma_px
+// and options.prefilter_sigma (made here where absent; their memory is given
+// up as the stage goes, so pass them moved). Throws std::invalid_argument
+// naming the problem for inputs and options out of range, and for prepared
+// frames made of another burst or with other options.
 DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
                              const std::vector<Pose>& poses,
                              const std::vector<double>& sparse_inverse_depths,

@@ -218,8 +218,8 @@ TEST(DenseDepth, TheCoarseLevelKeepsAboutFourHundredAndEightyColumns) {
   EXPECT_EQ(CoarseScale(1920, fixed), 1);
 }
 
-// Below 800 px wide the coarse level has 320 columns or fewer and seeds the
-// window less precisely: the window reaches one plane further each way.
+// Below 800 px wide the coarse level has fewer than 400 columns and seeds
+// the window less precisely: the window reaches one plane further each way.
 TEST(DenseDepth, TheWindowReachesFurtherAboveANarrowCoarseLevel) {
   const DenseOptions defaults;
   for (const auto& [width, radius] : std::vector<std::pair<int, int>>{
@@ -228,6 +228,11 @@ TEST(DenseDepth, TheWindowReachesFurtherAboveANarrowCoarseLevel) {
   DenseOptions fixed;
   fixed.refine_radius = 2;
   EXPECT_EQ(RefineRadius(640, fixed), 2);
+  // The rule reads the coarse level, whichever scale made it: 1280 px at 1/4
+  // is 320 columns.
+  DenseOptions quarter;
+  quarter.coarse_scale = 4;
+  EXPECT_EQ(RefineRadius(1280, quarter), 4);
 }
 
 // The pipeline has the frames made beside the sparse stage: handed in, they

@@ -21,8 +21,10 @@ const std::vector<SweepSize>& SweepSizes() {
   return sizes;
 }
 
-std::vector<SynthOptions> DefaultStrengthSettings(int seeds, const CameraEffects& effects,
-                                                  int jpeg_quality) {
+std::vector<SynthOptions> DefaultStrengthSettings(int seeds, const std::string& camera) {
+  if (seeds < 1) throw std::invalid_argument("DefaultStrengthSettings: seeds must be >= 1");
+  const CameraEffects effects = CameraEffects::Preset(camera);
+  const int jpeg_quality = CameraEffects::PresetJpegQuality(camera);
   std::vector<SynthOptions> settings;
   for (const SweepSize& size : SweepSizes())
     for (int seed = 1; seed <= seeds; ++seed) {

@@ -24,25 +24,24 @@ enum class SweepFieldOfView {
 };
 SweepFieldOfView ParseSweepFieldOfView(const std::string& name);  // "normal", "wide"
 
-// The settings of burst `index` of a sweep of `count`: every resolution and
-// tremor appears equally often, the rest is drawn from `seed` (deterministic;
-// the field of view changes the focal lengths and the lens, not the other
-// draws). `effects` go into every burst; a lens their k3 would fold is redrawn.
-// The frame sizes the sweeps cycle through, smallest first: 320x240,
-// 640x480, 1280x720, 1920x1080.
+// The frame sizes the sweeps cycle through, smallest first.
 struct SweepSize {
   int width = 0, height = 0;
 };
 const std::vector<SweepSize>& SweepSizes();
 
-// The generator at its default strengths (SynthOptions' defaults: 0.5 deg of
-// tremor, f 1.1 x the longer side, k1 -0.06, 8 mm, 10 frames) with a camera
-// preset's `effects` and `jpeg_quality`, at every SweepSizes() size, seeds 1
-// to `seeds`: the bursts the issue's accuracy targets name ("every effect
-// on, default strengths"), where the sweeps vary tremor and lens instead.
-std::vector<SynthOptions> DefaultStrengthSettings(int seeds, const CameraEffects& effects,
-                                                  int jpeg_quality);
+// The generator at its default strengths (SynthOptions' defaults) with the
+// effects and JPEG quality of the camera preset `camera` (CameraEffects::
+// Preset, PresetJpegQuality; std::invalid_argument for an unknown name), at
+// every SweepSizes() size, seeds 1 to `seeds` (>= 1): the bursts the issue's
+// accuracy targets name ("every effect on, default strengths"), where the
+// sweeps vary tremor and lens instead.
+std::vector<SynthOptions> DefaultStrengthSettings(int seeds, const std::string& camera);
 
+// The settings of burst `index` of a sweep of `count`: every resolution and
+// tremor appears equally often, the rest is drawn from `seed` (deterministic;
+// the field of view changes the focal lengths and the lens, not the other
+// draws). `effects` go into every burst; a lens their k3 would fold is redrawn.
 std::vector<SynthOptions> CalibrationSweepSettings(
     int count, uint64_t seed = 1, SweepFieldOfView field_of_view = SweepFieldOfView::kNormal,
     const CameraEffects& effects = {});

@@ -176,7 +176,7 @@ struct SparseReconstruction {
   // The camera the adjustment estimated, when a fallback replaced it.
   std::optional<CameraModel> rejected_camera;
   // "self" | "known-fixed" | "known-prior" | "fallback-known" |
-  // kFallbackK1 | kFallbackK0
+  // "fallback-k1" (kFallbackK1) | "fallback-k0" (kFallbackK0)
   std::string calibration_used = "self";
   std::vector<std::string> warnings;
   RankOneResult rank_one;  // diagnostics of the initialization (rank1 mode)
