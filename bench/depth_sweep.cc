@@ -258,7 +258,7 @@ int main(int argc, char** argv) {
     if (!group.empty())
       PrintRow(std::to_string(size.width) + "x" + std::to_string(size.height), group);
   }
-  for (const double tremor : {0.25, 0.5, 1.0, 2.0}) {
+  for (const double tremor : SweepTremors()) {
     std::vector<DepthSweepOutcome> group;
     for (const DepthSweepOutcome& o : outcomes)
       if (o.settings.rotation_deg == tremor) group.push_back(o);

@@ -21,6 +21,11 @@ const std::vector<SweepSize>& SweepSizes() {
   return sizes;
 }
 
+const std::vector<double>& SweepTremors() {
+  static const std::vector<double> tremors = {0.25, 0.5, 1.0, 2.0};
+  return tremors;
+}
+
 std::vector<SynthOptions> DefaultStrengthSettings(int seeds, const std::string& camera) {
   if (seeds < 1) throw std::invalid_argument("DefaultStrengthSettings: seeds must be >= 1");
   const CameraEffects effects = CameraEffects::Preset(camera);
@@ -49,7 +54,7 @@ std::vector<SynthOptions> CalibrationSweepSettings(int count, uint64_t seed,
   const double f_low = wide ? kWideLow : kNormalLow;
   const double f_high = wide ? kNormalLow : kNormalHigh;
   const std::vector<SweepSize>& sizes = SweepSizes();
-  const double tremors[] = {0.25, 0.5, 1.0, 2.0};
+  const std::vector<double>& tremors = SweepTremors();
   std::mt19937_64 random(seed);
   std::mt19937_64 redraw(seed + 0x9e3779b97f4a7c15ull);
   std::uniform_real_distribution<double> uniform(0.0, 1.0);
@@ -58,7 +63,7 @@ std::vector<SynthOptions> CalibrationSweepSettings(int count, uint64_t seed,
     SynthOptions options;
     options.width = sizes[i % sizes.size()].width;
     options.height = sizes[i % sizes.size()].height;
-    options.rotation_deg = tremors[(i / sizes.size()) % 4];
+    options.rotation_deg = tremors[(i / sizes.size()) % tremors.size()];
     options.baseline = 0.003 + 0.007 * uniform(random);
     // k1 -0.3..0.3 and k2 of the opposite sign, up to a third of its size (as
     // fitted real lenses tend to have) at the normal range's widest lens, f

@@ -29,6 +29,9 @@ struct SweepSize {
   int width = 0, height = 0;
 };
 const std::vector<SweepSize>& SweepSizes();
+// The tremors (largest rotation against the reference, degrees) the sweeps
+// cycle through, smallest first.
+const std::vector<double>& SweepTremors();
 
 // The generator at its default strengths (SynthOptions' defaults) with the
 // effects and JPEG quality of the camera preset `camera` (CameraEffects::
