@@ -138,6 +138,15 @@ void PrintRow(const std::string& name, const std::vector<DepthSweepOutcome>& gro
               flagged_bad, bad, Median(after_offset));
 }
 
+// The outcomes of the bursts of one size.
+std::vector<DepthSweepOutcome> OfSize(const std::vector<DepthSweepOutcome>& outcomes,
+                                      const SweepSize& size) {
+  std::vector<DepthSweepOutcome> group;
+  for (const DepthSweepOutcome& o : outcomes)
+    if (o.settings.width == size.width && o.settings.height == size.height) group.push_back(o);
+  return group;
+}
+
 // The figures per size: AbsRel of depth.tiff and of depth_filled.tiff
 // (mean and median), and the filled map's share within 5 % and coverage.
 void PrintTargetRows(const std::vector<DepthSweepOutcome>& outcomes) {
@@ -147,26 +156,24 @@ void PrintTargetRows(const std::vector<DepthSweepOutcome>& outcomes) {
       "filled within 5 %% upper median (min) %% | filled coverage upper median %% |\n"
       "|---|---|---|---|---|---|---|\n");
   for (const SweepSize& size : SweepSizes()) {
+    const std::vector<DepthSweepOutcome> group = OfSize(outcomes, size);
     std::vector<double> measured, filled, within, coverage;
-    int bursts = 0;
-    for (const DepthSweepOutcome& o : outcomes) {
-      if (o.settings.width != size.width || o.settings.height != size.height) continue;
-      ++bursts;
+    for (const DepthSweepOutcome& o : group) {
       if (!o.ok) continue;
       measured.push_back(100.0 * o.measured.abs_rel);
       filled.push_back(100.0 * o.filled.abs_rel);
       within.push_back(100.0 * o.filled.within_5_percent);
       coverage.push_back(100.0 * o.filled.coverage);
     }
-    if (bursts == 0) continue;
+    if (group.empty()) continue;
     const auto mean = [](const std::vector<double>& v) {
       double sum = 0.0;
       for (const double x : v) sum += x;
       return v.empty() ? 0.0 : sum / v.size();
     };
-    std::printf("| %dx%d | %d | %zu | %.2f / %.2f | %.2f / %.2f | %.1f (%.1f) | %.1f |\n",
-                size.width, size.height, bursts, measured.size(), mean(measured), Median(measured),
-                mean(filled), Median(filled), Median(within),
+    std::printf("| %dx%d | %zu | %zu | %.2f / %.2f | %.2f / %.2f | %.1f (%.1f) | %.1f |\n",
+                size.width, size.height, group.size(), measured.size(), mean(measured),
+                Median(measured), mean(filled), Median(filled), Median(within),
                 within.empty() ? 0.0 : *std::min_element(within.begin(), within.end()),
                 Median(coverage));
   }
@@ -252,9 +259,7 @@ int main(int argc, char** argv) {
       "not confirmed | median AbsRel after the inverse-depth offset %% |\n"
       "|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const SweepSize& size : SweepSizes()) {
-    std::vector<DepthSweepOutcome> group;
-    for (const DepthSweepOutcome& o : outcomes)
-      if (o.settings.width == size.width) group.push_back(o);
+    const std::vector<DepthSweepOutcome> group = OfSize(outcomes, size);
     if (!group.empty())
       PrintRow(std::to_string(size.width) + "x" + std::to_string(size.height), group);
   }

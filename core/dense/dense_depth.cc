@@ -28,9 +28,9 @@ namespace {
 
 // The coarse level's width the default scale aims at: the scale is the
 // integer in [2, 4] nearest width / kCoarseLevelWidth (1080p: 4, 480
-// columns; 720p: 3, 427; 640x480: 2, 320). A coarse pixel seeds the full-resolution window and
-// gives it its confidence, so a level too coarse for the image blurs both
-// across depth edges: at 1280x720 the rule that preceded this one (width /
+// columns; 720p: 3, 427; 640x480: 2, 320). A coarse pixel seeds the
+// full-resolution window and gives it its confidence, so a level too coarse
+// for the image blurs both across depth edges: at 1280x720 the rule that preceded this one (width /
 // 320, 4 at 720p: 320 columns) left the depth sweep's 720p bursts 3.27 %
 // AbsRel (filled 4.58 %) against 3.12 % (4.12 %) at 3 (docs/dense.md, "The
 // coarse level's width"). At 1080p, 3 would gain as much but double the

@@ -42,9 +42,9 @@ struct DenseOptions {
   // lattice around the upsampled coarse winner. coarse_scale 1 sweeps every
   // plane at full resolution (slow; for comparisons). 0: the integer in [2, 4]
   // nearest width / 480 (4 from 1680 px wide: 1080p; 3 from 1200: 720p; 2
-  // below, where a 1/4 level is too small to seed the
-  // narrow window: on the 512x288 flower burst 47 % of the pixels got a depth
-  // at 1/4, 85 % at 1/2; see kCoarseLevelWidth in dense_depth.cc).
+  // below, where a 1/4 level is too small to seed the narrow window: on the
+  // 512x288 flower burst 47 % of the pixels got a depth at 1/4, 85 % at 1/2;
+  // see kCoarseLevelWidth in dense_depth.cc).
   int coarse_scale = 0;
   // Planes of the coarse sweep, spanning the same range. 0: as many as give
   // 0.2 coarse pixels of parallax between neighbours (at most `planes`): at

@@ -215,7 +215,7 @@ BundleAdjustmentSummary RunBundleAdjustment(const FeatureTracks& tracks,
   if (options.lens_k_prior_sigma > 0.0)
     prior_blocks.push_back(problem.AddResidualBlock(LensPrior::Create(options.lens_k_prior_sigma),
                                                     nullptr, intrinsics));
-  if (options.known_f_sigma_percent > 0.0)
+  if (options.HasKnownIntrinsicsPrior())
     prior_blocks.push_back(problem.AddResidualBlock(
         KnownIntrinsicsPrior::Create(state->camera, options.known_f_sigma_percent,
                                      options.known_distortion_sigma_px),
@@ -336,7 +336,7 @@ double WideAngleFactor(const BundleAdjustmentOptions& options, const CameraModel
   const double ratio = camera.f > 0.0 && side > 0.0 ? camera.f / side : 0.0;
   // The bias it covers is the estimate's: a camera held or given as a prior
   // does not take it.
-  const bool estimated = !options.fix_intrinsics && options.known_f_sigma_percent == 0.0;
+  const bool estimated = !options.fix_intrinsics && !options.HasKnownIntrinsicsPrior();
   if (!estimated || !(ratio > 0.0) || ratio >= options.wide_angle_focal_ratio ||
       options.wide_angle_inflation_exponent == 0.0)
     return 1.0;

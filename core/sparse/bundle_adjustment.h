@@ -45,6 +45,7 @@ struct BundleAdjustmentOptions {
   // 0 leaves the distortion free (only f is known, e.g. from EXIF).
   double known_f_sigma_percent = 0.0;
   double known_distortion_sigma_px = 0.0;
+  bool HasKnownIntrinsicsPrior() const { return known_f_sigma_percent > 0.0; }
   // The covariance of the intrinsics counts tracking noise only, and the
   // errors of real tracks are not white (interpolation and JPEG biases,
   // corners on depth edges, local minima): the noise is taken as this many
