@@ -8,7 +8,9 @@
 // self-calibrated below) as DIR/window-FIRST-LAST.jpg.
 //   tum_benchmark [--dataset DIR] [--frames N] [--step S] [--calibration FILE]
 //                 [--rolling-shutter global|estimate|R] [--pictures DIR]
-//                 [--semi-global off|P1:P2]
+//                 [--semi-global off|P1:P2] [--downscale N]
+// --downscale 2 runs the same windows at 320x240 (frames area-averaged, the
+// Kinect depth and the calibration scaled to match; TumSequence).
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -16,6 +18,8 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <optional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -50,7 +54,7 @@ int main(int argc, char** argv) {
   std::string dataset = "../shared/data/tum_fr1_xyz";
   std::string calibration_file = TumFreiburg1CalibrationFile();
   std::string pictures;
-  int frames = 10, step = 3;
+  int frames = 10, step = 3, downscale = 1;
   RollingShutterOptions rolling_shutter;
   DenseOptions dense;
   for (int i = 1; i + 1 < argc; i += 2) {
@@ -68,17 +72,28 @@ int main(int argc, char** argv) {
       rolling_shutter = ParseRollingShutter(argv[i + 1]);
     else if (!std::strcmp(argv[i], "--semi-global"))
       ParseSemiGlobal(argv[i + 1], &dense);
+    else if (!std::strcmp(argv[i], "--downscale"))
+      downscale = std::atoi(argv[i + 1]);
   }
-  const TumSequence sequence(dataset);
+  std::optional<TumSequence> opened;
+  try {
+    opened.emplace(dataset, downscale);
+  } catch (const std::invalid_argument& e) {
+    std::fprintf(stderr, "tum_benchmark: %s\n", e.what());
+    return 2;
+  }
+  const TumSequence& sequence = *opened;
   if (sequence.empty()) {
     std::fprintf(stderr, "tum_benchmark: no TUM sequence at %s (rgb.txt, depth.txt)\n",
                  dataset.c_str());
     return 77;
   }
-  const ImportedCalibration known = ReadCalibrationFile(calibration_file, 640, 480);
-  std::printf("# calibration %s: f %.1f, k1 %.4f, k2 %.4f (fit %.2f px RMS)\n",
+  ImportedCalibration known =
+      ReadCalibrationFile(calibration_file, TumSequence::kWidth, TumSequence::kHeight);
+  known.camera = sequence.Scaled(known.camera);
+  std::printf("# calibration %s: f %.1f, k1 %.4f, k2 %.4f (fit %.2f px RMS); frames %dx%d\n",
               calibration_file.c_str(), known.camera.f, known.camera.k1, known.camera.k2,
-              known.fit_rms_error_px);
+              known.fit_rms_error_px, sequence.width(), sequence.height());
   struct Row {
     int first;
     std::string mode;

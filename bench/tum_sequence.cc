@@ -4,6 +4,7 @@
 #include <cmath>
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <sstream>
 #include <stdexcept>
 
@@ -19,10 +20,17 @@ double WindowMedian(std::vector<double> values) {
   return n == 0 ? 0.0 : 0.5 * (values[(n - 1) / 2] + values[n / 2]);
 }
 
-TumSequence::TumSequence(std::string dataset)
+TumSequence::TumSequence(std::string dataset, int downscale)
     : dataset_(std::move(dataset)),
+      downscale_(downscale),
       rgb_(ReadList(dataset_ + "/rgb.txt")),
-      depths_(ReadList(dataset_ + "/depth.txt")) {}
+      depths_(ReadList(dataset_ + "/depth.txt")) {
+  if (downscale < 1 || downscale > kMaxDownscale || kWidth % downscale != 0 ||
+      kHeight % downscale != 0)
+    throw std::invalid_argument("TUM downscale must divide 640 and 480 and be 1-" +
+                                std::to_string(kMaxDownscale) + ", got " +
+                                std::to_string(downscale));
+}
 
 std::vector<TumSequence::Stamped> TumSequence::ReadList(const std::string& path) {
   std::vector<Stamped> list;
@@ -38,13 +46,15 @@ std::vector<TumSequence::Stamped> TumSequence::ReadList(const std::string& path)
 
 Burst TumSequence::Window(int first, int frames) const {
   Burst burst;
-  burst.manifest.width = 640;
-  burst.manifest.height = 480;
+  burst.manifest.width = width();
+  burst.manifest.height = height();
   burst.manifest.reference = frames / 2;  // the reference in the middle
   for (int i = 0; i < frames; ++i) {
     const std::string& file = rgb_.at(first + i).file;
-    const cv::Mat frame = cv::imread(dataset_ + "/" + file, cv::IMREAD_COLOR);
+    cv::Mat frame = cv::imread(dataset_ + "/" + file, cv::IMREAD_COLOR);
     if (frame.empty()) throw std::runtime_error("cannot read " + dataset_ + "/" + file);
+    if (downscale_ > 1)
+      cv::resize(frame, frame, cv::Size(width(), height()), 0.0, 0.0, cv::INTER_AREA);
     burst.gray.push_back(ToGray8(frame));
     if (i == frames / 2) burst.reference_color = frame;
     BurstFrameInfo info;
@@ -63,7 +73,35 @@ cv::Mat TumSequence::ReferenceDepth(int first, int frames) const {
   if (raw.empty()) throw std::runtime_error("cannot read " + dataset_ + "/" + nearest->file);
   cv::Mat metres;
   raw.convertTo(metres, CV_32F, 1.0 / 5000.0);
-  return metres;
+  if (downscale_ == 1) return metres;
+  cv::Mat reduced(height(), width(), CV_32FC1, cv::Scalar(0.0f));
+  const int n = downscale_;
+  for (int y = 0; y < reduced.rows; ++y)
+    for (int x = 0; x < reduced.cols; ++x) {
+      float lowest = 0.0f, highest = 0.0f, sum = 0.0f;
+      bool whole = true;
+      for (int dy = 0; dy < n && whole; ++dy)
+        for (int dx = 0; dx < n && whole; ++dx) {
+          const float d = metres.at<float>(n * y + dy, n * x + dx);
+          whole = d > 0.0f;
+          lowest = dy + dx == 0 ? d : std::min(lowest, d);
+          highest = std::max(highest, d);
+          sum += d;
+        }
+      if (whole && highest <= 1.05f * lowest) reduced.at<float>(y, x) = sum / (n * n);
+    }
+  return reduced;
+}
+
+CameraModel TumSequence::Scaled(CameraModel camera) const {
+  if (downscale_ == 1) return camera;  // bit for bit, not (cx + 0.5) - 0.5
+  const double n = downscale_;
+  camera.width = width();
+  camera.height = height();
+  camera.f /= n;
+  camera.cx = (camera.cx + 0.5) / n - 0.5;
+  camera.cy = (camera.cy + 0.5) / n - 0.5;
+  return camera;
 }
 
 }  // namespace dfsm

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "core/camera/camera_model.h"
 #include "core/io/burst.h"
 
 namespace dfsm {
@@ -21,21 +22,39 @@ double WindowMedian(std::vector<double> values);
 
 class TumSequence {
  public:
+  // The sequence's frames and depth maps are 640x480.
+  static constexpr int kWidth = 640, kHeight = 480;
+  // The largest `downscale` accepted: 160x120.
+  static constexpr int kMaxDownscale = 4;
+
   // Reads the two lists; empty() when either is missing or too short.
-  explicit TumSequence(std::string dataset);
+  // `downscale` > 1 serves every frame and depth map reduced by that factor
+  // (2: 320x240), a real camera at a lower resolution; it must divide 640 and
+  // 480 and be at most kMaxDownscale (std::invalid_argument otherwise).
+  explicit TumSequence(std::string dataset, int downscale = 1);
 
   bool empty() const { return rgb_.size() < 3 || depths_.empty(); }
   int frames() const { return static_cast<int>(rgb_.size()); }
   const std::string& dataset() const { return dataset_; }
+  int width() const { return kWidth / downscale_; }
+  int height() const { return kHeight / downscale_; }
 
-  // Frames [first, first + frames) as a burst (640x480, gray and the
-  // reference's colour), the reference in the middle. Throws
-  // std::runtime_error naming a frame it cannot read.
+  // Frames [first, first + frames) as a burst (width() x height(), gray and
+  // the reference's colour; area-averaged when downscaled), the reference in
+  // the middle. Throws std::runtime_error naming a frame it cannot read.
   Burst Window(int first, int frames) const;
 
   // The Kinect depth in metres (0 = none) nearest in time to the reference of
-  // that window.
+  // that window. Downscaled, a pixel is the mean of its block of the Kinect's
+  // pixels where all of them have depth within 5 % of each other (a block
+  // across a depth edge would score the map against a depth no surface has),
+  // 0 elsewhere.
   cv::Mat ReferenceDepth(int first, int frames) const;
+
+  // `camera`, calibrated at 640x480, for the frames this sequence serves:
+  // f and the principal point scaled (pixel centres aligned as cv::resize
+  // aligns them), the distortion, on normalized coordinates, unchanged.
+  CameraModel Scaled(CameraModel camera) const;
 
  private:
   struct Stamped {
@@ -45,6 +64,7 @@ class TumSequence {
   static std::vector<Stamped> ReadList(const std::string& path);
 
   std::string dataset_;
+  int downscale_ = 1;
   std::vector<Stamped> rgb_, depths_;
 };
 
