@@ -198,10 +198,13 @@ cv::Mat RenderReferenceDepth(const TexturedScene& scene, const MovingObject* mov
 }
 
 // Shot noise, sensor (read) noise, 8-bit quantization and the optional JPEG
-// round trip.
+// round trip; with a colour filter array the noise falls on the photosites and
+// the quantized mosaic is demosaiced.
 cv::Mat Capture(const cv::Mat& radiance, const SynthOptions& options, int frame_index) {
+  const bool bayer = options.color && options.effects.bayer;
   cv::Mat image = radiance;
   if (!options.color) cv::cvtColor(radiance, image, cv::COLOR_BGR2GRAY);
+  if (bayer) image = BayerMosaic(radiance);
   if (options.effects.shot_noise_gain > 0.0) {
     if (image.data == radiance.data) image = radiance.clone();
     AddShotNoise(options.effects.shot_noise_gain, frame_index, options.seed, &image);
@@ -213,7 +216,8 @@ cv::Mat Capture(const cv::Mat& radiance, const SynthOptions& options, int frame_
     image = image + noise;
   }
   cv::Mat captured;
-  image.convertTo(captured, options.color ? CV_8UC3 : CV_8UC1);  // rounds and saturates
+  image.convertTo(captured, CV_MAKETYPE(CV_8U, image.channels()));  // rounds and saturates
+  if (bayer) captured = Demosaic(captured);
   if (options.jpeg_quality > 0) {
     const std::vector<unsigned char> jpeg = EncodeJpeg(captured, options.jpeg_quality);
     captured =

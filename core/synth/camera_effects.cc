@@ -4,6 +4,7 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 #include <random>
 #include <stdexcept>
 
@@ -30,7 +31,7 @@ void CameraEffects::Check() const {
 
 bool CameraEffects::any() const {
   return photometric() || rolling_shutter_readout > 0.0 || exposure_time > 0.0 || lens_extras() ||
-         shot_noise_gain > 0.0;
+         shot_noise_gain > 0.0 || bayer;
 }
 
 bool CameraEffects::photometric() const {
@@ -96,7 +97,34 @@ nlohmann::json ToJson(const CameraEffects& e) {
           {"k3", e.k3},
           {"p1", e.p1},
           {"p2", e.p2},
-          {"shot_noise_gain", e.shot_noise_gain}};
+          {"shot_noise_gain", e.shot_noise_gain},
+          {"bayer", e.bayer}};
+}
+
+cv::Mat BayerMosaic(const cv::Mat& radiance) {
+  CV_Assert(radiance.type() == CV_32FC3);
+  cv::Mat mosaic(radiance.size(), CV_32FC1);
+  cv::parallel_for_(cv::Range(0, radiance.rows), [&](const cv::Range& rows) {
+    for (int y = rows.start; y < rows.end; ++y) {
+      const cv::Vec3f* in = radiance.ptr<cv::Vec3f>(y);
+      float* out = mosaic.ptr<float>(y);
+      for (int x = 0; x < radiance.cols; ++x) {
+        // Even rows B G B G ..., odd rows G R G R ...; channels are B, G, R.
+        const int channel = (y % 2 == 0) ? (x % 2 == 0 ? 0 : 1) : (x % 2 == 0 ? 1 : 2);
+        out[x] = in[x][channel];
+      }
+    }
+  });
+  return mosaic;
+}
+
+cv::Mat Demosaic(const cv::Mat& mosaic) {
+  CV_Assert(mosaic.type() == CV_8UC1);
+  cv::Mat bgr;
+  // OpenCV names a pattern by the second row's second and third pixels: here
+  // R and G (CameraEffects.BayerMosaicRoundTripsAFlatColour holds it).
+  cv::cvtColor(mosaic, bgr, cv::COLOR_BayerRG2BGR_EA);
+  return bgr;
 }
 
 Eigen::Vector2d RenderedPixelToUndistorted(const CameraModel& camera, const CameraEffects& effects,

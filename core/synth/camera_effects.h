@@ -49,6 +49,14 @@ struct CameraEffects {
   // Poisson distributed, so its variance is L / gain grey levels^2; the
   // Gaussian noise_sigma of SynthOptions is the read noise beside it. 0: off.
   double shot_noise_gain = 0.0;
+  // Colour filter array: each photosite sees one colour of the 2x2 pattern
+  // B G / G R (BayerMosaic); the shot and read noise fall on the photosites,
+  // and the frame is demosaiced (Demosaic) before the JPEG round trip. Its
+  // noise is then correlated over neighbouring pixels, so that less of it
+  // averages out on a sweep's coarse levels, and its edges carry the
+  // demosaicing's colour fringes, as in every phone and webcam frame. Colour
+  // frames only: a grey burst is a monochrome sensor.
+  bool bayer = false;
 
   static constexpr int kMotionBlurSamples = 8;
 
@@ -86,6 +94,15 @@ Pose PoseAtTime(const std::vector<Pose>& poses, double t);
 // exposure, white balance and the vignetting. Deterministic for (seed, frame).
 void ApplyPhotometricEffects(const CameraEffects& effects, int frame_index, uint64_t seed,
                              cv::Mat* radiance);
+
+// The photosites of a colour filter array (CameraEffects::bayer) over
+// `radiance` (CV_32FC3, BGR): CV_32FC1, the blue value where row and column
+// are even, red where both are odd, green elsewhere.
+cv::Mat BayerMosaic(const cv::Mat& radiance);
+
+// The camera's demosaicing of an 8-bit mosaic of BayerMosaic's pattern:
+// CV_8UC3 (BGR), OpenCV's edge-aware interpolation.
+cv::Mat Demosaic(const cv::Mat& mosaic);
 
 // Replaces each value L of `image` (CV_32FC1 or CV_32FC3, grey levels) by a
 // Poisson draw of L * gain electrons divided by gain (a Gaussian of the same

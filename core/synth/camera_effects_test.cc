@@ -137,7 +137,7 @@ TEST(CameraEffects, NewEffectsAtZeroRenderTheDefaultBurst) {
       EXPECT_EQ(cv::norm(plain.frames[i], zero.frames[i], cv::NORM_INF), 0) << "frame " << i;
     EXPECT_EQ(cv::norm(plain.truth.depth, zero.truth.depth, cv::NORM_INF), 0.0);
     // Each one on changes the frames.
-    for (int effect = 0; effect < 8 && readout == 0.0; ++effect) {
+    for (int effect = 0; effect < 9 && readout == 0.0; ++effect) {
       SynthOptions on = options;
       switch (effect) {
         case 0:
@@ -160,6 +160,9 @@ TEST(CameraEffects, NewEffectsAtZeroRenderTheDefaultBurst) {
           break;
         case 6:
           on.curved_surfaces = 1;
+          break;
+        case 7:
+          on.effects.bayer = true;
           break;
         default:
           on.untextured = 0.5;
@@ -229,6 +232,66 @@ TEST(CameraEffects, ShotNoiseVarianceGrowsWithBrightness) {
         << "band " << band;
   }
   EXPECT_GT(variance[1], 2.5 * variance[0]);
+}
+
+// The mosaic keeps one colour per photosite and the demosaicing gives a flat
+// colour back, whatever the pattern's phase at the image's origin.
+TEST(CameraEffects, BayerMosaicRoundTripsAFlatColour) {
+  const cv::Vec3f colour(40.0f, 120.0f, 200.0f);  // B, G, R
+  const cv::Mat radiance(32, 48, CV_32FC3, cv::Scalar(colour[0], colour[1], colour[2]));
+  const cv::Mat mosaic = BayerMosaic(radiance);
+  ASSERT_EQ(mosaic.type(), CV_32FC1);
+  EXPECT_EQ(mosaic.at<float>(0, 0), colour[0]);
+  EXPECT_EQ(mosaic.at<float>(0, 1), colour[1]);
+  EXPECT_EQ(mosaic.at<float>(1, 0), colour[1]);
+  EXPECT_EQ(mosaic.at<float>(1, 1), colour[2]);
+  cv::Mat mosaic8;
+  mosaic.convertTo(mosaic8, CV_8UC1);
+  const cv::Mat bgr = Demosaic(mosaic8);
+  ASSERT_EQ(bgr.type(), CV_8UC3);
+  // Away from the border, which the interpolation handles on its own.
+  const cv::Mat inner = bgr(cv::Rect(2, 2, bgr.cols - 4, bgr.rows - 4));
+  const cv::Scalar mean = cv::mean(inner);
+  for (int c = 0; c < 3; ++c) {
+    EXPECT_NEAR(mean[c], colour[c], 0.5) << "channel " << c;
+    double lowest, highest;
+    cv::Mat channel;
+    cv::extractChannel(inner, channel, c);
+    cv::minMaxLoc(channel, &lowest, &highest);
+    EXPECT_LE(highest - lowest, 1.0) << "channel " << c;
+  }
+}
+
+// Through a colour filter array the noise of neighbouring pixels is
+// correlated (each is interpolated from shared photosites); without one it
+// is not. The noise is the difference from the same burst rendered without it.
+TEST(CameraEffects, BayerNoiseIsCorrelatedBetweenNeighbours) {
+  const auto neighbour_correlation = [](bool bayer) {
+    SynthOptions options;
+    options.width = 160;
+    options.height = 120;
+    options.frames = 3;
+    options.supersampling = 1;
+    options.noise_sigma = 4.0;
+    options.effects.bayer = bayer;
+    const SynthBurst noisy = SynthesizeBurst(options);
+    options.noise_sigma = 0.0;
+    const SynthBurst clean = SynthesizeBurst(options);
+    cv::Mat a, b;
+    noisy.frames[1].convertTo(a, CV_32FC3);
+    clean.frames[1].convertTo(b, CV_32FC3);
+    cv::Mat noise;
+    cv::extractChannel(a - b, noise, 2);  // red: one photosite in four
+    double sum_ab = 0.0, sum_aa = 0.0;
+    for (int y = 2; y < noise.rows - 2; ++y)
+      for (int x = 2; x < noise.cols - 3; ++x) {
+        sum_ab += noise.at<float>(y, x) * noise.at<float>(y, x + 1);
+        sum_aa += noise.at<float>(y, x) * noise.at<float>(y, x);
+      }
+    return sum_ab / sum_aa;
+  };
+  EXPECT_LT(std::abs(neighbour_correlation(false)), 0.1);
+  EXPECT_GT(neighbour_correlation(true), 0.4);
 }
 
 TEST(CameraEffects, PresetsCarryTheNewEffects) {

@@ -70,6 +70,10 @@ int RunSynthCommand(const Args& args) {
   app.add_option("--shot-noise", shot_noise,
                  "Poisson shot noise: electrons per grey level (variance L / G at level L; 0: "
                  "none); --noise is the read noise beside it");
+  std::optional<bool> bayer;
+  app.add_option("--bayer", bayer,
+                 "colour filter array: noise on the B G / G R photosites, then demosaiced (true "
+                 "or false; colour frames only)");
   // What a real scene has beyond textured planes (not part of the presets).
   app.add_option("--moving-object", options.moving_object,
                  "a textured disc crossing the view at this many image widths per frame (0: none)")
@@ -93,6 +97,7 @@ int RunSynthCommand(const Args& args) {
   effects.p1 = p1.value_or(effects.p1);
   effects.p2 = p2.value_or(effects.p2);
   effects.shot_noise_gain = shot_noise.value_or(effects.shot_noise_gain);
+  effects.bayer = bayer.value_or(effects.bayer);
   options.jpeg_quality = jpeg.value_or(CameraEffects::PresetJpegQuality(camera));
 
   SynthBurst burst;
