@@ -91,9 +91,11 @@ int main(int argc, char** argv) {
   ImportedCalibration known =
       ReadCalibrationFile(calibration_file, TumSequence::kWidth, TumSequence::kHeight);
   known.camera = sequence.Scaled(known.camera);
-  std::printf("# calibration %s: f %.1f, k1 %.4f, k2 %.4f (fit %.2f px RMS); frames %dx%d\n",
-              calibration_file.c_str(), known.camera.f, known.camera.k1, known.camera.k2,
-              known.fit_rms_error_px, sequence.width(), sequence.height());
+  std::printf(
+      "# calibration %s: f %.1f, k1 %.4f, k2 %.4f (fit %.2f px RMS at %dx%d); frames %dx%d\n",
+      calibration_file.c_str(), known.camera.f, known.camera.k1, known.camera.k2,
+      known.fit_rms_error_px, TumSequence::kWidth, TumSequence::kHeight, sequence.width(),
+      sequence.height());
   struct Row {
     int first;
     std::string mode;

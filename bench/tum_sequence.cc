@@ -27,9 +27,9 @@ TumSequence::TumSequence(std::string dataset, int downscale)
       depths_(ReadList(dataset_ + "/depth.txt")) {
   if (downscale < 1 || downscale > kMaxDownscale || kWidth % downscale != 0 ||
       kHeight % downscale != 0)
-    throw std::invalid_argument("TUM downscale must divide 640 and 480 and be 1-" +
-                                std::to_string(kMaxDownscale) + ", got " +
-                                std::to_string(downscale));
+    throw std::invalid_argument(
+        "TUM downscale must divide " + std::to_string(kWidth) + " and " + std::to_string(kHeight) +
+        " and be 1-" + std::to_string(kMaxDownscale) + ", got " + std::to_string(downscale));
 }
 
 std::vector<TumSequence::Stamped> TumSequence::ReadList(const std::string& path) {
@@ -88,19 +88,22 @@ cv::Mat TumSequence::ReferenceDepth(int first, int frames) const {
           highest = std::max(highest, d);
           sum += d;
         }
-      if (whole && highest <= 1.05f * lowest) reduced.at<float>(y, x) = sum / (n * n);
+      if (whole && highest <= (1.0f + kMaxBlockDepthSpread) * lowest)
+        reduced.at<float>(y, x) = sum / (n * n);
     }
   return reduced;
 }
 
 CameraModel TumSequence::Scaled(CameraModel camera) const {
-  if (downscale_ == 1) return camera;  // bit for bit, not (cx + 0.5) - 0.5
-  const double n = downscale_;
+  if (camera.width != kWidth || camera.height != kHeight)
+    throw std::invalid_argument("TUM calibration must be for " + std::to_string(kWidth) + "x" +
+                                std::to_string(kHeight) + " frames, got " +
+                                std::to_string(camera.width) + "x" + std::to_string(camera.height));
   camera.width = width();
   camera.height = height();
-  camera.f /= n;
-  camera.cx = (camera.cx + 0.5) / n - 0.5;
-  camera.cy = (camera.cy + 0.5) / n - 0.5;
+  camera.f /= downscale_;
+  camera.cx = ReducedPixel(camera.cx, downscale_);  // exactly cx at downscale 1
+  camera.cy = ReducedPixel(camera.cy, downscale_);
   return camera;
 }
 

@@ -24,8 +24,13 @@ class TumSequence {
  public:
   // The sequence's frames and depth maps are 640x480.
   static constexpr int kWidth = 640, kHeight = 480;
-  // The largest `downscale` accepted: 160x120.
+  // The largest `downscale` accepted: 160x120, the smallest size measured
+  // (docs/dense.md, "TUM fr1/xyz at 320x240 and 160x120"); below it a window
+  // keeps too few of its tracks for the benchmark to say much.
   static constexpr int kMaxDownscale = 4;
+  // A reduced depth pixel is kept where its block's depths lie within this
+  // fraction of the nearest of them.
+  static constexpr float kMaxBlockDepthSpread = 0.05f;
 
   // Reads the two lists; empty() when either is missing or too short.
   // `downscale` > 1 serves every frame and depth map reduced by that factor
@@ -46,14 +51,15 @@ class TumSequence {
 
   // The Kinect depth in metres (0 = none) nearest in time to the reference of
   // that window. Downscaled, a pixel is the mean of its block of the Kinect's
-  // pixels where all of them have depth within 5 % of each other (a block
-  // across a depth edge would score the map against a depth no surface has),
-  // 0 elsewhere.
+  // pixels where all of them have depth within kMaxBlockDepthSpread of each
+  // other (a block across a depth edge would score the map against a depth no
+  // surface has), 0 elsewhere.
   cv::Mat ReferenceDepth(int first, int frames) const;
 
   // `camera`, calibrated at 640x480, for the frames this sequence serves:
-  // f and the principal point scaled (pixel centres aligned as cv::resize
-  // aligns them), the distortion, on normalized coordinates, unchanged.
+  // f and the principal point scaled (ReducedPixel: block centres aligned as
+  // cv::resize aligns them), the distortion, on normalized coordinates,
+  // unchanged. Throws std::invalid_argument for a camera of another size.
   CameraModel Scaled(CameraModel camera) const;
 
  private:
@@ -64,7 +70,7 @@ class TumSequence {
   static std::vector<Stamped> ReadList(const std::string& path);
 
   std::string dataset_;
-  int downscale_ = 1;
+  int downscale_;
   std::vector<Stamped> rgb_, depths_;
 };
 

@@ -64,6 +64,12 @@ struct CameraModel {
   }
 };
 
+// The coordinate, on an image reduced by the integer factor n (each pixel the
+// mean of an n x n block, as cv::resize's INTER_AREA and the sweep's levels
+// reduce), of captured coordinate p: the block's centre, captured n x + (n - 1) / 2,
+// is reduced x.
+inline double ReducedPixel(double p, int n) { return (p - 0.5 * (n - 1)) / n; }
+
 // Mean distance in pixels between a grid of pixels and their round trip through
 // `estimated` (D->U) and `truth` (U->D): the distortion metric of Ha et al.
 // Pixels whose round trip is undefined are counted in `*failed` when given.

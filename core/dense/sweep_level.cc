@@ -74,8 +74,8 @@ SweepLevel MakeSweepLevel(const cv::Mat& reference, const std::vector<cv::Mat>& 
   });
   level.radial = &radial;
   level.focal = static_cast<float>(camera.f / scale);
-  level.centre_x = static_cast<float>((camera.cx - offset) / scale);
-  level.centre_y = static_cast<float>((camera.cy - offset) / scale);
+  level.centre_x = static_cast<float>(ReducedPixel(camera.cx, scale));
+  level.centre_y = static_cast<float>(ReducedPixel(camera.cy, scale));
   level.oversample = oversample;
   level.frames.resize(frames.size());
   cv::parallel_for_(cv::Range(0, static_cast<int>(frames.size())), [&](const cv::Range& range) {

@@ -45,6 +45,8 @@ void Validate(const SynthOptions& o) {
   Require(o.curved_surfaces >= 0 && o.curved_surfaces <= 8,
           "curved_surfaces must be between 0 and 8");
   Require(o.untextured >= 0.0 && o.untextured <= 1.0, "untextured must be between 0 and 1");
+  Require(o.color || !o.effects.bayer,
+          "bayer (a colour filter array) needs colour frames: a grey burst is a monochrome sensor");
   o.effects.Check();
 }
 

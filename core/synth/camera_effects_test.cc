@@ -129,6 +129,7 @@ TEST(CameraEffects, NewEffectsAtZeroRenderTheDefaultBurst) {
     options.effects.exposure_time = 0.0;
     options.effects.k3 = options.effects.p1 = options.effects.p2 = 0.0;
     options.effects.shot_noise_gain = 0.0;
+    options.effects.bayer = false;
     options.moving_object = 0.0;
     options.curved_surfaces = 0;
     options.untextured = 0.0;
@@ -234,8 +235,8 @@ TEST(CameraEffects, ShotNoiseVarianceGrowsWithBrightness) {
   EXPECT_GT(variance[1], 2.5 * variance[0]);
 }
 
-// The mosaic keeps one colour per photosite and the demosaicing gives a flat
-// colour back, whatever the pattern's phase at the image's origin.
+// The mosaic keeps one colour per photosite, in the pattern Demosaic reads,
+// and the demosaicing gives a flat colour back.
 TEST(CameraEffects, BayerMosaicRoundTripsAFlatColour) {
   const cv::Vec3f colour(40.0f, 120.0f, 200.0f);  // B, G, R
   const cv::Mat radiance(32, 48, CV_32FC3, cv::Scalar(colour[0], colour[1], colour[2]));
@@ -267,11 +268,7 @@ TEST(CameraEffects, BayerMosaicRoundTripsAFlatColour) {
 // is not. The noise is the difference from the same burst rendered without it.
 TEST(CameraEffects, BayerNoiseIsCorrelatedBetweenNeighbours) {
   const auto neighbour_correlation = [](bool bayer) {
-    SynthOptions options;
-    options.width = 160;
-    options.height = 120;
-    options.frames = 3;
-    options.supersampling = 1;
+    SynthOptions options = EffectsOptions();
     options.noise_sigma = 4.0;
     options.effects.bayer = bayer;
     const SynthBurst noisy = SynthesizeBurst(options);
@@ -292,6 +289,11 @@ TEST(CameraEffects, BayerNoiseIsCorrelatedBetweenNeighbours) {
   };
   EXPECT_LT(std::abs(neighbour_correlation(false)), 0.1);
   EXPECT_GT(neighbour_correlation(true), 0.4);
+  // A grey burst is a monochrome sensor: no mosaic to ask for.
+  SynthOptions grey = EffectsOptions();
+  grey.color = false;
+  grey.effects.bayer = true;
+  EXPECT_THROW(SynthesizeBurst(grey), std::invalid_argument);
 }
 
 TEST(CameraEffects, PresetsCarryTheNewEffects) {
