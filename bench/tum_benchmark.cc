@@ -13,8 +13,6 @@
 // Kinect depth and the calibration scaled to match; TumSequence).
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
-#include <cstring>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -41,9 +39,28 @@ void ParseSemiGlobal(const std::string& text, DenseOptions* dense) {
   const size_t colon = text.find(':');
   if (colon == std::string::npos)
     throw std::invalid_argument("--semi-global takes off or P1:P2, got " + text);
-  dense->semi_global.small_step_penalty = std::stof(text.substr(0, colon));
-  dense->semi_global.large_step_penalty = std::stof(text.substr(colon + 1));
+  try {
+    dense->semi_global.small_step_penalty = std::stof(text.substr(0, colon));
+    dense->semi_global.large_step_penalty = std::stof(text.substr(colon + 1));
+  } catch (const std::logic_error&) {  // std::stof's invalid_argument and out_of_range
+    throw std::invalid_argument("--semi-global takes off or P1:P2, got " + text);
+  }
   dense->semi_global.Check();
+}
+
+// The value of a count option: a whole positive number, all of `text`.
+int PositiveCount(const char* option, const std::string& text) {
+  size_t used = 0;
+  int value = 0;
+  try {
+    value = std::stoi(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used == 0 || used != text.size() || value < 1)
+    throw std::invalid_argument(std::string(option) + " takes a positive whole number, got '" +
+                                text + "'");
+  return value;
 }
 
 }  // namespace
@@ -57,23 +74,34 @@ int main(int argc, char** argv) {
   int frames = 10, step = 3, downscale = 1;
   RollingShutterOptions rolling_shutter;
   DenseOptions dense;
-  for (int i = 1; i + 1 < argc; i += 2) {
-    if (!std::strcmp(argv[i], "--dataset"))
-      dataset = argv[i + 1];
-    else if (!std::strcmp(argv[i], "--frames"))
-      frames = std::atoi(argv[i + 1]);
-    else if (!std::strcmp(argv[i], "--step"))
-      step = std::atoi(argv[i + 1]);
-    else if (!std::strcmp(argv[i], "--calibration"))
-      calibration_file = argv[i + 1];
-    else if (!std::strcmp(argv[i], "--pictures"))
-      pictures = argv[i + 1];
-    else if (!std::strcmp(argv[i], "--rolling-shutter"))
-      rolling_shutter = ParseRollingShutter(argv[i + 1]);
-    else if (!std::strcmp(argv[i], "--semi-global"))
-      ParseSemiGlobal(argv[i + 1], &dense);
-    else if (!std::strcmp(argv[i], "--downscale"))
-      downscale = std::atoi(argv[i + 1]);
+  try {
+    for (int i = 1; i < argc; i += 2) {
+      const std::string option = argv[i];
+      if (i + 1 >= argc) throw std::invalid_argument(option + " needs a value");
+      const char* value = argv[i + 1];
+      if (option == "--dataset")
+        dataset = value;
+      else if (option == "--frames")
+        frames = PositiveCount("--frames", value);
+      else if (option == "--step")
+        step = PositiveCount("--step", value);
+      else if (option == "--calibration")
+        calibration_file = value;
+      else if (option == "--pictures")
+        pictures = value;
+      else if (option == "--rolling-shutter")
+        rolling_shutter = ParseRollingShutter(value);
+      else if (option == "--semi-global")
+        ParseSemiGlobal(value, &dense);
+      else if (option == "--downscale")
+        downscale = PositiveCount("--downscale", value);
+      else
+        throw std::invalid_argument("unknown option " + option +
+                                    " (see the comment at the top of bench/tum_benchmark.cc)");
+    }
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "tum_benchmark: %s\n", e.what());
+    return 2;
   }
   std::optional<TumSequence> opened;
   try {
