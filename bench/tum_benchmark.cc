@@ -23,7 +23,6 @@
 
 #include "bench/tum_pictures.h"
 #include "bench/tum_sequence.h"
-#include "core/export/calibration_import.h"
 #include "core/pipeline/evaluation.h"
 #include "core/pipeline/pipeline.h"
 
@@ -74,6 +73,7 @@ int main(int argc, char** argv) {
   int frames = 10, step = 3, downscale = 1;
   RollingShutterOptions rolling_shutter;
   DenseOptions dense;
+  std::optional<TumSequence> opened;  // once the options are read
   try {
     for (int i = 1; i < argc; i += 2) {
       const std::string option = argv[i];
@@ -99,14 +99,8 @@ int main(int argc, char** argv) {
         throw std::invalid_argument("unknown option " + option +
                                     " (see the comment at the top of bench/tum_benchmark.cc)");
     }
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "tum_benchmark: %s\n", e.what());
-    return 2;
-  }
-  std::optional<TumSequence> opened;
-  try {
     opened.emplace(dataset, downscale);
-  } catch (const std::invalid_argument& e) {
+  } catch (const std::exception& e) {
     std::fprintf(stderr, "tum_benchmark: %s\n", e.what());
     return 2;
   }
@@ -116,9 +110,7 @@ int main(int argc, char** argv) {
                  dataset.c_str());
     return 77;
   }
-  ImportedCalibration known =
-      ReadCalibrationFile(calibration_file, TumSequence::kWidth, TumSequence::kHeight);
-  known.camera = sequence.Scaled(known.camera);
+  const ImportedCalibration known = sequence.ReadCalibration(calibration_file);
   std::printf(
       "# calibration %s: f %.1f, k1 %.4f, k2 %.4f (fit %.2f px RMS at %dx%d); frames %dx%d\n",
       calibration_file.c_str(), known.camera.f, known.camera.k1, known.camera.k2,

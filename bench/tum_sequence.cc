@@ -107,4 +107,10 @@ CameraModel TumSequence::Scaled(CameraModel camera) const {
   return camera;
 }
 
+ImportedCalibration TumSequence::ReadCalibration(const std::string& file) const {
+  ImportedCalibration imported = ReadCalibrationFile(file, kWidth, kHeight);
+  imported.camera = Scaled(imported.camera);
+  return imported;
+}
+
 }  // namespace dfsm

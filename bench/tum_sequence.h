@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "core/camera/camera_model.h"
+#include "core/export/calibration_import.h"
 #include "core/io/burst.h"
 
 namespace dfsm {
@@ -61,6 +62,11 @@ class TumSequence {
   // cv::resize aligns them), the distortion, on normalized coordinates,
   // unchanged. Throws std::invalid_argument for a camera of another size.
   CameraModel Scaled(CameraModel camera) const;
+
+  // A calibration file of the 640x480 camera (ReadCalibrationFile) for the
+  // frames this sequence serves: its camera Scaled; the fit's RMS stays in
+  // 640x480 pixels.
+  ImportedCalibration ReadCalibration(const std::string& file) const;
 
  private:
   struct Stamped {

@@ -12,7 +12,6 @@
 #include <vector>
 
 #include "bench/tum_sequence.h"
-#include "core/export/calibration_import.h"
 #include "core/pipeline/evaluation.h"
 #include "core/pipeline/pipeline.h"
 #include "tests/test_data.h"
@@ -36,8 +35,7 @@ std::vector<WindowScore> ScoreWindows(const TumSequence& sequence, bool known) {
   PipelineOptions options;
   if (known) {
     KnownCalibration fixed;
-    fixed.camera = sequence.Scaled(
-        ReadCalibrationFile(calibration_file, TumSequence::kWidth, TumSequence::kHeight).camera);
+    fixed.camera = sequence.ReadCalibration(calibration_file).camera;
     fixed.mode = KnownCalibrationMode::kFixed;
     fixed.source = calibration_file;
     options.sparse.known = fixed;
