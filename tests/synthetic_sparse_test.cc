@@ -119,7 +119,8 @@ TEST(SyntheticSparseCalibration, TheReliefsDependenceOnTheLensModelIsMeasured) {
 // A wide lens (f 0.6 x 640 px, 77 degrees, no distortion) whose burst, started
 // from the paper's f = max(w, h) alone, stops in another minimum: f 73 % long,
 // k1 standing in for it, `degenerate`. The second focal start (0.6) finds the
-// camera, and the truncated cost over every track chooses it.
+// camera, and the truncated cost over every track chooses it. (So does the
+// naive probe from f = max(w, h), SparseOptions::naive_probe: 1.3 %.)
 TEST(SyntheticSparseCalibration, ASecondFocalStartFindsAWideLens) {
   SynthOptions wide;
   wide.width = 640;
@@ -134,11 +135,20 @@ TEST(SyntheticSparseCalibration, ASecondFocalStartFindsAWideLens) {
 
   SparseOptions one_start;
   one_start.focal_starts = {1.0};
+  one_start.naive_probe = false;
   const SparseReconstruction single = ReconstructSparse(burst.gray, burst.reference(), one_start);
   const double single_error =
       EvaluateSparse(single.state.camera, single.state.poses, generated.truth).focal_error_percent;
   RecordProperty("focal_error_percent_one_start", std::to_string(single_error));
   EXPECT_GT(single_error, 20.0);  // measured 73.5
+
+  one_start.naive_probe = true;
+  const SparseReconstruction probed = ReconstructSparse(burst.gray, burst.reference(), one_start);
+  const double probed_error =
+      EvaluateSparse(probed.state.camera, probed.state.poses, generated.truth).focal_error_percent;
+  RecordProperty("focal_error_percent_one_start_probed", std::to_string(probed_error));
+  EXPECT_LT(probed_error, 3.0) << "f = " << probed.state.camera.f;  // measured 1.3
+  EXPECT_EQ(probed.bundle_adjustment.init, "naive");
 
   const SparseReconstruction sparse = ReconstructSparse(burst.gray, burst.reference());
   const double error =

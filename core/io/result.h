@@ -24,8 +24,10 @@ struct BundleAdjustmentRun {
 };
 
 struct BundleAdjustmentSummary {
-  std::string init = "rank1";  // "rank1" | "naive"
-  int iterations = 0;          // of the final run; every run is in `runs`
+  // The start the solution came from: "rank1", or "naive" (SparseOptions::init,
+  // or the naive probe where it won: SparseOptions::naive_probe).
+  std::string init = "rank1";
+  int iterations = 0;  // of the final run; every run is in `runs`
   std::vector<BundleAdjustmentRun> runs;
   bool converged = false;
   double initial_cost = 0.0;

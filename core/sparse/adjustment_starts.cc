@@ -46,12 +46,12 @@ constexpr int kMeasuringIterations = 30;
 // Focal starts beyond these (fractions of max(width, height)) are no camera:
 // 0.2 is a 136 deg view across the longer side, 5 a 11 deg one.
 constexpr double kFocalStartRange[] = {0.2, 5.0};
-// A later focal start replaces the solution so far where its truncated cost
-// is lower by more than this fraction. Two starts that reach the same minimum
-// differ by far less, and the earlier one (the paper's guess first) stands.
+// A later start (focal, or the naive probe) replaces the solution so far
+// where its truncated cost is lower by more than this fraction. Two starts that reach the same
+// minimum differ by far less, and the earlier one (the paper's guess first) stands.
 constexpr double kFocalStartGain = 0.01;
-// A later focal start is probed: its rotations, rank-1 start and first
-// adjustment, stopped after this many iterations, and only the winner goes on
+// A later start is probed: its initialization and first adjustment, stopped
+// after this many iterations, and only the winner goes on
 // to the readout restarts and outlier rounds. A start near the camera reaches
 // its minimum in a few iterations; one far from it (0.6 on a normal lens)
 // crawled along the f valley to the 100-iteration cap in every run and round
@@ -125,6 +125,7 @@ class StartedAdjustment {
  public:
   StartedAdjustment(const FeatureTracks& tracks, const SparseOptions& options)
       : tracks_(tracks), options_(options), rank_one_(options.init == InitMode::kRankOne) {}
+  StartedAdjustment(const StartedAdjustment&) = delete;
 
   // The initialization and the first adjustment from `start_camera` (laps
   // `timer` where there is one); returns the iterations that adjustment was
@@ -346,11 +347,20 @@ AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraMode
                                    SharedWork* beside) {
   CheckAdjustmentOptions(options);
   const StartedAdjustment steps(tracks, options);
-  // Each focal start is initialized and adjusted once, side by side: the
-  // first (timed) to the end of its first adjustment, a later one probed,
-  // its first adjustment capped at kFocalStartIterations.
+  SparseOptions naive_options = options;
+  naive_options.init = InitMode::kNaive;
+  const StartedAdjustment naive_steps(tracks, naive_options);
+  // Each start is initialized and adjusted once, side by side: the first
+  // (timed) to the end of its first adjustment, a later one probed, its first
+  // adjustment capped at kFocalStartIterations. The focal starts come first,
+  // then the naive probe (SparseOptions::naive_probe).
   const bool restarts = !options.known && options.init == InitMode::kRankOne;
-  const size_t starts = restarts ? options.focal_starts.size() : 1;
+  const size_t focal = restarts ? options.focal_starts.size() : 1;
+  const bool naive_probe = options.init == InitMode::kRankOne && options.naive_probe;
+  const size_t starts = focal + (naive_probe ? 1 : 0);
+  const auto steps_of = [&](size_t n) -> const StartedAdjustment& {
+    return n < focal ? steps : naive_steps;
+  };
   std::vector<AdjustmentAttempt> attempts(starts);
   std::vector<std::optional<ReconstructionError>> errors(starts);
   std::vector<int> measured_iterations(starts, 0);
@@ -365,12 +375,14 @@ AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraMode
   for (size_t n = 0; n < starts; ++n)
     tasks.push_back([&, n] {
       CameraModel start = initial;
-      if (restarts) start.f = options.focal_starts[n] * initial.f;
+      if (restarts) start.f = options.focal_starts[n < focal ? n : 0] * initial.f;
       attempts[n].start_f = start.f;
+      attempts[n].init = n < focal ? options.init : InitMode::kNaive;
       BundleAdjustmentOptions probe = adjust;
       if (n > 0) probe.max_iterations = std::min(probe.max_iterations, kFocalStartIterations);
       try {
-        measured_iterations[n] = steps.Solve(start, probe, n == 0 ? timer : nullptr, &attempts[n]);
+        measured_iterations[n] =
+            steps_of(n).Solve(start, probe, n == 0 ? timer : nullptr, &attempts[n]);
         // The first start's finish depends on no other start, so it runs
         // here, beside the probes, unless it restarts from several readouts
         // (those restarts run side by side after the probes, with the cores
@@ -409,7 +421,7 @@ AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraMode
   }
   LapIfTimed(timer, "bundle_adjustment", starts > 1 ? waited_ms + beside_ms : 0.0);
   // The region's end less its carried wait: the pieces' time after every
-  // start was done; the wait goes on to focal_starts.
+  // start was done; the wait goes on to later_starts.
   if (helped) LapIfTimed(timer, "beside_starts", waited_ms);
 
   // A later start replaces the solution so far only where it fits every track
@@ -424,9 +436,9 @@ AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraMode
   if (!best) throw *errors[0];
   AdjustmentAttempt solved = std::move(attempts[*best]);
   // A probed start that won goes on from there with the whole budget.
-  if (*best > 0) steps.Finish(adjust, kFocalStartIterations, &solved);
-  if (starts > 1) LapIfTimed(timer, "focal_starts");
-  steps.Reweight(adjust, &solved);
+  if (*best > 0) steps_of(*best).Finish(adjust, kFocalStartIterations, &solved);
+  if (starts > 1) LapIfTimed(timer, "later_starts");
+  steps_of(*best).Reweight(adjust, &solved);
   LapIfTimed(timer, "reweight");
   return solved;
 }

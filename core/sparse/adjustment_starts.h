@@ -1,8 +1,9 @@
 // The self-calibrating adjustment from its starts (steps 2-4 of Ha et al.
 // 2016, with the rolling shutter of Im et al. 2015): from each focal start,
 // the rotations, the rank-1 initialization (rectified for a readout), the
-// first adjustment; then the readout restarts and the outlier rounds; the
-// start that fits every track best is kept (SparseOptions::focal_starts).
+// first adjustment; then the readout restarts and the outlier rounds; beside
+// them the naive start (SparseOptions::naive_probe); the start that fits every
+// track best is kept (SparseOptions::focal_starts).
 //
 // Starts, and readout restarts, that do not depend on each other run side by
 // side on OpenCV's thread pool: the later starts' probes beside the first
@@ -33,7 +34,8 @@ struct AdjustmentAttempt {
   RankOneResult rank_one;  // the initialization it came from (rank1 mode)
   // Every adjustment it ran, in order: restarts it did not keep included.
   std::vector<BundleAdjustmentRun> runs;
-  double start_f = 0.0;  // the focal length it started from, pixels
+  double start_f = 0.0;                // the focal length it started from, pixels
+  InitMode init = InitMode::kRankOne;  // its start: rank-1, or naive (the probe)
 
   // One adjustment of the `use` tracks from `state`, in place, recorded in
   // `summary` and `runs`; `tracks` weighted by `weights` where it has them.
@@ -47,10 +49,12 @@ void CheckAdjustmentOptions(const SparseOptions& options);
 
 // Adjusts `tracks` from `initial` (a known camera, or CameraModel::Initial),
 // with `adjust` (options.bundle_adjustment as the known calibration and the
-// readout mode set it). A known calibration and the naive start start once;
-// a burst that calibrates itself starts from each of options.focal_starts.
+// readout mode set it). A known calibration starts from itself; a burst that
+// calibrates itself starts from each of options.focal_starts; with the rank-1
+// initialization the naive start is probed as well (options.naive_probe),
+// from the first start's camera. options.init kNaive starts once, naively.
 // Laps `timer` (where not null) with "rotation", "rank1" and "bundle_adjustment" (the first
-// start's) and, with more than one start, "focal_starts": the wall time the
+// start's) and, with more than one start, "later_starts": the wall time the
 // later starts add (a wait for them after the first start, and the winner's
 // rest where a later start wins); then "reweight": the winner's reweighting
 // rounds (SparseOptions::reweight_rounds; AdjustmentAttempt::weights). Throws

@@ -169,7 +169,7 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
         " in front of the camera, need >= " + std::to_string(options.min_tracks) +
         " (median track motion " + FixedText(parallax) +
         " px: too little baseline to separate depths)");
-  solved.summary.init = InitModeName(options.init);
+  solved.summary.init = InitModeName(solved.init);
   sparse.inliers = use;
   // The covariance once, at the final state and tracks: an adjustment of no
   // iterations only evaluates (computing it in every outlier round cost 60 %
