@@ -49,14 +49,14 @@ constexpr double kFocalStartRange[] = {0.2, 5.0};
 // A later start (focal, or the naive probe) replaces the solution so far
 // where its truncated cost is lower by more than this fraction. Two starts that reach the same
 // minimum differ by far less, and the earlier one (the paper's guess first) stands.
-constexpr double kFocalStartGain = 0.01;
+constexpr double kLaterStartGain = 0.01;
 // A later start is probed: its initialization and first adjustment, stopped
 // after this many iterations, and only the winner goes on
 // to the readout restarts and outlier rounds. A start near the camera reaches
 // its minimum in a few iterations; one far from it (0.6 on a normal lens)
 // crawled along the f valley to the 100-iteration cap in every run and round
 // (370 ms more at 1080p), to lose anyway.
-constexpr int kFocalStartIterations = 20;
+constexpr int kProbeIterations = 20;
 
 // The outlier rule of the rounds after the adjustment: the tracks of `use`
 // (and of `use` only, their inverse depths being the adjusted ones) within
@@ -352,7 +352,7 @@ AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraMode
   const StartedAdjustment naive_steps(tracks, naive_options);
   // Each start is initialized and adjusted once, side by side: the first
   // (timed) to the end of its first adjustment, a later one probed, its first
-  // adjustment capped at kFocalStartIterations. The focal starts come first,
+  // adjustment capped at kProbeIterations. The focal starts come first,
   // then the naive probe (SparseOptions::naive_probe).
   const bool restarts = !options.known && options.init == InitMode::kRankOne;
   const size_t focal = restarts ? options.focal_starts.size() : 1;
@@ -379,7 +379,7 @@ AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraMode
       attempts[n].start_f = start.f;
       attempts[n].init = n < focal ? options.init : InitMode::kNaive;
       BundleAdjustmentOptions probe = adjust;
-      if (n > 0) probe.max_iterations = std::min(probe.max_iterations, kFocalStartIterations);
+      if (n > 0) probe.max_iterations = std::min(probe.max_iterations, kProbeIterations);
       try {
         measured_iterations[n] =
             steps_of(n).Solve(start, probe, n == 0 ? timer : nullptr, &attempts[n]);
@@ -431,12 +431,12 @@ AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraMode
   for (size_t n = 0; n < starts; ++n) {
     if (errors[n]) continue;
     const double cost = TruncatedTrackCost(tracks, attempts[n].state, options.outlier_px);
-    if (!best || cost < (1.0 - kFocalStartGain) * best_cost) best = n, best_cost = cost;
+    if (!best || cost < (1.0 - kLaterStartGain) * best_cost) best = n, best_cost = cost;
   }
   if (!best) throw *errors[0];
   AdjustmentAttempt solved = std::move(attempts[*best]);
   // A probed start that won goes on from there with the whole budget.
-  if (*best > 0) steps_of(*best).Finish(adjust, kFocalStartIterations, &solved);
+  if (*best > 0) steps_of(*best).Finish(adjust, kProbeIterations, &solved);
   if (starts > 1) LapIfTimed(timer, "later_starts");
   steps_of(*best).Reweight(adjust, &solved);
   LapIfTimed(timer, "reweight");
