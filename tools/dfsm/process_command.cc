@@ -27,7 +27,9 @@ int RunProcessCommand(const Args& args) {
   app.add_option("BURST", burst_dir, "a dfsm-burst/1 directory")->required();
   app.add_option("--out", out_dir, "result directory (dfsm-result/1); created when missing")
       ->required();
-  app.add_option("--init", init, "bundle-adjustment start")
+  app.add_option("--init", init,
+                 "bundle-adjustment start (rank1 also probes the naive start beside its own and "
+                 "keeps the one that fits every track better)")
       ->check(CLI::IsMember({InitModeName(InitMode::kRankOne), InitModeName(InitMode::kNaive)}))
       ->capture_default_str();
   app.add_option("--frames", read_options.max_frames,
