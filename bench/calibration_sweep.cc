@@ -17,6 +17,8 @@
 #include <string>
 #include <vector>
 
+#include "bench/report_options.h"
+
 int main(int argc, char** argv) {
   using namespace dfsm;
   int bursts = 64;
@@ -26,51 +28,52 @@ int main(int argc, char** argv) {
   int only = -1;            // every burst
   std::string field_of_view = "normal";
   std::string camera = "ideal";  // camera effects preset of the generated bursts
-  for (int i = 1; i < argc; ++i) {
-    if (!std::strcmp(argv[i], "--bursts") && i + 1 < argc)
-      bursts = std::atoi(argv[++i]);
-    else if (!std::strcmp(argv[i], "--seed") && i + 1 < argc)
-      seed = std::strtoull(argv[++i], nullptr, 10);
-    else if (!std::strcmp(argv[i], "--no-weak-prior"))
-      options.bundle_adjustment.log_f_prior_sigma = 0.0;
-    else if (!std::strcmp(argv[i], "--corner-prior") && i + 1 < argc)
-      options.bundle_adjustment.corner_shift_prior_sigma = std::atof(argv[++i]);
-    else if (!std::strcmp(argv[i], "--lens-prior") && i + 1 < argc)
-      options.bundle_adjustment.lens_k_prior_sigma = std::atof(argv[++i]);
-    else if (!std::strcmp(argv[i], "--cell-scale") && i + 1 < argc)
-      cell_scale = std::atof(argv[++i]);
-    else if (!std::strcmp(argv[i], "--camera") && i + 1 < argc)
-      camera = argv[++i];
-    else if (!std::strcmp(argv[i], "--field-of-view") && i + 1 < argc)
-      field_of_view = argv[++i];
-    else if (!std::strcmp(argv[i], "--only") && i + 1 < argc)
-      only = std::atoi(argv[++i]);
-    else if (!std::strcmp(argv[i], "--focal-starts") && i + 1 < argc) {
-      // Comma-separated fractions of max(width, height); "1" is the single
-      // start of the code before the focal starts.
-      options.focal_starts.clear();
-      const char* list = argv[++i];
-      for (const char* p = list; *p;) {
-        char* end = nullptr;
-        const double start = std::strtod(p, &end);
-        if (end == p || (*end != ',' && *end != '\0')) {
-          std::fprintf(stderr, "--focal-starts: \"%s\" is not a comma-separated list of numbers\n",
-                       list);
-          return 2;
+  try {
+    for (int i = 1; i < argc; ++i) {
+      if (!std::strcmp(argv[i], "--bursts") && i + 1 < argc)
+        bursts = WholeNumber("--bursts", argv[++i], 1);
+      else if (!std::strcmp(argv[i], "--seed") && i + 1 < argc)
+        seed = SeedNumber("--seed", argv[++i]);
+      else if (!std::strcmp(argv[i], "--no-weak-prior"))
+        options.bundle_adjustment.log_f_prior_sigma = 0.0;
+      else if (!std::strcmp(argv[i], "--corner-prior") && i + 1 < argc)
+        options.bundle_adjustment.corner_shift_prior_sigma =
+            RealNumber("--corner-prior", argv[++i]);
+      else if (!std::strcmp(argv[i], "--lens-prior") && i + 1 < argc)
+        options.bundle_adjustment.lens_k_prior_sigma = RealNumber("--lens-prior", argv[++i]);
+      else if (!std::strcmp(argv[i], "--cell-scale") && i + 1 < argc)
+        cell_scale = RealNumber("--cell-scale", argv[++i]);
+      else if (!std::strcmp(argv[i], "--camera") && i + 1 < argc)
+        camera = argv[++i];
+      else if (!std::strcmp(argv[i], "--field-of-view") && i + 1 < argc)
+        field_of_view = argv[++i];
+      else if (!std::strcmp(argv[i], "--only") && i + 1 < argc)
+        only = WholeNumber("--only", argv[++i], 0);
+      else if (!std::strcmp(argv[i], "--focal-starts") && i + 1 < argc) {
+        // Comma-separated fractions of max(width, height); "1" is the single
+        // start of the code before the focal starts.
+        options.focal_starts.clear();
+        const char* list = argv[++i];
+        for (std::string rest = list;;) {
+          const size_t comma = rest.find(',');
+          options.focal_starts.push_back(RealNumber("--focal-starts", rest.substr(0, comma)));
+          if (comma == std::string::npos) break;
+          rest = rest.substr(comma + 1);
         }
-        options.focal_starts.push_back(start);
-        p = *end == ',' ? end + 1 : end;
+      } else {
+        std::fprintf(stderr,
+                     "usage: calibration_sweep [--bursts N] [--seed S] [--no-weak-prior]\n"
+                     "                         [--lens-prior SIGMA] [--corner-prior SIGMA] "
+                     "[--cell-scale S]\n"
+                     "                         [--camera ideal|webcam|phone]\n"
+                     "                         [--field-of-view normal|wide] [--only I]\n"
+                     "                         [--focal-starts F1,F2,...]\n");
+        return 2;
       }
-    } else {
-      std::fprintf(
-          stderr,
-          "usage: calibration_sweep [--bursts N] [--seed S] [--no-weak-prior]\n"
-          "                         [--lens-prior SIGMA] [--corner-prior SIGMA] [--cell-scale S]\n"
-          "                         [--camera ideal|webcam|phone]\n"
-          "                         [--field-of-view normal|wide] [--only I]\n"
-          "                         [--focal-starts F1,F2,...]\n");
-      return 2;
     }
+  } catch (const std::invalid_argument& e) {
+    std::fprintf(stderr, "calibration_sweep: %s\n", e.what());
+    return 2;
   }
   std::vector<SweepOutcome> outcomes;
   SweepFieldOfView lens;

@@ -25,6 +25,7 @@
 #include <string>
 #include <vector>
 
+#include "bench/report_options.h"
 #include "core/pipeline/calibration_sweep.h"
 #include "core/pipeline/evaluation.h"
 #include "core/pipeline/pipeline.h"
@@ -189,35 +190,41 @@ int main(int argc, char** argv) {
   uint64_t seed = 1;
   std::string camera = "phone", field_of_view = "normal", keep;
   PipelineOptions pipeline;
-  for (int i = 1; i < argc; ++i) {
-    if (!std::strcmp(argv[i], "--bursts") && i + 1 < argc) {
-      sweep_option_given = true;
-      bursts = std::atoi(argv[++i]);
-    } else if (!std::strcmp(argv[i], "--seed") && i + 1 < argc) {
-      sweep_option_given = true;
-      seed = std::strtoull(argv[++i], nullptr, 10);
-    } else if (!std::strcmp(argv[i], "--camera") && i + 1 < argc) {
-      camera = argv[++i];
-    } else if (!std::strcmp(argv[i], "--field-of-view") && i + 1 < argc) {
-      sweep_option_given = true;
-      field_of_view = argv[++i];
-    } else if (!std::strcmp(argv[i], "--defaults") && i + 1 < argc) {
-      defaults = std::atoi(argv[++i]);
-      defaults_given = true;
-    } else if (!std::strcmp(argv[i], "--only") && i + 1 < argc) {
-      only = std::atoi(argv[++i]);
-    } else if (!std::strcmp(argv[i], "--keep") && i + 1 < argc) {
-      keep = argv[++i];
-    } else if (!std::strcmp(argv[i], "--reweight-rounds") && i + 1 < argc) {
-      pipeline.sparse.reweight_rounds = std::atoi(argv[++i]);  // 0: every track weighs the same
-    } else {
-      std::fprintf(stderr,
-                   "usage: depth_sweep [--bursts N] [--seed S] [--camera ideal|webcam|phone]\n"
-                   "                   [--field-of-view normal|wide] [--only I [--keep DIR]]\n"
-                   "                   [--reweight-rounds N]\n"
-                   "       depth_sweep --defaults N [--camera ...] [--only I [--keep DIR]]\n");
-      return 2;
+  try {
+    for (int i = 1; i < argc; ++i) {
+      if (!std::strcmp(argv[i], "--bursts") && i + 1 < argc) {
+        sweep_option_given = true;
+        bursts = WholeNumber("--bursts", argv[++i], 1);
+      } else if (!std::strcmp(argv[i], "--seed") && i + 1 < argc) {
+        sweep_option_given = true;
+        seed = SeedNumber("--seed", argv[++i]);
+      } else if (!std::strcmp(argv[i], "--camera") && i + 1 < argc) {
+        camera = argv[++i];
+      } else if (!std::strcmp(argv[i], "--field-of-view") && i + 1 < argc) {
+        sweep_option_given = true;
+        field_of_view = argv[++i];
+      } else if (!std::strcmp(argv[i], "--defaults") && i + 1 < argc) {
+        defaults = WholeNumber("--defaults", argv[++i], 1);
+        defaults_given = true;
+      } else if (!std::strcmp(argv[i], "--only") && i + 1 < argc) {
+        only = WholeNumber("--only", argv[++i], 0);
+      } else if (!std::strcmp(argv[i], "--keep") && i + 1 < argc) {
+        keep = argv[++i];
+      } else if (!std::strcmp(argv[i], "--reweight-rounds") && i + 1 < argc) {
+        // 0: every track weighs the same
+        pipeline.sparse.reweight_rounds = WholeNumber("--reweight-rounds", argv[++i], 0);
+      } else {
+        std::fprintf(stderr,
+                     "usage: depth_sweep [--bursts N] [--seed S] [--camera ideal|webcam|phone]\n"
+                     "                   [--field-of-view normal|wide] [--only I [--keep DIR]]\n"
+                     "                   [--reweight-rounds N]\n"
+                     "       depth_sweep --defaults N [--camera ...] [--only I [--keep DIR]]\n");
+        return 2;
+      }
     }
+  } catch (const std::invalid_argument& e) {
+    std::fprintf(stderr, "depth_sweep: %s\n", e.what());
+    return 2;
   }
   if (defaults_given && (defaults < 1 || sweep_option_given)) {
     std::fprintf(stderr,

@@ -11,9 +11,11 @@
 #include <cstring>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
+#include "bench/report_options.h"
 #include "core/pipeline/evaluation.h"
 #include "core/sparse/sparse_reconstruction.h"
 #include "core/synth/burst_synthesizer.h"
@@ -51,9 +53,11 @@ double Max(const std::vector<double>& values) {
   return values.empty() ? 0.0 : *std::max_element(values.begin(), values.end());
 }
 
+// The value of option `name` (a whole number >= 1), or `fallback` where it is
+// not given; throws std::invalid_argument for a value that is not one.
 int ArgInt(int argc, char** argv, const char* name, int fallback) {
   for (int i = 1; i + 1 < argc; ++i)
-    if (!std::strcmp(argv[i], name)) return std::atoi(argv[i + 1]);
+    if (!std::strcmp(argv[i], name)) return WholeNumber(name, argv[i + 1], 1);
   return fallback;
 }
 
@@ -62,11 +66,18 @@ int ArgInt(int argc, char** argv, const char* name, int fallback) {
 
 int main(int argc, char** argv) {
   using namespace dfsm;
-  const int bursts = ArgInt(argc, argv, "--bursts", 12);  // per frame count
-  const int width = ArgInt(argc, argv, "--width", 960);
-  const int height = ArgInt(argc, argv, "--height", 540);
-  const int max_iterations = ArgInt(argc, argv, "--max-iterations", 100);
-  const double rotation_deg = ArgInt(argc, argv, "--rotation-mdeg", 1000) / 1000.0;
+  int bursts = 12, width = 960, height = 540, max_iterations = 100, rotation_mdeg = 1000;
+  try {
+    bursts = ArgInt(argc, argv, "--bursts", bursts);  // per frame count
+    width = ArgInt(argc, argv, "--width", width);
+    height = ArgInt(argc, argv, "--height", height);
+    max_iterations = ArgInt(argc, argv, "--max-iterations", max_iterations);
+    rotation_mdeg = ArgInt(argc, argv, "--rotation-mdeg", rotation_mdeg);
+  } catch (const std::invalid_argument& e) {
+    std::fprintf(stderr, "init_comparison: %s\n", e.what());
+    return 2;
+  }
+  const double rotation_deg = rotation_mdeg / 1000.0;
 
   std::map<std::string, Aggregate> table;  // key: "<frames> <init>"
   for (const int frames : {10, 15}) {
@@ -84,6 +95,7 @@ int main(int argc, char** argv) {
       for (const InitMode init : {InitMode::kRankOne, InitMode::kNaive}) {
         SparseOptions options;
         options.init = init;
+        options.naive_probe = false;  // each start alone, as the paper compares them
         options.bundle_adjustment.max_iterations = max_iterations;
         Run run;
         nlohmann::json line = {

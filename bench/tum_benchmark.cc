@@ -21,6 +21,7 @@
 #include <string>
 #include <vector>
 
+#include "bench/report_options.h"
 #include "bench/tum_pictures.h"
 #include "bench/tum_sequence.h"
 #include "core/pipeline/evaluation.h"
@@ -39,27 +40,14 @@ void ParseSemiGlobal(const std::string& text, DenseOptions* dense) {
   if (colon == std::string::npos)
     throw std::invalid_argument("--semi-global takes off or P1:P2, got " + text);
   try {
-    dense->semi_global.small_step_penalty = std::stof(text.substr(0, colon));
-    dense->semi_global.large_step_penalty = std::stof(text.substr(colon + 1));
-  } catch (const std::logic_error&) {  // std::stof's invalid_argument and out_of_range
+    dense->semi_global.small_step_penalty =
+        static_cast<float>(RealNumber("--semi-global", text.substr(0, colon)));
+    dense->semi_global.large_step_penalty =
+        static_cast<float>(RealNumber("--semi-global", text.substr(colon + 1)));
+  } catch (const std::invalid_argument&) {
     throw std::invalid_argument("--semi-global takes off or P1:P2, got " + text);
   }
   dense->semi_global.Check();
-}
-
-// The value of a count option: a whole positive number, all of `text`.
-int PositiveCount(const char* option, const std::string& text) {
-  size_t used = 0;
-  int value = 0;
-  try {
-    value = std::stoi(text, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used == 0 || used != text.size() || value < 1)
-    throw std::invalid_argument(std::string(option) + " takes a positive whole number, got '" +
-                                text + "'");
-  return value;
 }
 
 }  // namespace
@@ -82,9 +70,9 @@ int main(int argc, char** argv) {
       if (option == "--dataset")
         dataset = value;
       else if (option == "--frames")
-        frames = PositiveCount("--frames", value);
+        frames = WholeNumber("--frames", value, 1);
       else if (option == "--step")
-        step = PositiveCount("--step", value);
+        step = WholeNumber("--step", value, 1);
       else if (option == "--calibration")
         calibration_file = value;
       else if (option == "--pictures")
@@ -94,7 +82,7 @@ int main(int argc, char** argv) {
       else if (option == "--semi-global")
         ParseSemiGlobal(value, &dense);
       else if (option == "--downscale")
-        downscale = PositiveCount("--downscale", value);
+        downscale = WholeNumber("--downscale", value, 1);
       else
         throw std::invalid_argument("unknown option " + option +
                                     " (see the comment at the top of bench/tum_benchmark.cc)");
