@@ -38,11 +38,11 @@ int main(int argc, char** argv) {
         options.bundle_adjustment.log_f_prior_sigma = 0.0;
       else if (!std::strcmp(argv[i], "--corner-prior") && i + 1 < argc)
         options.bundle_adjustment.corner_shift_prior_sigma =
-            RealNumber("--corner-prior", argv[++i]);
+            PositiveNumber("--corner-prior", argv[++i]);
       else if (!std::strcmp(argv[i], "--lens-prior") && i + 1 < argc)
-        options.bundle_adjustment.lens_k_prior_sigma = RealNumber("--lens-prior", argv[++i]);
+        options.bundle_adjustment.lens_k_prior_sigma = NonNegativeNumber("--lens-prior", argv[++i]);
       else if (!std::strcmp(argv[i], "--cell-scale") && i + 1 < argc)
-        cell_scale = RealNumber("--cell-scale", argv[++i]);
+        cell_scale = PositiveNumber("--cell-scale", argv[++i]);
       else if (!std::strcmp(argv[i], "--camera") && i + 1 < argc)
         camera = argv[++i];
       else if (!std::strcmp(argv[i], "--field-of-view") && i + 1 < argc)
@@ -56,7 +56,7 @@ int main(int argc, char** argv) {
         const char* list = argv[++i];
         for (std::string rest = list;;) {
           const size_t comma = rest.find(',');
-          options.focal_starts.push_back(RealNumber("--focal-starts", rest.substr(0, comma)));
+          options.focal_starts.push_back(PositiveNumber("--focal-starts", rest.substr(0, comma)));
           if (comma == std::string::npos) break;
           rest = rest.substr(comma + 1);
         }

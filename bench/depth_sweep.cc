@@ -226,7 +226,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "depth_sweep: %s\n", e.what());
     return 2;
   }
-  if (defaults_given && (defaults < 1 || sweep_option_given)) {
+  if (defaults_given && sweep_option_given) {
     std::fprintf(stderr,
                  "--defaults N: N seeds per size, N >= 1, without --bursts, --seed or "
                  "--field-of-view (those choose the sweep's bursts)\n");

@@ -25,17 +25,22 @@ TEST(ReportOptions, WholeNumbersMustBeAllOfTheTextAndInRange) {
   EXPECT_EQ(WholeNumber("--reweight-rounds", "0", 0), 0);
   EXPECT_EQ(Refusal([] { WholeNumber("--bursts", "abc", 1); }),
             "--bursts takes a whole number >= 1, got 'abc'");
-  for (const char* text : {"", "3x", " 3", "3 ", "1.5", "0", "-2", "99999999999"})
+  for (const char* text :
+       {"", "3x", " 3", "3 ", "+3", "0x10", "1e3", "1.5", "0", "-2", "99999999999"})
     EXPECT_NE(Refusal([&] { WholeNumber("--frames", text, 1); }), "") << "'" << text << "'";
 }
 
-TEST(ReportOptions, RealNumbersMustBeFinite) {
-  EXPECT_DOUBLE_EQ(RealNumber("--cell-scale", "0.5"), 0.5);
-  EXPECT_DOUBLE_EQ(RealNumber("--lens-prior", "-1e-3"), -1e-3);
-  EXPECT_EQ(Refusal([] { RealNumber("--cell-scale", "half"); }),
-            "--cell-scale takes a number, got 'half'");
-  for (const char* text : {"", "0.5x", " 1", "nan", "inf", "1e999"})
-    EXPECT_NE(Refusal([&] { RealNumber("--cell-scale", text); }), "") << "'" << text << "'";
+TEST(ReportOptions, NumbersMustBeFiniteAndInRange) {
+  EXPECT_DOUBLE_EQ(PositiveNumber("--cell-scale", "0.5"), 0.5);
+  EXPECT_DOUBLE_EQ(PositiveNumber("--corner-prior", "1e-3"), 1e-3);
+  EXPECT_DOUBLE_EQ(NonNegativeNumber("--lens-prior", "0"), 0.0);
+  EXPECT_EQ(Refusal([] { PositiveNumber("--cell-scale", "half"); }),
+            "--cell-scale takes a number > 0, got 'half'");
+  EXPECT_EQ(Refusal([] { NonNegativeNumber("--lens-prior", "-1e-3"); }),
+            "--lens-prior takes a number >= 0, got '-1e-3'");
+  for (const char* text :
+       {"", "0", "-1", "0.5x", " 1", "+1", "0x1p-1", ".5", "nan", "inf", "1e999", "1e-400"})
+    EXPECT_NE(Refusal([&] { PositiveNumber("--cell-scale", text); }), "") << "'" << text << "'";
 }
 
 TEST(ReportOptions, SeedsAreWholeNumbersFromZero) {

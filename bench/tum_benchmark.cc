@@ -11,9 +11,11 @@
 //                 [--semi-global off|P1:P2] [--downscale N]
 // --downscale 2 runs the same windows at 320x240 (frames area-averaged, the
 // Kinect depth and the calibration scaled to match; TumSequence).
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <optional>
@@ -40,10 +42,12 @@ void ParseSemiGlobal(const std::string& text, DenseOptions* dense) {
   if (colon == std::string::npos)
     throw std::invalid_argument("--semi-global takes off or P1:P2, got " + text);
   try {
-    dense->semi_global.small_step_penalty =
-        static_cast<float>(RealNumber("--semi-global", text.substr(0, colon)));
-    dense->semi_global.large_step_penalty =
-        static_cast<float>(RealNumber("--semi-global", text.substr(colon + 1)));
+    const double small = NonNegativeNumber("--semi-global", text.substr(0, colon));
+    const double large = NonNegativeNumber("--semi-global", text.substr(colon + 1));
+    if (std::max(small, large) > std::numeric_limits<float>::max())
+      throw std::invalid_argument("out of a float's range");
+    dense->semi_global.small_step_penalty = static_cast<float>(small);
+    dense->semi_global.large_step_penalty = static_cast<float>(large);
   } catch (const std::invalid_argument&) {
     throw std::invalid_argument("--semi-global takes off or P1:P2, got " + text);
   }

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <opencv2/core.hpp>
 #include <ostream>
 #include <stdexcept>
 #include <string>
@@ -149,6 +150,17 @@ TEST(SyntheticSparseCalibration, ASecondFocalStartFindsAWideLens) {
   RecordProperty("focal_error_percent_one_start_probed", std::to_string(probed_error));
   EXPECT_LT(probed_error, 3.0) << "f = " << probed.state.camera.f;  // measured 1.3
   EXPECT_EQ(probed.bundle_adjustment.init, "naive");
+  // The probe that won finished as the first start would have (the rest of
+  // the budget, the outlier and reweighting rounds), the same on one core.
+  const int threads = cv::getNumThreads();
+  cv::setNumThreads(1);
+  const SparseReconstruction alone = ReconstructSparse(burst.gray, burst.reference(), one_start);
+  cv::setNumThreads(threads);
+  EXPECT_EQ(alone.bundle_adjustment.init, "naive");
+  EXPECT_EQ(alone.state.camera.f, probed.state.camera.f);
+  EXPECT_EQ(alone.state.camera.k1, probed.state.camera.k1);
+  EXPECT_EQ(alone.state.inverse_depths, probed.state.inverse_depths);
+  EXPECT_TRUE(probed.bundle_adjustment.converged);
 
   const SparseReconstruction sparse = ReconstructSparse(burst.gray, burst.reference());
   const double error =

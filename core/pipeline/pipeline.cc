@@ -147,7 +147,7 @@ PipelineOutput RunPipeline(const Burst& burst, const PipelineOptions& options,
     // (io/frame_times.h).
     sparse_options.frame_times = distinct.times;
     // The dense stage's frames depend on the frames alone: each is a piece
-    // the sparse stage takes up on a core its focal-start probe leaves idle;
+    // the sparse stage takes up on a core its probes leave idle;
     // the dense stage makes the rest. A piece's error is the dense stage's
     // (SharedWork keeps it until then).
     std::optional<DenseFramesMaker> frames_maker;

@@ -187,11 +187,13 @@ class StartedAdjustment {
     Settle(adjust, attempt);
   }
 
-  // The rest of the first adjustment's budget where it measured no readout.
+  // The rest of the first adjustment's budget where no readout restart
+  // follows to go on from it (a global shutter, a known readout, the naive
+  // start): a probe that won must not stay at its capped iterations.
   void Continue(const BundleAdjustmentOptions& adjust, int measured_iterations,
                 AdjustmentAttempt* attempt) const {
     if (measured_iterations < adjust.max_iterations && !attempt->summary.converged &&
-        std::abs(attempt->state.readout) < kMinRectifiedReadout)
+        !Restarts(adjust, *attempt))
       attempt->Adjust(tracks_, adjust);
   }
 
@@ -436,7 +438,7 @@ AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraMode
   if (!best) throw *errors[0];
   AdjustmentAttempt solved = std::move(attempts[*best]);
   // A probed start that won goes on from there with the whole budget.
-  if (*best > 0) steps_of(*best).Finish(adjust, kProbeIterations, &solved);
+  if (*best > 0) steps_of(*best).Finish(adjust, measured_iterations[*best], &solved);
   if (starts > 1) LapIfTimed(timer, "later_starts");
   steps_of(*best).Reweight(adjust, &solved);
   LapIfTimed(timer, "reweight");

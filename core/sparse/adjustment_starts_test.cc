@@ -187,6 +187,7 @@ TEST(AdjustFromStarts, AKnownCameraStartsFromItself) {
               : std::vector<std::string>{"rotation", "rank1", "bundle_adjustment", "reweight"};
     EXPECT_EQ(stages, expected);
   }
+  options.naive_probe = false;
   SharedWork beside({[] {}});
   AdjustFromStarts(sim.tracks, sim.camera, options, adjust, nullptr, &beside);
   EXPECT_EQ(beside.taken(), 0);

@@ -169,7 +169,6 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
         " in front of the camera, need >= " + std::to_string(options.min_tracks) +
         " (median track motion " + FixedText(parallax) +
         " px: too little baseline to separate depths)");
-  solved.summary.init = InitModeName(solved.init);
   sparse.inliers = use;
   // The covariance once, at the final state and tracks: an adjustment of no
   // iterations only evaluates (computing it in every outlier round cost 60 %
@@ -285,7 +284,9 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
                               sparse.verdict.reasons.front());
 
   timer.Lap("lens_check");
-  solved.summary.start_f = solved.start_f;  // also where a fallback refitted from it
+  // Where the solution started, also where a fallback refitted from it.
+  solved.summary.start_f = solved.start_f;
+  solved.summary.init = InitModeName(solved.init);
   sparse.state = std::move(solved.state);
   sparse.bundle_adjustment = std::move(solved.summary);
   sparse.rank_one = std::move(solved.rank_one);

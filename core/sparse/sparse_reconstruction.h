@@ -68,9 +68,9 @@ struct SparseOptions {
   // as a focal start is kept. The rank-1 start can settle in a minimum whose
   // inverse depths share a wrong offset (a flattened relief that still fits
   // its tracks to a few tenths of a pixel): TUM fr1/xyz window 18-27 with
-  // the published calibration, 15.0 % AbsRel where the naive start reaches
-  // 3.8 % (docs/sparse.md, "The naive start as a probe"). False: the rank-1
-  // starts alone.
+  // the published calibration (docs/sparse.md, "The naive start as a
+  // probe"). Like a focal probe, the probe also stands in where the first
+  // start fails. False: the rank-1 starts alone.
   bool naive_probe = true;
   int min_tracks = 20;
   double min_parallax_px = 0.15;  // median largest track motion below this: no depth to recover
@@ -210,9 +210,10 @@ struct SparseReconstruction {
 
 // Throws ReconstructionError for bursts that cannot be reconstructed.
 // `beside` (may be null): pieces of the caller's work that do not depend on
-// this stage, handed in to fill a core the stage leaves idle: the focal-start
-// probes' (AdjustFromStarts), where the burst calibrates itself from more than
-// one start. Pieces it did not take (SharedWork::taken), the caller runs.
+// this stage, handed in to fill a core the stage leaves idle: the probes'
+// (AdjustFromStarts: the later focal starts and the naive probe), where the
+// adjustment has more than one start. Pieces it did not take
+// (SharedWork::taken), the caller runs.
 SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& gray_frames, int reference,
                                        const SparseOptions& options = {},
                                        SharedWork* beside = nullptr);
