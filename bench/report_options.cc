@@ -3,6 +3,7 @@
 #include <cctype>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <stdexcept>
 
 namespace dfsm {
@@ -30,37 +31,44 @@ bool Plain(const std::string& text, bool signed_ok, bool real) {
   return true;
 }
 
+// `read` (a std::sto* call, given the text and where to say how much of it it
+// used) applied to `text` where Plain() allows it; nothing unless it read a
+// value from all of the text.
+template <typename T, typename Read>
+std::optional<T> ReadAll(const std::string& text, bool plain, Read read) {
+  if (!plain) return std::nullopt;
+  size_t used = 0;
+  T value{};
+  try {
+    value = read(text, &used);
+  } catch (const std::logic_error&) {  // std::sto*'s invalid_argument and out_of_range
+    return std::nullopt;
+  }
+  if (used != text.size()) return std::nullopt;
+  return value;
+}
+
 // A finite number, all of `text`, at least `least` (more than it where
 // `strictly`).
 double Number(const char* option, const std::string& text, double least, bool strictly,
               const char* what) {
-  size_t used = 0;
-  double value = 0.0;
-  try {
-    if (Plain(text, true, true)) value = std::stod(text, &used);
-  } catch (const std::logic_error&) {  // std::stod's invalid_argument and out_of_range
-    used = 0;
-  }
-  if (used == 0 || used != text.size() || !std::isfinite(value) ||
-      (strictly ? value <= least : value < least))
+  const std::optional<double> value =
+      ReadAll<double>(text, Plain(text, true, true),
+                      [](const std::string& t, size_t* used) { return std::stod(t, used); });
+  if (!value || !std::isfinite(*value) || (strictly ? *value <= least : *value < least))
     Refuse(option, what, text);
-  return value;
+  return *value;
 }
 
 }  // namespace
 
 int WholeNumber(const char* option, const std::string& text, int least) {
-  const std::string what = "a whole number >= " + std::to_string(least);
-  size_t used = 0;
-  long long value = 0;
-  try {
-    if (Plain(text, true, false)) value = std::stoll(text, &used);
-  } catch (const std::logic_error&) {  // std::stoll's invalid_argument and out_of_range
-    used = 0;
-  }
-  if (used == 0 || used != text.size() || value < least || value > std::numeric_limits<int>::max())
-    Refuse(option, what, text);
-  return static_cast<int>(value);
+  const std::optional<long long> value =
+      ReadAll<long long>(text, Plain(text, true, false),
+                         [](const std::string& t, size_t* used) { return std::stoll(t, used); });
+  if (!value || *value < least || *value > std::numeric_limits<int>::max())
+    Refuse(option, "a whole number >= " + std::to_string(least), text);
+  return static_cast<int>(*value);
 }
 
 double PositiveNumber(const char* option, const std::string& text) {
@@ -72,16 +80,12 @@ double NonNegativeNumber(const char* option, const std::string& text) {
 }
 
 uint64_t SeedNumber(const char* option, const std::string& text) {
-  size_t used = 0;
-  unsigned long long value = 0;
-  try {
-    // Digits only: std::stoull reads "-1" as 2^64 - 1.
-    if (Plain(text, false, false)) value = std::stoull(text, &used);
-  } catch (const std::logic_error&) {
-    used = 0;
-  }
-  if (used == 0 || used != text.size()) Refuse(option, "a whole number >= 0", text);
-  return static_cast<uint64_t>(value);
+  // Digits only: std::stoull reads "-1" as 2^64 - 1.
+  const std::optional<unsigned long long> value = ReadAll<unsigned long long>(
+      text, Plain(text, false, false),
+      [](const std::string& t, size_t* used) { return std::stoull(t, used); });
+  if (!value) Refuse(option, "a whole number >= 0", text);
+  return static_cast<uint64_t>(*value);
 }
 
 }  // namespace dfsm

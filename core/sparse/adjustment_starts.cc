@@ -360,8 +360,9 @@ AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraMode
   const size_t focal = restarts ? options.focal_starts.size() : 1;
   const bool naive_probe = options.init == InitMode::kRankOne && options.naive_probe;
   const size_t starts = focal + (naive_probe ? 1 : 0);
-  const auto steps_of = [&](size_t n) -> const StartedAdjustment& {
-    return n < focal ? steps : naive_steps;
+  // The steps of a start, by how it was made (AdjustmentAttempt::init).
+  const auto steps_for = [&](InitMode init) -> const StartedAdjustment& {
+    return init == InitMode::kNaive ? naive_steps : steps;
   };
   std::vector<AdjustmentAttempt> attempts(starts);
   std::vector<std::optional<ReconstructionError>> errors(starts);
@@ -384,7 +385,7 @@ AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraMode
       if (n > 0) probe.max_iterations = std::min(probe.max_iterations, kProbeIterations);
       try {
         measured_iterations[n] =
-            steps_of(n).Solve(start, probe, n == 0 ? timer : nullptr, &attempts[n]);
+            steps_for(attempts[n].init).Solve(start, probe, n == 0 ? timer : nullptr, &attempts[n]);
         // The first start's finish depends on no other start, so it runs
         // here, beside the probes, unless it restarts from several readouts
         // (those restarts run side by side after the probes, with the cores
@@ -438,9 +439,9 @@ AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraMode
   if (!best) throw *errors[0];
   AdjustmentAttempt solved = std::move(attempts[*best]);
   // A probed start that won goes on from there with the whole budget.
-  if (*best > 0) steps_of(*best).Finish(adjust, measured_iterations[*best], &solved);
+  if (*best > 0) steps_for(solved.init).Finish(adjust, measured_iterations[*best], &solved);
   if (starts > 1) LapIfTimed(timer, "later_starts");
-  steps_of(*best).Reweight(adjust, &solved);
+  steps_for(solved.init).Reweight(adjust, &solved);
   LapIfTimed(timer, "reweight");
   return solved;
 }
