@@ -47,7 +47,7 @@ struct DenseOptions {
   // see kCoarseLevelWidth in dense_depth.cc).
   int coarse_scale = 0;
   // Planes of the coarse sweep, spanning the same range. 0: as many as give
-  // 0.2 coarse pixels of parallax between neighbours (at most `planes`): at
+  // 0.15 coarse pixels of parallax between neighbours (at most `planes`): at
   // 1/4 resolution the planes of a 128-lattice are often only a few
   // hundredths of a coarse pixel apart, and a denser coarse lattice gains nothing.
   int coarse_planes = 0;
