@@ -78,10 +78,14 @@ std::vector<bool> KeptTracks(const FeatureTracks& tracks, const SparseState& sta
 // squared RMS reprojection error, capped at threshold^2, summed. A solution
 // that keeps fewer tracks pays for the ones it loses, and one that fits its
 // inliers more closely gains; a median alone preferred, on a wide-lens burst,
-// a camera 10 % off that fitted fewer tracks to a larger mean error.
+// a camera 10 % off that fitted fewer tracks to a larger mean error. Each
+// track at its best inverse depth under the solution's camera and poses: a
+// track an outlier round dropped keeps the depth of the round before, which
+// gave a start with more rounds behind it (the first) a handicap against a
+// probe that adjusted every track.
 double TruncatedTrackCost(const FeatureTracks& tracks, const SparseState& state, double threshold) {
   double cost = 0.0;
-  for (const double error : TrackReprojectionErrors(tracks, state))
+  for (const double error : TrackReprojectionErrorsAtBestDepth(tracks, state))
     cost += std::isfinite(error) ? std::min(error * error, threshold * threshold)
                                  : threshold * threshold;
   return cost;

@@ -310,23 +310,82 @@ BundleAdjustmentSummary RunBundleAdjustment(const FeatureTracks& tracks,
   return result;
 }
 
-std::vector<double> TrackReprojectionErrors(const FeatureTracks& tracks, const SparseState& state) {
-  const int n = tracks.num_frames();
-  std::vector<double> errors(tracks.num_tracks(), 0.0);
-  const double intrinsics[3] = {state.camera.f, state.camera.k1, state.camera.k2};
-  std::vector<std::array<double, 6>> poses(n);
-  for (int i = 0; i < n; ++i) poses[i] = ToParameters(state.poses[i]);
-  const Reprojection reprojection(tracks, state.camera, state.readout != 0.0, state.frame_times);
-  for (int j = 0; j < tracks.num_tracks(); ++j) {
-    double sum = 0.0;
+namespace {
+
+// The reprojection of one state's camera and poses, track by track.
+class TrackFit {
+ public:
+  TrackFit(const FeatureTracks& tracks, const SparseState& state)
+      : tracks_(tracks),
+        state_(state),
+        intrinsics_{state.camera.f, state.camera.k1, state.camera.k2},
+        reprojection_(tracks, state.camera, state.readout != 0.0, state.frame_times) {
+    for (const Pose& pose : state.poses) poses_.push_back(ToParameters(pose));
+  }
+
+  // The residuals of track j in every frame but the reference, at inverse
+  // depth w, one after the other (2 per frame).
+  Eigen::VectorXd Residuals(int j, double w) const {
+    const int n = tracks_.num_frames();
+    Eigen::VectorXd residuals = Eigen::VectorXd::Zero(2 * std::max(0, n - 1));
+    int k = 0;
     for (int i = 0; i < n; ++i) {
-      if (i == tracks.reference) continue;
-      double residual[2];
-      reprojection.Evaluate(j, i, tracks.pixels[tracks.reference].col(j), intrinsics, poses,
-                            &state.inverse_depths[j], &state.readout, residual);
-      sum += residual[0] * residual[0] + residual[1] * residual[1];
+      if (i == tracks_.reference) continue;
+      reprojection_.Evaluate(j, i, tracks_.pixels[tracks_.reference].col(j), intrinsics_, poses_,
+                             &w, &state_.readout, residuals.data() + 2 * k++);
     }
-    errors[j] = n > 1 ? std::sqrt(sum / (n - 1)) : 0.0;
+    return residuals;
+  }
+
+  // RMS over the frames but the reference.
+  double RmsError(const Eigen::VectorXd& residuals) const {
+    const int n = tracks_.num_frames();
+    return n > 1 ? std::sqrt(residuals.squaredNorm() / (n - 1)) : 0.0;
+  }
+
+ private:
+  const FeatureTracks& tracks_;
+  const SparseState& state_;
+  const double intrinsics_[3];
+  std::vector<std::array<double, 6>> poses_;
+  const Reprojection reprojection_;
+};
+
+// Gauss-Newton steps on one inverse depth: the residuals are close to
+// linear in it (a small motion moves a point along a line with w), so a
+// few steps reach the minimum.
+constexpr int kDepthRefitSteps = 5;
+
+}  // namespace
+
+std::vector<double> TrackReprojectionErrors(const FeatureTracks& tracks, const SparseState& state) {
+  const TrackFit fit(tracks, state);
+  std::vector<double> errors(tracks.num_tracks(), 0.0);
+  for (int j = 0; j < tracks.num_tracks(); ++j)
+    errors[j] = fit.RmsError(fit.Residuals(j, state.inverse_depths[j]));
+  return errors;
+}
+
+std::vector<double> TrackReprojectionErrorsAtBestDepth(const FeatureTracks& tracks,
+                                                       const SparseState& state) {
+  const TrackFit fit(tracks, state);
+  std::vector<double> errors(tracks.num_tracks(), 0.0);
+  for (int j = 0; j < tracks.num_tracks(); ++j) {
+    double w = state.inverse_depths[j];
+    Eigen::VectorXd residuals = fit.Residuals(j, w);
+    for (int step = 0; step < kDepthRefitSteps; ++step) {
+      // d residuals / dw by a central difference, h relative to w.
+      const double h = 1e-6 * std::max(std::abs(w), 1e-3);
+      const Eigen::VectorXd slope = (fit.Residuals(j, w + h) - fit.Residuals(j, w - h)) / (2 * h);
+      const double curvature = slope.squaredNorm();
+      if (!(curvature > 0.0)) break;
+      const double next = w - slope.dot(residuals) / curvature;
+      const Eigen::VectorXd next_residuals = fit.Residuals(j, next);
+      if (!(next_residuals.squaredNorm() < residuals.squaredNorm())) break;
+      w = next;
+      residuals = next_residuals;
+    }
+    errors[j] = fit.RmsError(residuals);
   }
   return errors;
 }

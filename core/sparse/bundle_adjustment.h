@@ -100,4 +100,10 @@ BundleAdjustmentSummary RunBundleAdjustment(const FeatureTracks& tracks,
 // Per-track RMS reprojection error (pixels, undistorted domain) of `state`.
 std::vector<double> TrackReprojectionErrors(const FeatureTracks& tracks, const SparseState& state);
 
+// The same with each track's inverse depth at its own least-squares best
+// under the state's camera and poses (the state is not changed): how well
+// the geometry explains every track, whether the adjustment used it or not.
+std::vector<double> TrackReprojectionErrorsAtBestDepth(const FeatureTracks& tracks,
+                                                       const SparseState& state);
+
 }  // namespace dfsm
