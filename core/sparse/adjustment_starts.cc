@@ -57,6 +57,27 @@ constexpr double kLaterStartGain = 0.01;
 // crawled along the f valley to the 100-iteration cap in every run and round
 // (370 ms more at 1080p), to lose anyway.
 constexpr int kProbeIterations = 20;
+// A probe adjusts at most this many of its tracks, every k-th in grid order
+// (so spread over the image as the grid spreads them): which minimum a start
+// falls into is a matter of the geometry, which a few hundred tracks fix as
+// well as all of them, and an iteration's cost grows with the tracks. The
+// starts are compared over every track, each at its best depth under a
+// start's camera and poses (TruncatedTrackCost), so the tracks a probe left
+// out count as the others do; a probe that wins adjusts all of them before
+// it goes on.
+constexpr int kProbeTracks = 160;
+
+// Keeps every k-th of the `use` tracks, k the smallest that leaves at most
+// `most`; returns whether any was left out.
+bool ThinTracks(int most, std::vector<bool>* use) {
+  const int used = static_cast<int>(std::count(use->begin(), use->end(), true));
+  if (most <= 0 || used <= most) return false;
+  const int k = (used + most - 1) / most;
+  int n = 0;
+  for (size_t j = 0; j < use->size(); ++j)
+    if ((*use)[j]) (*use)[j] = n++ % k == 0;
+  return true;
+}
 
 // The outlier rule of the rounds after the adjustment: the tracks of `use`
 // (and of `use` only, their inverse depths being the adjusted ones) within
@@ -134,8 +155,9 @@ class StartedAdjustment {
   // The initialization and the first adjustment from `start_camera` (laps
   // `timer` where there is one); returns the iterations that adjustment was
   // allowed, for Finish(). Throws ReconstructionError.
+  // A probe passes `most_tracks` (> 0) to adjust at most that many.
   int Solve(const CameraModel& start_camera, const BundleAdjustmentOptions& adjust,
-            StageTimer* timer, AdjustmentAttempt* attempt) const {
+            StageTimer* timer, AdjustmentAttempt* attempt, int most_tracks = 0) const {
     SparseState& state = attempt->state;
     state.camera = start_camera;
     state.frame_times = options_.frame_times;
@@ -173,6 +195,8 @@ class StartedAdjustment {
     BundleAdjustmentOptions measuring = adjust;
     if (rank_one_ && adjust.estimate_readout)
       measuring.max_iterations = std::min(measuring.max_iterations, kMeasuringIterations);
+    std::vector<bool> all = attempt->use;
+    if (ThinTracks(most_tracks, &attempt->use)) attempt->thinned_from = std::move(all);
     attempt->Adjust(tracks_, measuring);
     return measuring.max_iterations;
   }
@@ -184,10 +208,30 @@ class StartedAdjustment {
            std::abs(attempt.state.readout) >= kMinRectifiedReadout;
   }
 
-  // After the first adjustment: Continue(), then Settle().
+  // After the first adjustment: Continue(), then Settle(). A thinned probe
+  // first takes in the tracks it left out that its geometry explains (within
+  // outlier_px at their best depth, in front), at that depth, and adjusts
+  // them all once with the whole budget; the outlier rounds then judge every
+  // track as usual. Taking in every track at its best depth, the ones its
+  // geometry does not explain included, sent a 1080p burst (2 deg) to 19
+  // tracks in front.
   void Finish(const BundleAdjustmentOptions& adjust, int measured_iterations,
               AdjustmentAttempt* attempt) const {
-    Continue(adjust, measured_iterations, attempt);
+    if (!attempt->thinned_from.empty()) {
+      std::vector<double> best;
+      const std::vector<double> errors =
+          TrackReprojectionErrorsAtBestDepth(tracks_, attempt->state, &best);
+      for (size_t j = 0; j < best.size(); ++j)
+        if (attempt->thinned_from[j] && !attempt->use[j] && errors[j] <= options_.outlier_px &&
+            best[j] > 0.0) {
+          attempt->state.inverse_depths[j] = best[j];
+          attempt->use[j] = true;
+        }
+      attempt->thinned_from.clear();
+      attempt->Adjust(tracks_, adjust);
+    } else {
+      Continue(adjust, measured_iterations, attempt);
+    }
     Settle(adjust, attempt);
   }
 
@@ -388,8 +432,9 @@ AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraMode
       BundleAdjustmentOptions probe = adjust;
       if (n > 0) probe.max_iterations = std::min(probe.max_iterations, kProbeIterations);
       try {
-        measured_iterations[n] =
-            steps_for(attempts[n].init).Solve(start, probe, n == 0 ? timer : nullptr, &attempts[n]);
+        measured_iterations[n] = steps_for(attempts[n].init)
+                                     .Solve(start, probe, n == 0 ? timer : nullptr, &attempts[n],
+                                            n > 0 ? kProbeTracks : 0);
         // The first start's finish depends on no other start, so it runs
         // here, beside the probes, unless it restarts from several readouts
         // (those restarts run side by side after the probes, with the cores

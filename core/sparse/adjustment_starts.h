@@ -36,6 +36,10 @@ struct AdjustmentAttempt {
   std::vector<BundleAdjustmentRun> runs;
   double start_f = 0.0;                // the focal length it started from, pixels
   InitMode init = InitMode::kRankOne;  // its start: rank-1, or naive (the probe)
+  // A probe adjusts a share of its tracks (kProbeTracks in
+  // adjustment_starts.cc): the ones it would have adjusted, `use` before the
+  // thinning; empty where it adjusted them all.
+  std::vector<bool> thinned_from;
 
   // One adjustment of the `use` tracks from `state`, in place, recorded in
   // `summary` and `runs`; `tracks` weighted by `weights` where it has them.

@@ -367,9 +367,11 @@ std::vector<double> TrackReprojectionErrors(const FeatureTracks& tracks, const S
 }
 
 std::vector<double> TrackReprojectionErrorsAtBestDepth(const FeatureTracks& tracks,
-                                                       const SparseState& state) {
+                                                       const SparseState& state,
+                                                       std::vector<double>* best_inverse_depths) {
   const TrackFit fit(tracks, state);
   std::vector<double> errors(tracks.num_tracks(), 0.0);
+  if (best_inverse_depths) best_inverse_depths->assign(tracks.num_tracks(), 0.0);
   for (int j = 0; j < tracks.num_tracks(); ++j) {
     double w = state.inverse_depths[j];
     Eigen::VectorXd residuals = fit.Residuals(j, w);
@@ -386,6 +388,7 @@ std::vector<double> TrackReprojectionErrorsAtBestDepth(const FeatureTracks& trac
       residuals = next_residuals;
     }
     errors[j] = fit.RmsError(residuals);
+    if (best_inverse_depths) (*best_inverse_depths)[j] = w;
   }
   return errors;
 }

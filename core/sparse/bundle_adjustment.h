@@ -103,7 +103,9 @@ std::vector<double> TrackReprojectionErrors(const FeatureTracks& tracks, const S
 // The same with each track's inverse depth at its own least-squares best
 // under the state's camera and poses (the state is not changed): how well
 // the geometry explains every track, whether the adjustment used it or not.
-std::vector<double> TrackReprojectionErrorsAtBestDepth(const FeatureTracks& tracks,
-                                                       const SparseState& state);
+// Those depths go to `best_inverse_depths` where given.
+std::vector<double> TrackReprojectionErrorsAtBestDepth(
+    const FeatureTracks& tracks, const SparseState& state,
+    std::vector<double>* best_inverse_depths = nullptr);
 
 }  // namespace dfsm
