@@ -93,12 +93,9 @@ SynthBurst VgaBurst() {
 }
 
 // A wide-angle lens (f 400 px at 640x480, 77 degrees) with a third radial
-// term, which k1 and k2 cannot follow: the relief moves by several times
-// more when the same tracks are adjusted with k1 alone than on a lens the
-// model describes (a percent or two), and lens_relief_shift says so. (0.129
-// where the adjustment kept the rank-1 start's minimum, f 2.4 % off at
-// 0.10 px RMS; 0.086 since the naive probe's wins there, f 1.0 % off at
-// 0.06 px: docs/sparse.md, "A probe on a share of the tracks".)
+// term, which k1 and k2 cannot follow: the relief moves by tens of percent
+// when the same tracks are adjusted with k1 alone, and lens_relief_shift says
+// so; a lens the model describes leaves it at a percent or two.
 TEST(SyntheticSparseCalibration, TheReliefsDependenceOnTheLensModelIsMeasured) {
   SynthOptions wide;
   wide.width = 640;
@@ -111,7 +108,7 @@ TEST(SyntheticSparseCalibration, TheReliefsDependenceOnTheLensModelIsMeasured) {
   const Burst burst = ToBurst(generated);
   const SparseReconstruction sparse = ReconstructSparse(burst.gray, burst.reference());
   RecordProperty("lens_relief_shift_wide", std::to_string(sparse.lens_relief_shift));
-  EXPECT_GT(sparse.lens_relief_shift, 0.05);  // measured 0.086
+  EXPECT_GT(sparse.lens_relief_shift, 0.10);  // measured 0.129
 
   const Burst plain = ToBurst(VgaBurst());
   const SparseReconstruction described = ReconstructSparse(plain.gray, plain.reference());

@@ -115,8 +115,8 @@ void ValidateInputs(const Burst& burst, const CameraModel& camera, const std::ve
 // the data): well below the matching precision of either level, so the
 // parabola through three neighbours still resolves the minimum. 0.15, not
 // the 0.2 it was: the seeds of the 1080p phone bursts, and so the filled
-// map, are better for the 10 more planes, at ~20 ms (docs/dense.md, "The
-// coarse planes' spacing").
+// map, are better for the 10 more planes, at 30-40 ms of coarse sweep
+// (docs/dense.md, "The coarse planes' spacing").
 constexpr double kCoarsePlaneParallax = 0.15;
 constexpr double kFinePlaneParallax = 0.35;
 // Level pixels of parallax between the planes a sweep projects exactly; the

@@ -64,7 +64,7 @@ PlaneSelection SweepAllPlanes(const SweepLevel& level, const InverseDepthLattice
 // cost of lattice plane p at every level pixel (kNoCost where too few samples
 // saw it), for a regularization that needs every pixel's whole curve at once
 // (semi_global.h). The coarse level only: 1080p's coarse volume (480 x 270 x
-// 30 planes) is 16 MB, a 640x480 one at most 320 x 240 x 128 x 4 B = 39 MB.
+// 39-40 planes) is 21 MB, a 640x480 one at most 320 x 240 x 128 x 4 B = 39 MB.
 std::vector<cv::Mat> SweepAllPlaneCosts(const SweepLevel& level, const InverseDepthLattice& lattice,
                                         const PhotoCostOptions& options);
 

@@ -57,25 +57,28 @@ constexpr double kLaterStartGain = 0.01;
 // crawled along the f valley to the 100-iteration cap in every run and round
 // (370 ms more at 1080p), to lose anyway.
 constexpr int kProbeIterations = 20;
-// A probe adjusts at most this many of its tracks, every k-th in grid order
-// (so spread over the image as the grid spreads them): which minimum a start
-// falls into is a matter of the geometry, which a few hundred tracks fix as
-// well as all of them, and an iteration's cost grows with the tracks. The
-// starts are compared over every track, each at its best depth under a
-// start's camera and poses (TruncatedTrackCost), so the tracks a probe left
-// out count as the others do; a probe that wins adjusts all of them before
-// it goes on.
+// A probe adjusts at most this many of its tracks (and at least
+// SparseOptions::min_tracks), spread evenly over them in grid order (so over
+// the image as the grid spreads them): which minimum a start falls into is a
+// matter of the geometry, which a few hundred tracks fix as well as all of
+// them, and an iteration's cost grows with the tracks. The starts are
+// compared over every track, each at its best depth under a start's camera
+// and poses (TruncatedTrackCost), so the tracks a probe left out count as
+// the others do; a probe that wins takes them in before it goes on.
 constexpr int kProbeTracks = 160;
 
-// Keeps every k-th of the `use` tracks, k the smallest that leaves at most
-// `most`; returns whether any was left out.
+// Keeps `most` of the `use` tracks, evenly spaced among them (the n-th of
+// `used` where floor(n * most / used) steps up); returns whether any was
+// left out.
 bool ThinTracks(int most, std::vector<bool>* use) {
-  const int used = static_cast<int>(std::count(use->begin(), use->end(), true));
+  const long used = std::count(use->begin(), use->end(), true);
   if (most <= 0 || used <= most) return false;
-  const int k = (used + most - 1) / most;
-  int n = 0;
+  long n = 0;
   for (size_t j = 0; j < use->size(); ++j)
-    if ((*use)[j]) (*use)[j] = n++ % k == 0;
+    if ((*use)[j]) {
+      (*use)[j] = (n * most) / used != ((n + 1) * most) / used;
+      ++n;
+    }
   return true;
 }
 
@@ -209,10 +212,12 @@ class StartedAdjustment {
   }
 
   // After the first adjustment: Continue(), then Settle(). A thinned probe
-  // first takes in the tracks it left out that its geometry explains (within
-  // outlier_px at their best depth, in front), at that depth, and adjusts
-  // them all once with the whole budget; the outlier rounds then judge every
-  // track as usual. Taking in every track at its best depth, the ones its
+  // first gives every track it left out its best depth under its geometry
+  // (so the outlier rounds judge them as the others, not at the start's
+  // depths), takes in those its geometry explains (within outlier_px, in
+  // front) and adjusts them all once: with the whole budget, or only
+  // kMeasuringIterations where readout restarts follow (as a first start
+  // measures the readout for them). Taking in every track, the ones its
   // geometry does not explain included, sent a 1080p burst (2 deg) to 19
   // tracks in front.
   void Finish(const BundleAdjustmentOptions& adjust, int measured_iterations,
@@ -221,14 +226,16 @@ class StartedAdjustment {
       std::vector<double> best;
       const std::vector<double> errors =
           TrackReprojectionErrorsAtBestDepth(tracks_, attempt->state, &best);
-      for (size_t j = 0; j < best.size(); ++j)
-        if (attempt->thinned_from[j] && !attempt->use[j] && errors[j] <= options_.outlier_px &&
-            best[j] > 0.0) {
-          attempt->state.inverse_depths[j] = best[j];
-          attempt->use[j] = true;
-        }
+      for (size_t j = 0; j < best.size(); ++j) {
+        if (attempt->use[j] || !(best[j] > 0.0)) continue;
+        attempt->state.inverse_depths[j] = best[j];
+        if (attempt->thinned_from[j] && errors[j] <= options_.outlier_px) attempt->use[j] = true;
+      }
       attempt->thinned_from.clear();
-      attempt->Adjust(tracks_, adjust);
+      BundleAdjustmentOptions taken_in = adjust;
+      if (Restarts(adjust, *attempt))
+        taken_in.max_iterations = std::min(taken_in.max_iterations, kMeasuringIterations);
+      attempt->Adjust(tracks_, taken_in);
     } else {
       Continue(adjust, measured_iterations, attempt);
     }
@@ -434,7 +441,7 @@ AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraMode
       try {
         measured_iterations[n] = steps_for(attempts[n].init)
                                      .Solve(start, probe, n == 0 ? timer : nullptr, &attempts[n],
-                                            n > 0 ? kProbeTracks : 0);
+                                            n > 0 ? std::max(kProbeTracks, options.min_tracks) : 0);
         // The first start's finish depends on no other start, so it runs
         // here, beside the probes, unless it restarts from several readouts
         // (those restarts run side by side after the probes, with the cores

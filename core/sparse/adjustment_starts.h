@@ -3,7 +3,9 @@
 // the rotations, the rank-1 initialization (rectified for a readout), the
 // first adjustment; then the readout restarts and the outlier rounds; beside
 // them the naive start (SparseOptions::naive_probe); the start that fits every
-// track best is kept (SparseOptions::focal_starts).
+// track best, each track at its best depth under the start's geometry, is
+// kept (SparseOptions::focal_starts). A probe adjusts a share of the tracks
+// and, where it wins, takes in the others before it goes on.
 //
 // Starts, and readout restarts, that do not depend on each other run side by
 // side on OpenCV's thread pool: the later starts' probes beside the first

@@ -96,11 +96,12 @@ struct SparseOptions {
   // Focal lengths the self-calibration starts from, as fractions of
   // max(width, height) (1: the paper's guess, CameraModel::Initial). The
   // first start runs the whole adjustment; each later one is probed beside it
-  // (its rotations, rank-1 initialization and first adjustment, capped;
-  // adjustment_starts.h) and replaces the solution so far where its
-  // truncated reprojection cost over every track (each track's squared RMS
-  // error capped at outlier_px^2) is lower by more than 1 %, then finishes
-  // with the whole budget. f shows only
+  // (its rotations, rank-1 initialization and first adjustment, capped, on
+  // at most 160 of its tracks; adjustment_starts.h) and replaces the
+  // solution so far where its truncated reprojection cost over every track
+  // (each track's squared RMS error at its best depth under the start's
+  // geometry, capped at outlier_px^2) is lower by more than 1 %, then takes
+  // in the tracks it left out and finishes with the whole budget. f shows only
   // in second-order terms of small motion, and a wide lens (0.55-0.8: 64-85
   // deg, phones' and webcams' main cameras) started at 1 can stop in another
   // minimum, f tens of percent long (docs/sparse.md, "Focal starts"). A known
