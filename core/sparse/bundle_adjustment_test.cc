@@ -124,14 +124,21 @@ TEST(BundleAdjustment, UncertaintyInflationGrowsForAWideLensOnly) {
               with_covariance.uncertainty_inflation * uncertainty.wide_angle_factor, 1e-12);
 }
 
+// The simulation's own camera, poses and inverse depths, under `readout`.
+SparseState SimulatedState(const TrackSimulation& sim, double readout = 0.0) {
+  SparseState state;
+  state.camera = sim.camera;
+  state.poses = sim.poses;
+  state.inverse_depths = sim.inverse_depths;
+  state.readout = readout;
+  return state;
+}
+
 TEST(BundleAdjustment, ReportsReprojectionErrorPerTrack) {
   TrackSimulatorOptions options;
   options.seed = 4;
   const TrackSimulation sim = SimulateTracks(options);
-  SparseState truth;
-  truth.camera = sim.camera;
-  truth.poses = sim.poses;
-  truth.inverse_depths = sim.inverse_depths;
+  SparseState truth = SimulatedState(sim);
   for (const double error : TrackReprojectionErrors(sim.tracks, truth)) EXPECT_LT(error, 1e-6);
   truth.inverse_depths[0] *= 1.5;
   EXPECT_GT(TrackReprojectionErrors(sim.tracks, truth)[0], 0.5);
@@ -150,11 +157,7 @@ TEST(BundleAdjustment, ReportsReprojectionErrorPerTrackAtItsBestDepth) {
     options.noise_px = 0.1;
     options.readout = readout;
     const TrackSimulation sim = SimulateTracks(options);
-    SparseState truth;
-    truth.camera = sim.camera;
-    truth.poses = sim.poses;
-    truth.inverse_depths = sim.inverse_depths;
-    truth.readout = readout;
+    const SparseState truth = SimulatedState(sim, readout);
     const std::vector<double> at_truth = TrackReprojectionErrors(sim.tracks, truth);
     std::vector<double> depths;
     const std::vector<double> best = TrackReprojectionErrorsAtBestDepth(sim.tracks, truth, &depths);
@@ -247,11 +250,7 @@ TEST(BundleAdjustment, ANegativeReadoutIsARollingShutter) {
   TrackSimulatorOptions options;
   options.rotation_deg = 1.0;
   const TrackSimulation sim = SimulateTracks(options);
-  SparseState truth;
-  truth.camera = sim.camera;
-  truth.poses = sim.poses;
-  truth.inverse_depths = sim.inverse_depths;
-  truth.readout = -0.6;
+  const SparseState truth = SimulatedState(sim, -0.6);
   double largest = 0.0;
   for (const double error : TrackReprojectionErrors(sim.tracks, truth))
     largest = std::max(largest, error);
