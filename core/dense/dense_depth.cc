@@ -108,6 +108,7 @@ void ValidateInputs(const Burst& burst, const CameraModel& camera, const std::ve
           options.max_cost_ratio >= 0.0,
       "prefilter_sigma, min_confidence, guided_radius, max_cost_ratio must be >= 0; truncation, "
       "guided_eps > 0");
+  Require(options.fine_high_pass_ratio > 0.0, "fine_high_pass_ratio must be > 0");
 }
 
 // Coarse planes are spaced this far apart in coarse pixels of parallax, fine
@@ -167,6 +168,15 @@ int CoarseScale(int width, const DenseOptions& options) {
   return std::clamp(static_cast<int>(std::lround(width / kCoarseLevelWidth)), 2, 4);
 }
 
+DenseFramesSettings DenseFramesSettingsFor(const DenseOptions& options, int width, int height) {
+  DenseFramesSettings settings;
+  settings.coarse_high_pass_sigma = HighPassSigma(options.high_pass_sigma_px, width, height);
+  settings.fine_high_pass_sigma = settings.coarse_high_pass_sigma * options.fine_high_pass_ratio;
+  settings.prefilter_sigma = options.prefilter_sigma;
+  settings.coarse_scale = CoarseScale(width, options);
+  return settings;
+}
+
 int RefineRadius(int width, const DenseOptions& options) {
   if (options.refine_radius > 0) return options.refine_radius;
   return width / CoarseScale(width, options) < kNarrowCoarseLevelWidth ? 4 : 3;
@@ -177,18 +187,18 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
                              const std::vector<double>& sparse_inverse_depths,
                              const DenseOptions& options, std::optional<DenseFrames> prepared) {
   ValidateInputs(burst, camera, poses, options);
-  const double high_pass_sigma =
-      HighPassSigma(options.high_pass_sigma_px, burst.width(), burst.height());
+  const DenseFramesSettings settings =
+      DenseFramesSettingsFor(options, burst.width(), burst.height());
   const cv::Size size(burst.width(), burst.height());
   if (prepared)
-    Require(prepared->high_pass_sigma == high_pass_sigma &&
-                prepared->prefilter_sigma == options.prefilter_sigma &&
-                prepared->reference == burst.reference() &&
+    Require(prepared->settings == settings && prepared->reference == burst.reference() &&
                 static_cast<int>(prepared->others.size()) == burst.size() - 1 &&
                 prepared->reference_filtered.size() == size &&
-                prepared->reference_gray.size() == size,
-            "the prepared frames were made from another burst or with other high_pass_sigma_px "
-            "or prefilter_sigma");
+                prepared->reference_gray.size() == size &&
+                (prepared->coarse_others.size() == prepared->others.size()) ==
+                    settings.SeparateCoarseFrames(),
+            "the prepared frames were made from another burst or with other high_pass_sigma_px, "
+            "fine_high_pass_ratio, prefilter_sigma or coarse_scale");
   InverseDepthLattice lattice = InverseDepthLattice::FromSparse(
       sparse_inverse_depths, options.inverse_depth_margin, options.planes);
   DenseDepth result;
@@ -196,12 +206,14 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
 
   // Everything below sees the high-passed frames; the caller's stay as they are.
   DenseFrames prepared_here;
-  if (!prepared)
-    prepared_here = PrepareDenseFrames(burst, options.high_pass_sigma_px, options.prefilter_sigma);
+  if (!prepared) prepared_here = PrepareDenseFrames(burst, settings);
   DenseFrames& made = prepared ? *prepared : prepared_here;
   const cv::Mat high_passed_reference = made.reference_gray;
   cv::Mat reference = std::move(made.reference_filtered);
   std::vector<cv::Mat> frames = std::move(made.others);
+  // The coarse level's own frames where it has them (DenseFramesSettings).
+  cv::Mat coarse_reference = std::move(made.coarse_reference);
+  std::vector<cv::Mat> coarse_frames = std::move(made.coarse_others);
   made = DenseFrames();
 
   const RadialInverse radial(camera);
@@ -214,7 +226,7 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
 
   PhotoCostOptions cost;
   cost.truncation = options.truncation;
-  const int scale = CoarseScale(burst.width(), options);
+  const int scale = settings.coarse_scale;
   // A level's frames go on the 2x grid while the level has at most
   // oversample_max_pixels pixels (every level below 1080p, the coarse one at 1080p).
   const auto oversample = [&](int level_scale) {
@@ -223,7 +235,12 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
     return pixels <= options.oversample_max_pixels ? 2 : 1;
   };
   SweepLevel coarse =
-      MakeSweepLevel(reference, frames, sweep_poses, camera, radial, scale, oversample(scale));
+      coarse_frames.empty()
+          ? MakeSweepLevel(reference, frames, sweep_poses, camera, radial, scale, oversample(scale))
+          : MakeSweepLevel(coarse_reference, coarse_frames, sweep_poses, camera, radial, scale,
+                           oversample(scale));
+  coarse_reference.release();
+  coarse_frames.clear();
   cost.window_radius = options.coarse_window_radius;
   cost.shiftable_radius = options.coarse_shiftable_radius;
   // The swept range is the tracks' widened by a margin. A surface nearer

@@ -111,6 +111,17 @@ struct DenseOptions {
   // 0.6-1.6 points of AbsRel (no brightness change to remove, and the low
   // frequencies go too) and gives real footage most of its accuracy back.
   double high_pass_sigma_px = 0.0;
+  // The full-resolution window compares frames high-passed at this fraction
+  // of that sigma; the coarse level keeps the whole sigma (its own frames,
+  // made beside the full-resolution ones where the two differ). A narrower
+  // blur mixes less of a nearer surface into a farther one's frames
+  // (docs/dense.md, "Why the ideal bursts lose with the high-pass"), and the
+  // window, 7x7 or 15x15, needs none of the low frequencies it takes out; the
+  // coarse level's regularization and confidence, which also decide what is
+  // measured at all, keep them. 0.6 against 1: TUM fr1/xyz medians 3.88 ->
+  // 3.75 % (filled 6.00 -> 5.97 %), the phone preset's 640x480 defaults 3.24
+  // -> 3.05 % (docs/dense.md, "The full-resolution window's high-pass").
+  double fine_high_pass_ratio = 0.6;
   // Frames of a sweep level with at most this many pixels are sampled on a
   // grid twice as fine, interpolated once with a cubic (frame_oversampling.h):
   // bilinear samples alone pull the winners towards whole pixels of parallax.
@@ -178,6 +189,10 @@ struct DenseDepth {
 // where positive, the default rule (DenseOptions::coarse_scale) otherwise.
 int CoarseScale(int width, const DenseOptions& options);
 
+// The settings of the frames ComputeDenseDepth compares for a burst `width`
+// x `height` pixels (HighPassSigma, fine_high_pass_ratio, CoarseScale).
+DenseFramesSettings DenseFramesSettingsFor(const DenseOptions& options, int width, int height);
+
 // The full-resolution window's half-width in planes for a burst `width`
 // pixels wide: options.refine_radius where positive, the default rule
 // (DenseOptions::refine_radius) otherwise.
@@ -186,8 +201,8 @@ int RefineRadius(int width, const DenseOptions& options);
 // `poses` are X_i = R_i X_ref + T_i for every frame of `burst` (reference
 // included); `sparse_inverse_depths` are the inverse depths (same scale as T)
 // of the sparse tracks, used to choose the swept range. `prepared`: the
-// frames PrepareDenseFrames made of this burst with options.high_pass_sigma_px
-// and options.prefilter_sigma (made here where absent; their memory is given
+// frames PrepareDenseFrames made of this burst with DenseFramesSettingsFor
+// (made here where absent; their memory is given
 // up as the stage goes, so pass them moved). Throws std::invalid_argument
 // naming the problem for inputs and options out of range, and for prepared
 // frames made of another burst or with other options.

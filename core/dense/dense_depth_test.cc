@@ -242,8 +242,9 @@ TEST(DenseDepth, FramesPreparedBeforeGiveTheSameDepth) {
   const DenseOptions options;
   const DenseDepth inside =
       ComputeDenseDepth(scene.burst, scene.camera, scene.poses, scene.sparse_inverse_depths);
-  DenseFrames frames =
-      PrepareDenseFrames(scene.burst, options.high_pass_sigma_px, options.prefilter_sigma);
+  DenseFrames frames = PrepareDenseFrames(
+      scene.burst, DenseFramesSettingsFor(options, scene.burst.width(), scene.burst.height()));
+  ASSERT_FALSE(frames.coarse_others.empty());  // the coarse level's own frames travel too
   const DenseDepth handed =
       ComputeDenseDepth(scene.burst, scene.camera, scene.poses, scene.sparse_inverse_depths,
                         options, std::move(frames));
@@ -352,14 +353,25 @@ TEST_F(DenseDepthInputTest, RejectsInconsistentInputsWithANamedReason) {
   ExpectRejected(s.burst, s.camera, s.poses, s.sparse_inverse_depths, "weak_texture_gradient",
                  options);
   options = {};
-  options.prefilter_sigma = 0.8;  // the frames below are prefiltered at 0.5
-  try {
-    ComputeDenseDepth(s.burst, s.camera, s.poses, s.sparse_inverse_depths, options,
-                      PrepareDenseFrames(s.burst, 0.0, 0.5));
-    ADD_FAILURE() << "accepted frames prefiltered otherwise";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("prepared frames"), std::string::npos) << e.what();
+  // Frames made with the defaults' settings, given to options that differ.
+  const DenseFramesSettings defaults =
+      DenseFramesSettingsFor(DenseOptions(), s.burst.width(), s.burst.height());
+  for (const std::string changed : {"prefilter_sigma", "fine_high_pass_ratio"}) {
+    options = {};
+    if (changed == "prefilter_sigma") options.prefilter_sigma = 0.8;
+    if (changed == "fine_high_pass_ratio") options.fine_high_pass_ratio = 1.0;
+    try {
+      ComputeDenseDepth(s.burst, s.camera, s.poses, s.sparse_inverse_depths, options,
+                        PrepareDenseFrames(s.burst, defaults));
+      ADD_FAILURE() << "accepted frames made with another " << changed;
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find("prepared frames"), std::string::npos) << e.what();
+    }
   }
+  options = {};
+  options.fine_high_pass_ratio = 0.0;
+  ExpectRejected(s.burst, s.camera, s.poses, s.sparse_inverse_depths, "fine_high_pass_ratio",
+                 options);
   options = {};
   options.oversample_max_pixels = -1;
   ExpectRejected(s.burst, s.camera, s.poses, s.sparse_inverse_depths, "oversample_max_pixels",

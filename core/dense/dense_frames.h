@@ -12,21 +12,47 @@
 
 namespace dfsm {
 
-struct DenseFrames {
-  // What they were made with (ComputeDenseDepth refuses frames made
-  // otherwise, or of a burst of another size, frame count or reference):
-  // HighPassSigma's sigma as used (0: none), the prefilter's sigma, the
-  // burst's reference index.
-  double high_pass_sigma = 0.0;
+// What DenseFrames are made with, resolved for one burst
+// (DenseFramesSettingsFor in dense_depth.h reads them off DenseOptions).
+struct DenseFramesSettings {
+  // HighPass sigmas, pixels (0: none): of the frames the full-resolution
+  // window compares, and of those the coarse level compares.
+  double fine_high_pass_sigma = 0.0;
+  double coarse_high_pass_sigma = 0.0;
   double prefilter_sigma = 0.0;
+  int coarse_scale = 1;  // captured pixels per coarse pixel
+
+  // Whether the coarse level needs frames of its own: where the two sigmas
+  // agree, it is downsampled from the full-resolution frames.
+  bool SeparateCoarseFrames() const {
+    return coarse_scale > 1 && coarse_high_pass_sigma != fine_high_pass_sigma;
+  }
+  bool operator==(const DenseFramesSettings& o) const {
+    return fine_high_pass_sigma == o.fine_high_pass_sigma &&
+           coarse_high_pass_sigma == o.coarse_high_pass_sigma &&
+           prefilter_sigma == o.prefilter_sigma && coarse_scale == o.coarse_scale;
+  }
+};
+
+struct DenseFrames {
+  // What they were made with and the burst's reference index
+  // (ComputeDenseDepth refuses frames made otherwise, or of a burst of
+  // another size, frame count or reference).
+  DenseFramesSettings settings;
   int reference = -1;
-  // The reference high-passed, 8-bit: the refinement's guide, and the fill's
-  // where the burst has no colour.
+  // The reference high-passed at the fine sigma, 8-bit: the refinement's
+  // guide, and the fill's where the burst has no colour.
   cv::Mat reference_gray;
-  // CV_32FC1, prefiltered: the reference and every other frame in burst order
-  // (the reference left out), as the sweeps sample them.
+  // CV_32FC1, high-passed at the fine sigma and prefiltered: the reference
+  // and every other frame in burst order (the reference left out), as the
+  // full-resolution window samples them.
   cv::Mat reference_filtered;
   std::vector<cv::Mat> others;
+  // Where settings.SeparateCoarseFrames(): the same, high-passed at the
+  // coarse sigma, prefiltered and downsampled to the coarse level
+  // (DownsampleToLevel); empty otherwise.
+  cv::Mat coarse_reference;
+  std::vector<cv::Mat> coarse_others;
   // The time each frame took to make, by burst index, wherever it was made.
   std::vector<double> frame_ms;
 };
@@ -41,9 +67,8 @@ cv::Mat Prefiltered(const cv::Mat& gray, double sigma);
 // The burst must outlive the maker.
 class DenseFramesMaker {
  public:
-  // `burst`: 8-bit gray frames of one size; the high-pass sigma is
-  // HighPassSigma(high_pass_sigma_px, width, height).
-  DenseFramesMaker(const Burst& burst, double high_pass_sigma_px, double prefilter_sigma);
+  // `burst`: 8-bit gray frames of one size.
+  DenseFramesMaker(const Burst& burst, const DenseFramesSettings& settings);
 
   int frames() const { return burst_.size(); }
   // Makes frame i; distinct frames may be made at once, from any threads.
@@ -54,13 +79,12 @@ class DenseFramesMaker {
  private:
   const Burst& burst_;
   DenseFrames made_;
-  std::vector<cv::Mat> filtered_;
+  std::vector<cv::Mat> filtered_, coarse_;
 };
 
 // Every frame of `burst`, made on OpenCV's pool (one after the other where
 // the caller is inside a parallel region already: OpenCV runs nested regions
 // serially).
-DenseFrames PrepareDenseFrames(const Burst& burst, double high_pass_sigma_px,
-                               double prefilter_sigma);
+DenseFrames PrepareDenseFrames(const Burst& burst, const DenseFramesSettings& settings);
 
 }  // namespace dfsm

@@ -10,15 +10,6 @@
 namespace dfsm {
 namespace {
 
-cv::Mat Downsample(const cv::Mat& image, int scale) {
-  if (scale == 1) return image;
-  // INTER_AREA at an integer factor averages scale x scale blocks: block x
-  // covers captured pixels scale*x .. scale*x + scale - 1, as MakeSweepLevel states.
-  cv::Mat small;
-  cv::resize(image, small, cv::Size(image.cols / scale, image.rows / scale), 0, 0, cv::INTER_AREA);
-  return small;
-}
-
 PlaneHomography ToHomography(const Pose& pose) {
   PlaneHomography warp;
   for (int r = 0; r < 3; ++r) {
@@ -29,6 +20,14 @@ PlaneHomography ToHomography(const Pose& pose) {
 }
 
 }  // namespace
+
+cv::Mat DownsampleToLevel(const cv::Mat& image, int scale) {
+  if (scale == 1) return image;
+  // INTER_AREA at an integer factor averages scale x scale blocks.
+  cv::Mat small;
+  cv::resize(image, small, cv::Size(image.cols / scale, image.rows / scale), 0, 0, cv::INTER_AREA);
+  return small;
+}
 
 SweepPoses SweepPoses::Make(const std::vector<Pose>& poses, int reference, double readout,
                             int height, const std::vector<double>& times) {
@@ -55,9 +54,17 @@ SweepLevel MakeSweepLevel(const cv::Mat& reference, const std::vector<cv::Mat>& 
                           const RadialInverse& radial, int scale, int oversample) {
   CV_Assert(scale >= 1 && (oversample == 1 || oversample == 2) &&
             frames.size() == poses.relative.size());
+  // Images of the captured size are downsampled here; the level's own size
+  // passes as it is (DenseFrames' coarse frames are made so).
+  const cv::Size level_size(camera.width / scale, camera.height / scale);
+  const auto to_level = [&](const cv::Mat& image) {
+    if (image.size() == level_size) return image;
+    CV_Assert(image.cols == camera.width && image.rows == camera.height);
+    return DownsampleToLevel(image, scale);
+  };
   SweepLevel level;
   level.scale = scale;
-  level.reference = Downsample(reference, scale);
+  level.reference = to_level(reference);
   const double offset = 0.5 * (scale - 1);
   level.ray_x.create(level.reference.size(), CV_32FC1);
   level.ray_y.create(level.reference.size(), CV_32FC1);
@@ -80,7 +87,7 @@ SweepLevel MakeSweepLevel(const cv::Mat& reference, const std::vector<cv::Mat>& 
   level.frames.resize(frames.size());
   cv::parallel_for_(cv::Range(0, static_cast<int>(frames.size())), [&](const cv::Range& range) {
     for (int i = range.start; i < range.end; ++i) {
-      const cv::Mat frame = Downsample(frames[i], scale);
+      const cv::Mat frame = to_level(frames[i]);
       level.frames[i] = oversample == 2 ? OversampleTwice(frame) : frame;
     }
   });

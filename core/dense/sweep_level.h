@@ -58,11 +58,17 @@ struct SweepPoses {
                          const std::vector<double>& times = {});
 };
 
+// `image` area-downsampled by the integer `scale` (itself where 1): pixel x
+// averages captured pixels scale * x .. scale * x + scale - 1, so its centre
+// lies at scale * x + (scale - 1) / 2.
+cv::Mat DownsampleToLevel(const cv::Mat& image, int scale);
+
 // Builds the level `scale` (1: full resolution; > 1: area-downsampled by that
 // factor, pixel centres at scale * x + (scale - 1) / 2 of the captured grid)
-// from full-resolution float images, its frames oversampled by `oversample`
-// (1 or 2). `frames[n]` and `poses.relative[n]` belong together; the reference
-// itself is not among them. `radial` must outlive the level.
+// from float images of the captured size (downsampled here) or already of the
+// level's (camera.width / scale, as DownsampleToLevel makes them), its frames
+// oversampled by `oversample` (1 or 2). `frames[n]` and `poses.relative[n]` belong together; the
+// reference itself is not among them. `radial` must outlive the level.
 SweepLevel MakeSweepLevel(const cv::Mat& reference, const std::vector<cv::Mat>& frames,
                           const SweepPoses& poses, const CameraModel& camera,
                           const RadialInverse& radial, int scale, int oversample = 1);

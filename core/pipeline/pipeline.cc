@@ -153,8 +153,8 @@ PipelineOutput RunPipeline(const Burst& burst, const PipelineOptions& options,
     std::optional<DenseFramesMaker> frames_maker;
     std::optional<SharedWork> frames_work;
     if (options.run_dense) {
-      frames_maker.emplace(compensated, options.dense.high_pass_sigma_px,
-                           options.dense.prefilter_sigma);
+      frames_maker.emplace(compensated, DenseFramesSettingsFor(options.dense, compensated.width(),
+                                                               compensated.height()));
       std::vector<std::function<void()>> pieces;
       for (int i = 0; i < frames_maker->frames(); ++i)
         pieces.push_back([&frames_maker, i] { frames_maker->MakeFrame(i); });
