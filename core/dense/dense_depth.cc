@@ -171,9 +171,13 @@ int CoarseScale(int width, const DenseOptions& options) {
 DenseFramesSettings DenseFramesSettingsFor(const DenseOptions& options, int width, int height) {
   DenseFramesSettings settings;
   settings.coarse_high_pass_sigma = HighPassSigma(options.high_pass_sigma_px, width, height);
-  settings.fine_high_pass_sigma = settings.coarse_high_pass_sigma * options.fine_high_pass_ratio;
   settings.prefilter_sigma = options.prefilter_sigma;
   settings.coarse_scale = CoarseScale(width, options);
+  // A sweep of every plane at full resolution (coarse_scale 1) is the coarse
+  // level's: it keeps the whole sigma.
+  settings.fine_high_pass_sigma =
+      settings.coarse_scale > 1 ? settings.coarse_high_pass_sigma * options.fine_high_pass_ratio
+                                : settings.coarse_high_pass_sigma;
   return settings;
 }
 
@@ -190,15 +194,25 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
   const DenseFramesSettings settings =
       DenseFramesSettingsFor(options, burst.width(), burst.height());
   const cv::Size size(burst.width(), burst.height());
-  if (prepared)
+  if (prepared) {
+    // The coarse level's own frames: of its size where the settings call for
+    // them, none otherwise.
+    const cv::Size coarse_size(burst.width() / settings.coarse_scale,
+                               burst.height() / settings.coarse_scale);
+    const bool separate = settings.SeparateCoarseFrames();
+    bool coarse_frames_fit =
+        separate ? prepared->coarse_reference.size() == coarse_size &&
+                       prepared->coarse_others.size() == prepared->others.size()
+                 : prepared->coarse_reference.empty() && prepared->coarse_others.empty();
+    for (const cv::Mat& frame : prepared->coarse_others)
+      coarse_frames_fit = coarse_frames_fit && frame.size() == coarse_size;
     Require(prepared->settings == settings && prepared->reference == burst.reference() &&
                 static_cast<int>(prepared->others.size()) == burst.size() - 1 &&
                 prepared->reference_filtered.size() == size &&
-                prepared->reference_gray.size() == size &&
-                (prepared->coarse_others.size() == prepared->others.size()) ==
-                    settings.SeparateCoarseFrames(),
+                prepared->reference_gray.size() == size && coarse_frames_fit,
             "the prepared frames were made from another burst or with other high_pass_sigma_px, "
             "fine_high_pass_ratio, prefilter_sigma or coarse_scale");
+  }
   InverseDepthLattice lattice = InverseDepthLattice::FromSparse(
       sparse_inverse_depths, options.inverse_depth_margin, options.planes);
   DenseDepth result;

@@ -104,9 +104,10 @@ struct DenseOptions {
   // wash out the fine texture that low-contrast regions match on: 0.8 gave
   // 2.5-3.1 % AbsRel at 640x480 where 0.5 gives 1.4-1.9 % (docs/dense.md).
   double prefilter_sigma = 0.5;
-  // Every frame is high-passed before anything else (high_pass.h): the sweep,
-  // the weak-texture mask and the guided filter's guide all see the frames
-  // less their Gaussian blur of this sigma. 0: 1/80 of the longer side;
+  // Every frame is high-passed before anything else (high_pass.h): the
+  // sweeps, the weak-texture mask and the guided filter's guide all see the
+  // frames less their Gaussian blur, of this sigma at the coarse level and of
+  // fine_high_pass_ratio times it elsewhere. 0: 1/80 of the longer side;
   // negative: the frames as they are. It costs the ideal generated bursts
   // 0.6-1.6 points of AbsRel (no brightness change to remove, and the low
   // frequencies go too) and gives real footage most of its accuracy back.
@@ -132,9 +133,9 @@ struct DenseOptions {
   double min_confidence = 0.05;
   // Edge-aware refinement: confidence-weighted guided filter on inverse depth,
   // guided by the reference image. radius 0: off. 12 since the breaks among
-  // the raw winners keep its halos off depth edges (8 before: phone defaults
-  // 640x480 3.05 -> 2.93 %, every size better, TUM's medians within 0.03
-  // points; docs/dense.md, "The refinement's radius").
+  // the raw winners keep its halos off depth edges (8 before: every size of
+  // the phone preset's defaults better, TUM's medians within 0.03 points;
+  // docs/dense.md, "The refinement's radius").
   int guided_radius = 12;
   double guided_eps = 1e-3;  // on a [0, 1] guide
   // The guided filter's linear models are fitted at 1/guided_subsample of the
@@ -205,8 +206,8 @@ int RefineRadius(int width, const DenseOptions& options);
 // included); `sparse_inverse_depths` are the inverse depths (same scale as T)
 // of the sparse tracks, used to choose the swept range. `prepared`: the
 // frames PrepareDenseFrames made of this burst with DenseFramesSettingsFor
-// (made here where absent; their memory is given
-// up as the stage goes, so pass them moved). Throws std::invalid_argument
+// (made here where absent; their memory is given up as the stage goes, so
+// pass them moved). Throws std::invalid_argument
 // naming the problem for inputs and options out of range, and for prepared
 // frames made of another burst or with other options.
 DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,

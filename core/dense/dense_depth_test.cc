@@ -235,6 +235,30 @@ TEST(DenseDepth, TheWindowReachesFurtherAboveANarrowCoarseLevel) {
   EXPECT_EQ(RefineRadius(1280, quarter), 4);
 }
 
+// The frames' settings: the coarse level's high-pass 1/80 of the longer side,
+// the full-resolution window's fine_high_pass_ratio of it; one sigma where
+// every plane is swept at full resolution, none where the high-pass is off.
+TEST(DenseDepth, FramesSettingsFollowTheOptions) {
+  const DenseOptions defaults;
+  const DenseFramesSettings vga = DenseFramesSettingsFor(defaults, 640, 480);
+  EXPECT_DOUBLE_EQ(vga.coarse_high_pass_sigma, 8.0);
+  EXPECT_DOUBLE_EQ(vga.fine_high_pass_sigma, 8.0 * defaults.fine_high_pass_ratio);
+  EXPECT_EQ(vga.coarse_scale, CoarseScale(640, defaults));
+  EXPECT_DOUBLE_EQ(vga.prefilter_sigma, defaults.prefilter_sigma);
+  EXPECT_TRUE(vga.SeparateCoarseFrames());
+  DenseOptions full;
+  full.coarse_scale = 1;
+  const DenseFramesSettings one = DenseFramesSettingsFor(full, 640, 480);
+  EXPECT_DOUBLE_EQ(one.fine_high_pass_sigma, one.coarse_high_pass_sigma);
+  EXPECT_FALSE(one.SeparateCoarseFrames());
+  DenseOptions off;
+  off.high_pass_sigma_px = -1.0;
+  const DenseFramesSettings none = DenseFramesSettingsFor(off, 640, 480);
+  EXPECT_EQ(none.coarse_high_pass_sigma, 0.0);
+  EXPECT_EQ(none.fine_high_pass_sigma, 0.0);
+  EXPECT_FALSE(none.SeparateCoarseFrames());
+}
+
 // The pipeline has the frames made beside the sparse stage: handed in, they
 // give the bits the stage gives making them itself.
 TEST(DenseDepth, FramesPreparedBeforeGiveTheSameDepth) {
@@ -367,6 +391,19 @@ TEST_F(DenseDepthInputTest, RejectsInconsistentInputsWithANamedReason) {
     } catch (const std::invalid_argument& e) {
       EXPECT_NE(std::string(e.what()).find("prepared frames"), std::string::npos) << e.what();
     }
+  }
+  // Frames whose coarse level's own frames are missing.
+  options = {};
+  DenseFrames without_coarse = PrepareDenseFrames(s.burst, defaults);
+  ASSERT_FALSE(without_coarse.coarse_others.empty());
+  without_coarse.coarse_others.clear();
+  without_coarse.coarse_reference.release();
+  try {
+    ComputeDenseDepth(s.burst, s.camera, s.poses, s.sparse_inverse_depths, options,
+                      std::move(without_coarse));
+    ADD_FAILURE() << "accepted frames without the coarse level's";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("prepared frames"), std::string::npos) << e.what();
   }
   options = {};
   options.fine_high_pass_ratio = 0.0;

@@ -1,5 +1,7 @@
 // The frames the plane sweep compares, made from a burst's gray frames alone:
-// each high-passed (high_pass.h) and Gaussian-prefiltered into float. They do
+// each high-passed (high_pass.h) and Gaussian-prefiltered into float, and
+// where the coarse level's high-pass differs, a second time at its sigma and
+// downsampled to it. They do
 // not depend on the poses, so the pipeline has them made while the sparse
 // stage runs, on a core its focal-start probe leaves idle, instead of after it
 // (docs/dense.md, "The sweep's frames made beside the sparse stage").
@@ -23,7 +25,9 @@ struct DenseFramesSettings {
   int coarse_scale = 1;  // captured pixels per coarse pixel
 
   // Whether the coarse level needs frames of its own: where the two sigmas
-  // agree, it is downsampled from the full-resolution frames.
+  // agree, it is downsampled from the full-resolution frames (and at
+  // coarse_scale 1 it is the full resolution: DenseFramesSettingsFor gives
+  // both the same sigma there).
   bool SeparateCoarseFrames() const {
     return coarse_scale > 1 && coarse_high_pass_sigma != fine_high_pass_sigma;
   }
@@ -79,7 +83,8 @@ class DenseFramesMaker {
  private:
   const Burst& burst_;
   DenseFrames made_;
-  std::vector<cv::Mat> filtered_, coarse_;
+  std::vector<cv::Mat> filtered_;
+  std::vector<cv::Mat> coarse_;  // empty unless SeparateCoarseFrames()
 };
 
 // Every frame of `burst`, made on OpenCV's pool (one after the other where

@@ -70,6 +70,28 @@ struct WindowSweep {
 // A wide window wherever the mask is set is exactly the wide window
 // everywhere: the streamed bands' halo covers it, and the mask's rows line
 // up with the bands' rows.
+// A level made from frames already downsampled to it (DenseFrames' coarse
+// frames) is the level made from the full-size frames, bit for bit.
+TEST(MakeSweepLevel, FramesAtTheLevelsSizeGiveTheSameLevel) {
+  const SweepFixture f;
+  const RadialInverse radial(f.camera);
+  std::vector<Pose> burst_poses = {Pose{}};
+  burst_poses.insert(burst_poses.end(), f.poses.begin(), f.poses.end());
+  const SweepPoses poses = SweepPoses::Make(burst_poses, 0, 0.0, f.camera.height);
+  std::vector<cv::Mat> small;
+  for (const cv::Mat& frame : f.frames) small.push_back(DownsampleToLevel(frame, 2));
+  const SweepLevel whole = MakeSweepLevel(f.reference, f.frames, poses, f.camera, radial, 2, 2);
+  const SweepLevel given =
+      MakeSweepLevel(DownsampleToLevel(f.reference, 2), small, poses, f.camera, radial, 2, 2);
+  ASSERT_EQ(given.reference.size(), cv::Size(48, 100));
+  EXPECT_EQ(cv::countNonZero(whole.reference != given.reference), 0);
+  ASSERT_EQ(given.frames.size(), whole.frames.size());
+  for (size_t n = 0; n < whole.frames.size(); ++n) {
+    ASSERT_EQ(given.frames[n].size(), whole.frames[n].size());
+    EXPECT_EQ(cv::countNonZero(whole.frames[n] != given.frames[n]), 0) << "frame " << n;
+  }
+}
+
 TEST(SweepPlaneWindow, WideWindowUnderAFullMaskEqualsThatWindowEverywhere) {
   const WindowSweep sweep;
   PhotoCostOptions wide;

@@ -66,9 +66,10 @@ cv::Mat DownsampleToLevel(const cv::Mat& image, int scale);
 // Builds the level `scale` (1: full resolution; > 1: area-downsampled by that
 // factor, pixel centres at scale * x + (scale - 1) / 2 of the captured grid)
 // from float images of the captured size (downsampled here) or already of the
-// level's (camera.width / scale, as DownsampleToLevel makes them), its frames
-// oversampled by `oversample` (1 or 2). `frames[n]` and `poses.relative[n]` belong together; the
-// reference itself is not among them. `radial` must outlive the level.
+// level's (camera.width / scale, as DownsampleToLevel makes them), its
+// frames oversampled by `oversample` (1 or 2). `frames[n]` and
+// `poses.relative[n]` belong together; the reference itself is not among
+// them. `radial` must outlive the level.
 SweepLevel MakeSweepLevel(const cv::Mat& reference, const std::vector<cv::Mat>& frames,
                           const SweepPoses& poses, const CameraModel& camera,
                           const RadialInverse& radial, int scale, int oversample = 1);
