@@ -248,11 +248,10 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
         static_cast<double>(burst.width() / level_scale) * (burst.height() / level_scale);
     return pixels <= options.oversample_max_pixels ? 2 : 1;
   };
-  SweepLevel coarse =
-      coarse_frames.empty()
-          ? MakeSweepLevel(reference, frames, sweep_poses, camera, radial, scale, oversample(scale))
-          : MakeSweepLevel(coarse_reference, coarse_frames, sweep_poses, camera, radial, scale,
-                           oversample(scale));
+  const bool own_coarse_frames = !coarse_frames.empty();
+  SweepLevel coarse = MakeSweepLevel(own_coarse_frames ? coarse_reference : reference,
+                                     own_coarse_frames ? coarse_frames : frames, sweep_poses,
+                                     camera, radial, scale, oversample(scale));
   coarse_reference.release();
   coarse_frames.clear();
   cost.window_radius = options.coarse_window_radius;

@@ -97,7 +97,7 @@ struct SparseOptions {
   // max(width, height) (1: the paper's guess, CameraModel::Initial). The
   // first start runs the whole adjustment; each later one is probed beside it
   // (its rotations, rank-1 initialization and first adjustment, capped, on
-  // at most 160 of its tracks; adjustment_starts.h) and replaces the
+  // a share of its tracks, kProbeTracks; adjustment_starts.cc) and replaces the
   // solution so far where its truncated reprojection cost over every track
   // (each track's squared RMS error at its best depth under the start's
   // geometry, capped at outlier_px^2) is lower by more than 1 %, then takes
