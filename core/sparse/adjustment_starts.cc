@@ -381,6 +381,7 @@ void AdjustmentAttempt::Adjust(const FeatureTracks& tracks,
 }
 
 void CheckAdjustmentOptions(const SparseOptions& options) {
+  options.bootstrap.Check();
   if (options.focal_starts.empty())
     throw std::invalid_argument(
         "focal_starts: at least one start is needed (1: the paper's guess)");
@@ -397,6 +398,22 @@ void CheckAdjustmentOptions(const SparseOptions& options) {
     throw std::invalid_argument("min_track_weight must be in (0, 1], got " +
                                 FixedText(options.min_track_weight));
 }
+
+namespace {
+
+// The bias the tracks' noise gives the solution's intrinsics
+// (bootstrap_bias.h), measured where the burst calibrates itself and its
+// sigma_f (before the uncertainty's inflation: the tracks' noise alone) is
+// large enough for the bias to matter. The solution itself stays as it is:
+// its depth is best with the camera that fits its tracks best.
+void MeasureIntrinsicsBias(const FeatureTracks& tracks, const SparseOptions& options,
+                           const BundleAdjustmentOptions& adjust, AdjustmentAttempt* attempt) {
+  const BootstrapBiasOptions& bootstrap = options.bootstrap;
+  if (bootstrap.replicas == 0 || adjust.fix_intrinsics || adjust.HasKnownIntrinsicsPrior()) return;
+  attempt->bias = MeasureBiasIfItMatters(tracks, attempt->use, attempt->state, adjust, bootstrap);
+}
+
+}  // namespace
 
 AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraModel& initial,
                                    const SparseOptions& options,
@@ -497,6 +514,8 @@ AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraMode
   // A probed start that won goes on from there with the whole budget.
   if (*best > 0) steps_for(solved.init).Finish(adjust, measured_iterations[*best], &solved);
   if (starts > 1) LapIfTimed(timer, "later_starts");
+  MeasureIntrinsicsBias(tracks, options, adjust, &solved);
+  LapIfTimed(timer, "bias");
   steps_for(solved.init).Reweight(adjust, &solved);
   LapIfTimed(timer, "reweight");
   return solved;

@@ -108,7 +108,7 @@ TEST(AdjustFromStarts, LapsTheFirstStartThenTheOthers) {
     std::vector<std::string> stages;
     for (const auto& [stage, ms] : adjusted.laps) stages.push_back(stage);
     EXPECT_EQ(stages, (std::vector<std::string>{"rotation", "rank1", "bundle_adjustment",
-                                                "later_starts", "reweight"}))
+                                                "later_starts", "bias", "reweight"}))
         << threads << " threads";
   }
 }
@@ -144,12 +144,13 @@ TEST(AdjustFromStarts, TakesUpTheCallersPiecesAndChangesNothing) {
     if (threads == 1) {
       EXPECT_EQ(taken, 0);
       EXPECT_EQ(stages, (std::vector<std::string>{"rotation", "rank1", "bundle_adjustment",
-                                                  "later_starts", "reweight"}));
+                                                  "later_starts", "bias", "reweight"}));
     } else {
       // The start done first took them (the other ran hundreds of ms longer).
       EXPECT_GT(taken, 0);
-      EXPECT_EQ(stages, (std::vector<std::string>{"rotation", "rank1", "bundle_adjustment",
-                                                  "beside_starts", "later_starts", "reweight"}));
+      EXPECT_EQ(stages,
+                (std::vector<std::string>{"rotation", "rank1", "bundle_adjustment", "beside_starts",
+                                          "later_starts", "bias", "reweight"}));
     }
     EXPECT_EQ(attempt.state.camera.f, alone.state.camera.f) << threads << " threads";
     EXPECT_EQ(attempt.state.readout, alone.state.readout);
@@ -183,9 +184,10 @@ TEST(AdjustFromStarts, AKnownCameraStartsFromItself) {
     std::vector<std::string> stages;
     for (const auto& [stage, ms] : laps) stages.push_back(stage);
     const std::vector<std::string> expected =
-        probe ? std::vector<std::string>{"rotation", "rank1", "bundle_adjustment", "later_starts",
-                                         "reweight"}
-              : std::vector<std::string>{"rotation", "rank1", "bundle_adjustment", "reweight"};
+        probe ? std::vector<std::string>{"rotation",     "rank1", "bundle_adjustment",
+                                         "later_starts", "bias",  "reweight"}
+              : std::vector<std::string>{"rotation", "rank1", "bundle_adjustment", "bias",
+                                         "reweight"};
     EXPECT_EQ(stages, expected);
   }
   options.naive_probe = false;

@@ -366,6 +366,19 @@ std::vector<double> TrackReprojectionErrors(const FeatureTracks& tracks, const S
   return errors;
 }
 
+std::vector<Eigen::Matrix2Xd> ObservationResiduals(const FeatureTracks& tracks,
+                                                   const SparseState& state) {
+  const TrackFit fit(tracks, state);
+  const int n = tracks.num_frames(), m = tracks.num_tracks();
+  std::vector<Eigen::Matrix2Xd> residuals(n, Eigen::Matrix2Xd::Zero(2, m));
+  for (int j = 0; j < m; ++j) {
+    const Eigen::VectorXd r = fit.Residuals(j, state.inverse_depths[j]);
+    for (int i = 0, k = 0; i < n; ++i)
+      if (i != tracks.reference) residuals[i].col(j) = r.segment<2>(2 * k++);
+  }
+  return residuals;
+}
+
 std::vector<double> TrackReprojectionErrorsAtBestDepth(const FeatureTracks& tracks,
                                                        const SparseState& state,
                                                        std::vector<double>* best_inverse_depths) {

@@ -100,6 +100,12 @@ BundleAdjustmentSummary RunBundleAdjustment(const FeatureTracks& tracks,
 // Per-track RMS reprojection error (pixels, undistorted domain) of `state`.
 std::vector<double> TrackReprojectionErrors(const FeatureTracks& tracks, const SparseState& state);
 
+// The residual of every observation at `state` (pixels of f, undistorted
+// domain: f times the projection less the undistorted observation), frame by
+// frame: residuals[i].col(j); zero in the reference.
+std::vector<Eigen::Matrix2Xd> ObservationResiduals(const FeatureTracks& tracks,
+                                                   const SparseState& state);
+
 // The same with each track's inverse depth at its own least-squares best
 // under the state's camera and poses (the state is not changed): how well
 // the geometry explains every track, whether the adjustment used it or not.

@@ -82,6 +82,12 @@ std::vector<double> SparseReconstruction::InlierInverseDepths() const {
   return inverse_depths;
 }
 
+std::optional<CameraModel> SparseReconstruction::DebiasedCamera() const {
+  if (self_estimate) return Debiased(self_estimate->camera, self_estimate->bias);
+  if (calibration_used == "self") return Debiased(state.camera, intrinsics_bias);
+  return std::nullopt;
+}
+
 bool SparseReconstruction::DroppedLensTerms() const {
   return calibration_used == kFallbackK1 || calibration_used == kFallbackK0;
 }
@@ -142,6 +148,8 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
     self_evidence.rms_reprojection_px = summary.rms_reprojection_px;
     self_evidence.median_track_motion_px = parallax;
     estimate.camera = self.camera;
+    estimate.bias =
+        MeasureBiasIfItMatters(sparse.tracks, use, self, self_options, options.bootstrap);
     estimate.verdict =
         JudgeCalibration(self.camera, estimate.uncertainty, self_evidence, options.quality);
     sparse.self_estimate = estimate;
@@ -291,6 +299,7 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
   sparse.bundle_adjustment = std::move(solved.summary);
   sparse.rank_one = std::move(solved.rank_one);
   sparse.runs = std::move(solved.runs);
+  sparse.intrinsics_bias = solved.bias;
 
   // A global scale is free: report depths with median inverse depth 1.
   SparseState& result = sparse.state;

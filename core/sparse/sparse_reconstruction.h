@@ -14,6 +14,7 @@
 #include "core/io/burst.h"
 #include "core/io/result.h"
 #include "core/io/shared_work.h"
+#include "core/sparse/bootstrap_bias.h"
 #include "core/sparse/bundle_adjustment.h"
 #include "core/sparse/calibration_quality.h"
 #include "core/sparse/grided_features.h"
@@ -93,6 +94,12 @@ struct SparseOptions {
   // honesty). docs/sparse.md, "Tracks weighted by their own noise". 0: off.
   int reweight_rounds = 2;
   double min_track_weight = 0.1;
+  // Where the burst calibrates itself, the bias its tracks' noise gives f,
+  // k1, k2 and the readout is measured by a parametric bootstrap
+  // (bootstrap_bias.h) and reported; a fusion of bursts takes it off
+  // (DebiasedCamera). The burst's own depth keeps the camera that fits its
+  // tracks best.
+  BootstrapBiasOptions bootstrap;
   // Focal lengths the self-calibration starts from, as fractions of
   // max(width, height) (1: the paper's guess, CameraModel::Initial). The
   // first start runs the whole adjustment; each later one is probed beside it
@@ -151,6 +158,7 @@ struct SparseReconstruction {
     CameraModel camera;
     CalibrationUncertainty uncertainty;
     CalibrationVerdict verdict;
+    std::optional<IntrinsicsBias> bias;  // as intrinsics_bias, of `camera`
   };
   std::optional<SelfEstimate> self_estimate;
   // The check of a known calibration (SparseOptions::max_known_fit_ratio,
@@ -192,12 +200,23 @@ struct SparseReconstruction {
   // "fallback-k1" (kFallbackK1) | "fallback-k0" (kFallbackK0)
   std::string calibration_used = "self";
   std::vector<std::string> warnings;
+  // The bias of f, k1, k2 and the readout that the tracks' noise gave the
+  // self-calibrating adjustment, measured by the bootstrap (SparseOptions::
+  // bootstrap); empty where none was measured (a known calibration, or a
+  // sigma_f too small for the bias to matter).
+  std::optional<IntrinsicsBias> intrinsics_bias;
   RankOneResult rank_one;  // diagnostics of the initialization (rank1 mode)
   std::vector<std::pair<std::string, double>>
       timings_ms;  // features, rotation, rank1, bundle_adjustment
 
   // Inverse depths of the inlier tracks.
   std::vector<double> InlierInverseDepths() const;
+  // The camera the burst calibrated, less the bias its tracks' noise gave it
+  // where that was measured and usable: what a fusion of bursts should take
+  // (its mean keeps a bias that no number of bursts averages out). Of the
+  // self-calibration beside a known prior where there is one (self_estimate),
+  // else of `state` where calibration_used is "self"; empty otherwise.
+  std::optional<CameraModel> DebiasedCamera() const;
   // Whether the tracks were refitted with fewer lens terms than the
   // adjustment estimated (calibration_used kFallbackK1 or kFallbackK0): the
   // relief is then one the burst's own lens model did not choose.

@@ -80,14 +80,17 @@ std::string CalibrationKeeper::Record(const std::string& job, int64_t time_ms,
   if (!config_.fuse) return "fusion off";
   CalibrationSample sample;
   const CalibrationVerdict* verdict = nullptr;
+  // Each burst's camera less the bias its tracks' noise gave it: the fusion
+  // averages the bursts' noise out, their bias it would keep
+  // (core/sparse/bootstrap_bias.h).
   if (sparse.self_estimate) {
-    sample.camera = sparse.self_estimate->camera;
+    sample.camera = *sparse.DebiasedCamera();
     sample.covariance = sparse.self_estimate->uncertainty.covariance;
     if (!sparse.self_estimate->uncertainty.available) return "no uncertainty";
     verdict = &sparse.self_estimate->verdict;
   } else if (sparse.calibration_used == "self") {
     if (!sparse.uncertainty.available) return "no uncertainty";
-    sample.camera = sparse.state.camera;
+    sample.camera = *sparse.DebiasedCamera();
     sample.covariance = sparse.uncertainty.covariance;
     verdict = &sparse.verdict;
   } else {

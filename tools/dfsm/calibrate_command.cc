@@ -63,8 +63,12 @@ int RunCalibrateCommand(const Args& args) {
       } else if (sparse.verdict.quality == CalibrationQuality::kDegenerate) {
         outcome = "not fused: degenerate (" + sparse.verdict.reasons.front() + ")";
       } else {
+        // Less the bias its tracks' noise gave it: fused, the bursts' noise
+        // averages out, their bias would not (core/sparse/bootstrap_bias.h).
         CalibrationSample sample;
-        sample.camera = camera;
+        sample.camera = sparse.DebiasedCamera().value_or(camera);
+        if (sample.camera.f != camera.f)
+          std::printf(", less its noise bias f %.2f px", sample.camera.f);
         sample.covariance = sparse.uncertainty.covariance;
         sample.job = burst_dir;
         std::string reason;

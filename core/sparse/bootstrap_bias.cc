@@ -1,0 +1,139 @@
+#include "core/sparse/bootstrap_bias.h"
+
+#include <cmath>
+#include <opencv2/core/utility.hpp>
+#include <random>
+#include <stdexcept>
+#include <string>
+
+namespace dfsm {
+
+void BootstrapBiasOptions::Check() const {
+  if (replicas < 0 || replicas > 64)
+    throw std::invalid_argument("bootstrap replicas must be 0 (off) to 64, got " +
+                                std::to_string(replicas));
+  if (!(min_sigma_f_percent >= 0.0))
+    throw std::invalid_argument("bootstrap min_sigma_f_percent must be >= 0");
+  if (!(max_correction_sigmas > 0.0))
+    throw std::invalid_argument("bootstrap max_correction_sigmas must be > 0");
+}
+
+FeatureTracks ReplicaTracks(const FeatureTracks& tracks, const std::vector<bool>& use,
+                            const SparseState& state, double noise_px, uint64_t seed) {
+  const CameraModel& camera = state.camera;
+  // Each observation moved onto the state's projection: the residual is f
+  // (projection - undistorted observation). Under a rolling shutter the
+  // projection depends on the observation's own row, so a second pass takes
+  // what the first left (2e-4 px at a readout of 0.6) to 1e-8 px.
+  FeatureTracks predicted = tracks;
+  for (int pass = 0; pass < 2; ++pass) {
+    const std::vector<Eigen::Matrix2Xd> residuals = ObservationResiduals(predicted, state);
+    for (int i = 0; i < tracks.num_frames(); ++i) {
+      if (i == tracks.reference) continue;
+      for (int j = 0; j < tracks.num_tracks(); ++j) {
+        if (!use[j]) continue;
+        const Eigen::Vector2d projected =
+            camera.PixelToUndistorted(predicted.pixels[i].col(j)) + residuals[i].col(j) / camera.f;
+        if (const std::optional<Eigen::Vector2d> pixel = camera.UndistortedToPixel(projected))
+          predicted.pixels[i].col(j) = *pixel;
+      }
+    }
+  }
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  for (int i = 0; i < tracks.num_frames(); ++i) {
+    if (i == tracks.reference) continue;
+    for (int j = 0; j < tracks.num_tracks(); ++j) {
+      // Drawn for every observation, used or not, so that a track's noise
+      // does not depend on which others are used.
+      const Eigen::Vector2d noise(normal(rng), normal(rng));
+      if (use[j]) predicted.pixels[i].col(j) += noise_px * noise;
+    }
+  }
+  return predicted;
+}
+
+double ResidualNoisePx(const FeatureTracks& tracks, const std::vector<bool>& use,
+                       const SparseState& state, bool readout_estimated) {
+  const std::vector<Eigen::Matrix2Xd> residuals = ObservationResiduals(tracks, state);
+  double sum = 0.0;
+  int used = 0;
+  for (int j = 0; j < tracks.num_tracks(); ++j) {
+    if (!use[j]) continue;
+    ++used;
+    for (int i = 0; i < tracks.num_frames(); ++i) sum += residuals[i].col(j).squaredNorm();
+  }
+  const int frames = tracks.num_frames() - 1;
+  const double observations = 2.0 * frames * used;
+  // Poses, inverse depths less the scale's anchor, f, k1, k2 (and readout).
+  const double parameters = 6.0 * frames + (used - 1) + 3 + (readout_estimated ? 1 : 0);
+  return observations > parameters ? std::sqrt(sum / (observations - parameters)) : 0.0;
+}
+
+IntrinsicsBias EstimateIntrinsicsBias(const FeatureTracks& tracks, const std::vector<bool>& use,
+                                      const SparseState& state,
+                                      const BundleAdjustmentOptions& options,
+                                      const BootstrapBiasOptions& bootstrap) {
+  if (options.fix_intrinsics)
+    throw std::invalid_argument("EstimateIntrinsicsBias: the intrinsics are held");
+  IntrinsicsBias bias;
+  bias.noise_px = ResidualNoisePx(tracks, use, state, options.estimate_readout);
+  const int replicas = bootstrap.replicas;
+  std::vector<SparseState> adjusted(replicas, state);
+  std::vector<char> solved(replicas, 0);
+  cv::parallel_for_(cv::Range(0, replicas), [&](const cv::Range& range) {
+    for (int r = range.start; r < range.end; ++r) {
+      const FeatureTracks replica =
+          ReplicaTracks(tracks, use, state, bias.noise_px, bootstrap.seed + 7919 * r);
+      const BundleAdjustmentSummary summary =
+          RunBundleAdjustment(replica, use, &adjusted[r], options);
+      solved[r] = summary.converged && std::isfinite(adjusted[r].camera.f);
+    }
+  });
+  for (int r = 0; r < replicas; ++r) {
+    if (!solved[r]) continue;
+    ++bias.replicas;
+    bias.f += adjusted[r].camera.f - state.camera.f;
+    bias.k1 += adjusted[r].camera.k1 - state.camera.k1;
+    bias.k2 += adjusted[r].camera.k2 - state.camera.k2;
+    bias.readout += adjusted[r].readout - state.readout;
+  }
+  if (bias.replicas > 0) {
+    bias.f /= bias.replicas;
+    bias.k1 /= bias.replicas;
+    bias.k2 /= bias.replicas;
+    bias.readout /= bias.replicas;
+  }
+  return bias;
+}
+
+std::optional<IntrinsicsBias> MeasureBiasIfItMatters(const FeatureTracks& tracks,
+                                                     const std::vector<bool>& use,
+                                                     const SparseState& state,
+                                                     const BundleAdjustmentOptions& options,
+                                                     const BootstrapBiasOptions& bootstrap) {
+  if (bootstrap.replicas == 0 || options.fix_intrinsics) return std::nullopt;
+  BundleAdjustmentOptions evaluate = options;
+  evaluate.max_iterations = 0;
+  CalibrationUncertainty uncertainty;
+  SparseState at = state;
+  RunBundleAdjustment(tracks, use, &at, evaluate, &uncertainty);
+  if (!uncertainty.available || !(uncertainty.inflation > 0.0)) return std::nullopt;
+  const double sigma_f = uncertainty.sigma_f_px() / uncertainty.inflation;
+  if (!(100.0 * sigma_f / state.camera.f >= bootstrap.min_sigma_f_percent)) return std::nullopt;
+  IntrinsicsBias bias = EstimateIntrinsicsBias(tracks, use, state, options, bootstrap);
+  bias.sigma_f_px = sigma_f;
+  bias.usable = bias.replicas > 0 && std::abs(bias.f) <= bootstrap.max_correction_sigmas * sigma_f;
+  return bias;
+}
+
+CameraModel Debiased(const CameraModel& camera, const std::optional<IntrinsicsBias>& bias) {
+  if (!bias || !bias->usable) return camera;
+  CameraModel debiased = camera;
+  debiased.f -= bias->f;
+  debiased.k1 -= bias->k1;
+  debiased.k2 -= bias->k2;
+  return debiased;
+}
+
+}  // namespace dfsm

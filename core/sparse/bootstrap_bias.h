@@ -1,0 +1,100 @@
+// The self-calibrating adjustment's bias from the tracks' own noise, measured
+// by a parametric bootstrap (Efron & Tibshirani 1993, ch. 10).
+//
+// In a small-motion burst f shows only through second-order terms of the
+// rotational flow, so its likelihood is flat and skewed: noise on the tracks
+// biases f long and k1 down, growing as the square of the noise over the
+// flow's second-order signal. On simulated 320x240 tracks (f 352 px,
+// 0.5 deg, 200 tracks) without priors the adjustment's mean f is 352 px
+// without noise, 376 px at 0.03 px and 442-477 px at 0.05 px, with 10 frames
+// as with 30 (each frame brings six pose parameters of its own); the weak
+// intrinsics prior pulls the other way, towards max(w, h).
+//
+// The bootstrap measures the sum where the solution stands: replica tracks
+// that the solution explains exactly, plus Gaussian noise as large as its
+// residuals show, are adjusted from the solution again; the replicas' mean
+// f, k1, k2 (and readout) less the solution's is the bias. A fusion of bursts
+// takes it off each burst's camera (SparseReconstruction::DebiasedCamera):
+// there the bursts' noise averages out and their bias would not. A burst's
+// own depth keeps the camera that fits its tracks best: with the bias taken
+// off and the poses refitted under it, TUM fr1/xyz's self-calibrated depth
+// was worse (docs/sparse.md, "The adjustment's bias from the tracks' noise").
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include "core/sparse/bundle_adjustment.h"
+#include "core/sparse/feature_tracks.h"
+
+namespace dfsm {
+
+struct BootstrapBiasOptions {
+  // Replica adjustments (0: no correction). The bias is a mean over them: its
+  // own noise falls as 1 / sqrt(replicas).
+  int replicas = 8;
+  uint64_t seed = 1;  // of the replicas' noise: the result is deterministic
+  // Only where the camera is uncertain enough for the bias to matter: the
+  // bias grows as the square of the relative sigma_f (the tracks' noise
+  // alone, before the uncertainty's inflation), while the replicas' mean
+  // carries a noise of about a third of sigma_f; below this the correction
+  // would add more than it takes. 0.35 % is 1 % after the inflation of 2.8;
+  // over the calibration sweeps nothing lower gains (docs/sparse.md).
+  double min_sigma_f_percent = 0.35;
+  // A correction of f beyond this many sigma_f (before the inflation) is
+  // not applied: the solution is too far from linear for a bias to describe
+  // it. The sweeps' corrections reached 1.9 sigma_f.
+  double max_correction_sigmas = 3.0;
+
+  // Throws std::invalid_argument naming the option out of its range.
+  void Check() const;
+};
+
+// The intrinsics' bias: the replicas' mean estimate less the solution's.
+struct IntrinsicsBias {
+  double f = 0.0, k1 = 0.0, k2 = 0.0, readout = 0.0;
+  double noise_px = 0.0;  // the replicas' tracking noise, per coordinate
+  int replicas = 0;       // adjusted (a replica that failed is left out)
+  // Set by MeasureBiasIfItMatters: sigma_f of the solution before the
+  // uncertainty's inflation, and whether the bias is small enough against
+  // it to be taken off (BootstrapBiasOptions::max_correction_sigmas).
+  double sigma_f_px = 0.0;
+  bool usable = false;
+};
+
+// The tracks `state` explains exactly (every used track in every frame; the
+// others as observed), plus independent Gaussian noise of `noise_px` on
+// each coordinate of every frame but the reference.
+FeatureTracks ReplicaTracks(const FeatureTracks& tracks, const std::vector<bool>& use,
+                            const SparseState& state, double noise_px, uint64_t seed);
+
+// The noise of the used tracks per coordinate, from their reprojection
+// errors at `state`, corrected for the parameters the adjustment fitted.
+double ResidualNoisePx(const FeatureTracks& tracks, const std::vector<bool>& use,
+                       const SparseState& state, bool readout_estimated);
+
+// Measures the bias of the adjustment `options` at its solution `state`
+// (options.fix_intrinsics must be false). The replicas run in parallel on
+// OpenCV's pool, each single-threaded; the result does not depend on the
+// thread count.
+IntrinsicsBias EstimateIntrinsicsBias(const FeatureTracks& tracks, const std::vector<bool>& use,
+                                      const SparseState& state,
+                                      const BundleAdjustmentOptions& options,
+                                      const BootstrapBiasOptions& bootstrap);
+
+// EstimateIntrinsicsBias where it matters: where the relative sigma_f of
+// `state` before the uncertainty's inflation (one covariance evaluation)
+// reaches bootstrap.min_sigma_f_percent; with sigma_f_px and usable set.
+// Empty below that, or where the covariance is not available.
+std::optional<IntrinsicsBias> MeasureBiasIfItMatters(const FeatureTracks& tracks,
+                                                     const std::vector<bool>& use,
+                                                     const SparseState& state,
+                                                     const BundleAdjustmentOptions& options,
+                                                     const BootstrapBiasOptions& bootstrap);
+
+// `camera` less the bias of its f, k1, k2 where `bias` is usable; `camera`
+// as it is otherwise.
+CameraModel Debiased(const CameraModel& camera, const std::optional<IntrinsicsBias>& bias);
+
+}  // namespace dfsm
