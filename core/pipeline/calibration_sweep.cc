@@ -115,6 +115,10 @@ SweepOutcome RunSweepBurst(const SynthOptions& settings, const SparseOptions& op
         sparse.rejected_camera ? *sparse.rejected_camera : sparse.state.camera;
     outcome.f_error_percent = 100.0 * (camera.f - burst.truth.camera.f) / burst.truth.camera.f;
     outcome.distortion_error_px = MeanDistortionError(camera, burst.truth.camera);
+    const CameraModel debiased = sparse.DebiasedCamera().value_or(camera);
+    outcome.debiased_f_error_percent =
+        100.0 * (debiased.f - burst.truth.camera.f) / burst.truth.camera.f;
+    outcome.debiased_distortion_error_px = MeanDistortionError(debiased, burst.truth.camera);
     outcome.sigma_f_percent = sparse.uncertainty.available
                                   ? sparse.uncertainty.sigma_f_percent(sparse.state.camera.f)
                                   : 0.0;
@@ -154,6 +158,8 @@ nlohmann::json ToJson(const SweepOutcome& o) {
             {"sigma_f_percent", o.sigma_f_percent},
             {"distortion_error_px", o.distortion_error_px},
             {"distortion_sigma_px", o.distortion_sigma_px},
+            {"debiased_f_error_percent", o.debiased_f_error_percent},
+            {"debiased_distortion_error_px", o.debiased_distortion_error_px},
             {"quality", o.quality},
             {"reasons", o.reasons}});
   return j;

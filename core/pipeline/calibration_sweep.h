@@ -57,6 +57,11 @@ struct SweepOutcome {
   double sigma_f_percent = 0.0;
   double distortion_error_px = 0.0;
   double distortion_sigma_px = 0.0;
+  // The same for the camera less the bias its tracks' noise gave it
+  // (SparseReconstruction::DebiasedCamera), what a fusion of bursts takes;
+  // equal to the above where no usable bias was measured.
+  double debiased_f_error_percent = 0.0;
+  double debiased_distortion_error_px = 0.0;
   std::string quality;
   std::vector<std::string> reasons;
   double sparse_ms = 0.0;

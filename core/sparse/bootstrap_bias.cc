@@ -14,8 +14,8 @@ void BootstrapBiasOptions::Check() const {
                                 std::to_string(replicas));
   if (!(min_sigma_f_percent >= 0.0))
     throw std::invalid_argument("bootstrap min_sigma_f_percent must be >= 0");
-  if (!(max_correction_sigmas > 0.0))
-    throw std::invalid_argument("bootstrap max_correction_sigmas must be > 0");
+  if (!(max_correction_percent > 0.0))
+    throw std::invalid_argument("bootstrap max_correction_percent must be > 0");
 }
 
 FeatureTracks ReplicaTracks(const FeatureTracks& tracks, const std::vector<bool>& use,
@@ -123,7 +123,8 @@ std::optional<IntrinsicsBias> MeasureBiasIfItMatters(const FeatureTracks& tracks
   if (!(100.0 * sigma_f / state.camera.f >= bootstrap.min_sigma_f_percent)) return std::nullopt;
   IntrinsicsBias bias = EstimateIntrinsicsBias(tracks, use, state, options, bootstrap);
   bias.sigma_f_px = sigma_f;
-  bias.usable = bias.replicas > 0 && std::abs(bias.f) <= bootstrap.max_correction_sigmas * sigma_f;
+  bias.usable = 2 * bias.replicas >= bootstrap.replicas &&
+                std::abs(bias.f) <= bootstrap.max_correction_percent / 100.0 * state.camera.f;
   return bias;
 }
 

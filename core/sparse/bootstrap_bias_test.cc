@@ -175,7 +175,7 @@ TEST(BootstrapBiasOptions, CheckNamesTheOptionOutOfRange) {
   options.replicas = -1;
   EXPECT_THROW(options.Check(), std::invalid_argument);
   options = {};
-  options.max_correction_sigmas = 0.0;
+  options.max_correction_percent = 0.0;
   EXPECT_THROW(options.Check(), std::invalid_argument);
 }
 
