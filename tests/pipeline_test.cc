@@ -210,6 +210,47 @@ TEST(Pipeline, EstimatesARollingShutterAndReportsIt) {
   EXPECT_GT(FocalError(as_global, generated), 10.0 * f_error);
 }
 
+// The bias the tracks' noise gives a self-calibration is measured and
+// reported beside the camera, which the depth keeps; the `debiased` camera
+// (what a fusion takes) is the camera less it. With the camera given, there
+// is no self-calibration and nothing to report; beside a known prior that
+// also calibrates the burst alone, the report is that estimate's.
+TEST(Pipeline, ReportsTheNoiseBiasOfTheSelfCalibration) {
+  SynthOptions options;
+  options.width = 320;
+  options.height = 240;
+  options.seed = 1;
+  const SynthBurst generated = SynthesizeBurst(options);
+  const Burst burst = ToBurst(generated);
+  PipelineOptions sparse_only;
+  sparse_only.run_dense = false;
+  const PipelineOutput self = RunPipeline(burst, sparse_only);
+  ASSERT_TRUE(self.result.ok) << self.result.error;
+  const nlohmann::json& bias = self.result.calibration_detail.at("noise_bias");
+  EXPECT_EQ(bias.at("of"), "calibration");
+  EXPECT_EQ(bias.at("replicas"), 8);
+  EXPECT_GT(bias.at("replica_noise_px").get<double>(), 0.0);
+  ASSERT_TRUE(bias.at("usable").get<bool>());
+  EXPECT_DOUBLE_EQ(bias.at("debiased").at("fx").get<double>(),
+                   self.result.calibration.f - bias.at("f_px").get<double>());
+
+  PipelineOptions fixed = sparse_only;
+  fixed.sparse.known.emplace();
+  fixed.sparse.known->camera = generated.truth.camera;
+  fixed.sparse.known->mode = KnownCalibrationMode::kFixed;
+  const PipelineOutput known = RunPipeline(burst, fixed);
+  ASSERT_TRUE(known.result.ok) << known.result.error;
+  EXPECT_FALSE(known.result.calibration_detail.contains("noise_bias"));
+
+  PipelineOptions prior = sparse_only;
+  prior.sparse.known.emplace();
+  prior.sparse.known->camera = generated.truth.camera;
+  prior.sparse.known->also_self_calibrate = true;
+  const PipelineOutput beside = RunPipeline(burst, prior);
+  ASSERT_TRUE(beside.result.ok) << beside.result.error;
+  EXPECT_EQ(beside.result.calibration_detail.at("noise_bias").at("of"), "self_estimate");
+}
+
 // A camera that dropped a frame (sequence 0, 1, 3, ...): the rolling
 // shutter's path from frame 1 to frame 3 spans two intervals. Taken as one,
 // the rows' motion across it is half what it was and the camera comes out

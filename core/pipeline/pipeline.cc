@@ -180,21 +180,26 @@ PipelineOutput RunPipeline(const Burst& burst, const PipelineOptions& options,
           {"free_camera", ToJson(sparse.known_fit->free_camera)},
           {"free_quality", CalibrationQualityName(sparse.known_fit->free_quality)},
           {"fits", sparse.known_fit->fits}};
-    if (const std::optional<IntrinsicsBias>& bias = sparse.intrinsics_bias) {
-      // What the tracks' noise did to the calibration (bootstrap_bias.h);
-      // the depth keeps the camera above, a fusion takes `debiased`.
+    // What the tracks' noise did to the camera the burst calibrated
+    // (bootstrap_bias.h): of the self-calibration beside a known prior where
+    // there is one, which is what a fusion takes, else of the camera above;
+    // the depth keeps the camera above, a fusion takes `debiased`.
+    const std::optional<IntrinsicsBias>& bias =
+        sparse.self_estimate ? sparse.self_estimate->bias : sparse.intrinsics_bias;
+    if (bias) {
       nlohmann::json& detail = result.calibration_detail["noise_bias"];
-      detail = {{"f_px", bias->f},
+      detail = {{"of", sparse.self_estimate ? "self_estimate" : "calibration"},
+                {"f_px", bias->f},
                 {"k1", bias->k1},
                 {"k2", bias->k2},
                 {"readout", bias->readout},
-                {"noise_px", bias->noise_px},
+                {"replica_noise_px", bias->noise_px},
                 {"replicas", bias->replicas},
-                {"sigma_f_px", bias->sigma_f_px},
+                {"sigma_f_noise_px", bias->sigma_f_noise_px},
                 {"usable", bias->usable}};
       if (const std::optional<CameraModel> debiased = sparse.DebiasedCamera();
           debiased && bias->usable)
-        detail["debiased"] = {{"fx", debiased->f}, {"k1", debiased->k1}, {"k2", debiased->k2}};
+        detail["debiased"] = ToJson(*debiased);
     }
     result.calibration_detail["rolling_shutter"] = {
         {"mode", RollingShutterName(sparse_options.rolling_shutter)},

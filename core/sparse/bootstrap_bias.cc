@@ -54,7 +54,7 @@ FeatureTracks ReplicaTracks(const FeatureTracks& tracks, const std::vector<bool>
 }
 
 double ResidualNoisePx(const FeatureTracks& tracks, const std::vector<bool>& use,
-                       const SparseState& state, bool readout_estimated) {
+                       const SparseState& state, const BundleAdjustmentOptions& options) {
   const std::vector<Eigen::Matrix2Xd> residuals = ObservationResiduals(tracks, state);
   double sum = 0.0;
   int used = 0;
@@ -65,20 +65,35 @@ double ResidualNoisePx(const FeatureTracks& tracks, const std::vector<bool>& use
   }
   const int frames = tracks.num_frames() - 1;
   const double observations = 2.0 * frames * used;
-  // Poses, inverse depths less the scale's anchor, f, k1, k2 (and readout).
-  const double parameters = 6.0 * frames + (used - 1) + 3 + (readout_estimated ? 1 : 0);
+  // Poses, inverse depths less the scale's anchor, f and the radial terms
+  // refined, and the readout where it is estimated.
+  const int intrinsics = options.fix_intrinsics ? 0 : 1 + options.distortion_terms;
+  const double parameters =
+      6.0 * frames + (used - 1) + intrinsics + (options.estimate_readout ? 1 : 0);
   return observations > parameters ? std::sqrt(sum / (observations - parameters)) : 0.0;
 }
+
+namespace {
+
+void RequireEstimatedIntrinsics(const BundleAdjustmentOptions& options, const char* caller) {
+  if (options.fix_intrinsics || options.HasKnownIntrinsicsPrior())
+    throw std::invalid_argument(std::string(caller) +
+                                ": the intrinsics are held or given as a prior; the bias is the "
+                                "self-calibration's");
+}
+
+}  // namespace
 
 IntrinsicsBias EstimateIntrinsicsBias(const FeatureTracks& tracks, const std::vector<bool>& use,
                                       const SparseState& state,
                                       const BundleAdjustmentOptions& options,
                                       const BootstrapBiasOptions& bootstrap) {
-  if (options.fix_intrinsics)
-    throw std::invalid_argument("EstimateIntrinsicsBias: the intrinsics are held");
+  RequireEstimatedIntrinsics(options, "EstimateIntrinsicsBias");
   IntrinsicsBias bias;
-  bias.noise_px = ResidualNoisePx(tracks, use, state, options.estimate_readout);
+  bias.noise_px = ResidualNoisePx(tracks, use, state, options);
   const int replicas = bootstrap.replicas;
+  BundleAdjustmentOptions replica_options = options;
+  replica_options.num_threads = 1;  // the replicas share the pool instead
   std::vector<SparseState> adjusted(replicas, state);
   std::vector<char> solved(replicas, 0);
   cv::parallel_for_(cv::Range(0, replicas), [&](const cv::Range& range) {
@@ -86,8 +101,11 @@ IntrinsicsBias EstimateIntrinsicsBias(const FeatureTracks& tracks, const std::ve
       const FeatureTracks replica =
           ReplicaTracks(tracks, use, state, bias.noise_px, bootstrap.seed + 7919 * r);
       const BundleAdjustmentSummary summary =
-          RunBundleAdjustment(replica, use, &adjusted[r], options);
-      solved[r] = summary.converged && std::isfinite(adjusted[r].camera.f);
+          RunBundleAdjustment(replica, use, &adjusted[r], replica_options);
+      // A replica that ran out of iterations still counts: leaving out the
+      // slow ones would draw the mean towards the quick, small shifts.
+      solved[r] = std::isfinite(summary.final_cost) && std::isfinite(adjusted[r].camera.f) &&
+                  adjusted[r].camera.f > 0.0;
     }
   });
   for (int r = 0; r < replicas; ++r) {
@@ -112,17 +130,21 @@ std::optional<IntrinsicsBias> MeasureBiasIfItMatters(const FeatureTracks& tracks
                                                      const SparseState& state,
                                                      const BundleAdjustmentOptions& options,
                                                      const BootstrapBiasOptions& bootstrap) {
-  if (bootstrap.replicas == 0 || options.fix_intrinsics) return std::nullopt;
+  RequireEstimatedIntrinsics(options, "MeasureBiasIfItMatters");
+  if (bootstrap.replicas == 0) return std::nullopt;
+  // sigma_f from the tracks' noise alone: no inflation, no wide-angle factor.
   BundleAdjustmentOptions evaluate = options;
   evaluate.max_iterations = 0;
+  evaluate.uncertainty_inflation = 1.0;
+  evaluate.wide_angle_inflation_exponent = 0.0;
   CalibrationUncertainty uncertainty;
   SparseState at = state;
   RunBundleAdjustment(tracks, use, &at, evaluate, &uncertainty);
-  if (!uncertainty.available || !(uncertainty.inflation > 0.0)) return std::nullopt;
-  const double sigma_f = uncertainty.sigma_f_px() / uncertainty.inflation;
+  if (!uncertainty.available) return std::nullopt;
+  const double sigma_f = uncertainty.sigma_f_px();
   if (!(100.0 * sigma_f / state.camera.f >= bootstrap.min_sigma_f_percent)) return std::nullopt;
   IntrinsicsBias bias = EstimateIntrinsicsBias(tracks, use, state, options, bootstrap);
-  bias.sigma_f_px = sigma_f;
+  bias.sigma_f_noise_px = sigma_f;
   bias.usable = 2 * bias.replicas >= bootstrap.replicas &&
                 std::abs(bias.f) <= bootstrap.max_correction_percent / 100.0 * state.camera.f;
   return bias;

@@ -4,16 +4,19 @@
 // In a small-motion burst f shows only through second-order terms of the
 // rotational flow, so its likelihood is flat and skewed: noise on the tracks
 // biases f long and k1 down, growing as the square of the noise over the
-// flow's second-order signal. On simulated 320x240 tracks (f 352 px,
-// 0.5 deg, 200 tracks) without priors the adjustment's mean f is 352 px
-// without noise, 376 px at 0.03 px and 442-477 px at 0.05 px, with 10 frames
-// as with 30 (each frame brings six pose parameters of its own); the weak
-// intrinsics prior pulls the other way, towards max(w, h).
+// flow's second-order signal, and about as much with 10 frames as with 30
+// (each frame brings six pose parameters of its own); the weak intrinsics
+// prior pulls the other way, towards max(w, h) (docs/sparse.md, "The
+// adjustment's bias from the tracks' noise", for the measurements).
 //
 // The bootstrap measures the sum where the solution stands: replica tracks
 // that the solution explains exactly, plus Gaussian noise as large as its
 // residuals show, are adjusted from the solution again; the replicas' mean
-// f, k1, k2 (and readout) less the solution's is the bias. A fusion of bursts
+// f, k1, k2 (and readout) less the solution's is the bias. The noise goes on
+// the frames' observations, all of it, in captured pixels: the model the
+// sweeps were measured with. (The covariance, calibration_uncertainty.h,
+// gives part of the residual to the reference pixel; a bootstrap that does
+// the same was not measured.) A fusion of bursts
 // takes it off each burst's camera (SparseReconstruction::DebiasedCamera):
 // there the bursts' noise averages out and their bias would not. A burst's
 // own depth keeps the camera that fits its tracks best: with the bias taken
@@ -36,11 +39,11 @@ struct BootstrapBiasOptions {
   int replicas = 8;
   uint64_t seed = 1;  // of the replicas' noise: the result is deterministic
   // Only where the camera is uncertain enough for the bias to matter: the
-  // bias grows as the square of the relative sigma_f (the tracks' noise
-  // alone, before the uncertainty's inflation), while the replicas' mean
-  // carries a noise of about a third of sigma_f; below this the correction
-  // would add more than it takes. 0.35 % is 1 % after the inflation of 2.8;
-  // over the calibration sweeps nothing lower gains (docs/sparse.md).
+  // bias grows as the square of the relative sigma_f that the tracks' noise
+  // alone gives (before the uncertainty's inflation and wide-angle factor),
+  // while the replicas' mean carries a noise of about a third of it. It
+  // keeps the replicas off bursts that observe f well (the ideal 1080p
+  // benchmark burst); the sweeps' medians were measured with it.
   double min_sigma_f_percent = 0.35;
   // A bias of f beyond this share of f is not taken off (usable false): a
   // valley, not a bias. The sweeps' largest was 15 % (a wide lens at 320x240,
@@ -56,11 +59,12 @@ struct BootstrapBiasOptions {
 struct IntrinsicsBias {
   double f = 0.0, k1 = 0.0, k2 = 0.0, readout = 0.0;
   double noise_px = 0.0;  // the replicas' tracking noise, per coordinate
-  int replicas = 0;       // adjusted (a replica that failed is left out)
-  // Set by MeasureBiasIfItMatters: sigma_f of the solution before the
-  // uncertainty's inflation, and whether the bias is small enough to be
-  // taken off (BootstrapBiasOptions::max_correction_percent).
-  double sigma_f_px = 0.0;
+  int replicas = 0;       // adjusted (a replica whose adjustment failed is left out)
+  // Set by MeasureBiasIfItMatters: the sigma_f the tracks' noise alone gives
+  // the solution (before the uncertainty's inflation), and whether the bias
+  // can be taken off: at least half the replicas adjusted, and within
+  // BootstrapBiasOptions::max_correction_percent of f.
+  double sigma_f_noise_px = 0.0;
   bool usable = false;
 };
 
@@ -71,12 +75,14 @@ FeatureTracks ReplicaTracks(const FeatureTracks& tracks, const std::vector<bool>
                             const SparseState& state, double noise_px, uint64_t seed);
 
 // The noise of the used tracks per coordinate, from their reprojection
-// errors at `state`, corrected for the parameters the adjustment fitted.
+// errors at `state`, corrected for the parameters the adjustment `options`
+// fitted.
 double ResidualNoisePx(const FeatureTracks& tracks, const std::vector<bool>& use,
-                       const SparseState& state, bool readout_estimated);
+                       const SparseState& state, const BundleAdjustmentOptions& options);
 
-// Measures the bias of the adjustment `options` at its solution `state`
-// (options.fix_intrinsics must be false). The replicas run in parallel on
+// Measures the bias of the adjustment `options` at its solution `state`;
+// std::invalid_argument where `options` hold the intrinsics or give them a
+// known prior (the bias is the self-calibration's). The replicas run in parallel on
 // OpenCV's pool, each single-threaded; the result does not depend on the
 // thread count.
 IntrinsicsBias EstimateIntrinsicsBias(const FeatureTracks& tracks, const std::vector<bool>& use,
@@ -86,7 +92,7 @@ IntrinsicsBias EstimateIntrinsicsBias(const FeatureTracks& tracks, const std::ve
 
 // EstimateIntrinsicsBias where it matters: where the relative sigma_f of
 // `state` before the uncertainty's inflation (one covariance evaluation)
-// reaches bootstrap.min_sigma_f_percent; with sigma_f_px and usable set.
+// reaches bootstrap.min_sigma_f_percent; with sigma_f_noise_px and usable set.
 // Empty below that, or where the covariance is not available.
 std::optional<IntrinsicsBias> MeasureBiasIfItMatters(const FeatureTracks& tracks,
                                                      const std::vector<bool>& use,

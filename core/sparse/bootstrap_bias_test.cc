@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "core/sparse/rank_one_start_for_tests.h"
+#include "core/sparse/sparse_reconstruction.h"
 #include "core/sparse/track_simulator.h"
 
 namespace dfsm {
@@ -69,12 +70,20 @@ TEST(ReplicaTracks, WithoutNoiseTheStateExplainsThemExactly) {
 
 // The noise the residuals show, corrected for what the adjustment fitted,
 // is the tracks' noise.
+// (Over these six scenes 2.3 % low; without the correction for the fitted
+// parameters, 6 % low.)
 TEST(ResidualNoisePx, IsTheTracksNoiseAtTheAdjustedState) {
-  const TrackSimulation sim = SmallBurst(2, 0.05);
-  std::vector<bool> use;
-  SparseState state = RankOneStart(sim, &use);
-  RunBundleAdjustment(sim.tracks, use, &state);
-  EXPECT_NEAR(ResidualNoisePx(sim.tracks, use, state, false), 0.05, 0.005);
+  double mean = 0.0;
+  const int seeds = 6;
+  for (uint64_t seed = 1; seed <= seeds; ++seed) {
+    const TrackSimulation sim = SmallBurst(seed, 0.05);
+    std::vector<bool> use;
+    SparseState state = RankOneStart(sim, &use);
+    RunBundleAdjustment(sim.tracks, use, &state);
+    mean += ResidualNoisePx(sim.tracks, use, state, {}) / seeds;
+  }
+  EXPECT_GT(mean, 0.048);
+  EXPECT_LT(mean, 0.0515);
 }
 
 // The point of the correction: on 320x240 bursts with 0.03 px of noise
@@ -125,8 +134,8 @@ TEST(EstimateIntrinsicsBias, IsTheSameOnOneThreadAsOnMany) {
   EXPECT_EQ(one.k2, many.k2);
 }
 
-// A usable bias comes off f, k1 and k2; one too large against sigma_f, or
-// none, leaves the camera as it is.
+// A usable bias comes off f, k1 and k2; one not usable, or none, leaves the
+// camera as it is.
 TEST(Debiased, TakesAUsableBiasOffTheCameraOnly) {
   CameraModel camera = CameraModel::Initial(320, 240);
   camera.k1 = -0.1;
@@ -146,27 +155,53 @@ TEST(Debiased, TakesAUsableBiasOffTheCameraOnly) {
   EXPECT_EQ(Debiased(camera, std::nullopt).f, camera.f);
 }
 
-// The bias is measured beside the solution and never moves it: the burst's
-// depth keeps the camera that fits its tracks best. Where sigma_f is below
-// the gate, nothing is measured.
+// Where the tracks' noise leaves sigma_f large enough, the bias is measured
+// and usable; below the gate nothing is measured; a camera held or given as
+// a prior has no self-calibration's bias to measure.
 TEST(MeasureBiasIfItMatters, MeasuresWhereSigmaFIsLargeEnough) {
   const TrackSimulation sim = SmallBurst(4, 0.03);
   std::vector<bool> use;
   SparseState state = RankOneStart(sim, &use);
   RunBundleAdjustment(sim.tracks, use, &state);
-  const SparseState before = state;
   BootstrapBiasOptions bootstrap;
   const std::optional<IntrinsicsBias> bias =
       MeasureBiasIfItMatters(sim.tracks, use, state, {}, bootstrap);
   ASSERT_TRUE(bias.has_value());
-  EXPECT_GT(bias->sigma_f_px, 0.0);
+  EXPECT_GT(bias->sigma_f_noise_px, 0.0);
   EXPECT_TRUE(bias->usable);
-  EXPECT_EQ(state.camera.f, before.camera.f);
   bootstrap.min_sigma_f_percent = 100.0;
   EXPECT_FALSE(MeasureBiasIfItMatters(sim.tracks, use, state, {}, bootstrap).has_value());
   BundleAdjustmentOptions held;
   held.fix_intrinsics = true;
-  EXPECT_FALSE(MeasureBiasIfItMatters(sim.tracks, use, state, held, {}).has_value());
+  EXPECT_THROW(MeasureBiasIfItMatters(sim.tracks, use, state, held, {}), std::invalid_argument);
+  BundleAdjustmentOptions known;
+  known.known_f_sigma_percent = 1.0;
+  EXPECT_THROW(EstimateIntrinsicsBias(sim.tracks, use, state, known, {}), std::invalid_argument);
+}
+
+// What a fusion takes: the burst's own calibration less its bias -- the
+// self-calibration beside a known prior where there is one, else the camera
+// where the burst kept it; nothing where a fallback or a known camera
+// replaced it.
+TEST(SparseReconstruction, DebiasedCameraIsOfTheBurstsOwnCalibration) {
+  IntrinsicsBias bias;
+  bias.f = 10.0;
+  bias.usable = true;
+  SparseReconstruction sparse;
+  sparse.state.camera = CameraModel::Initial(320, 240);
+  sparse.intrinsics_bias = bias;
+  ASSERT_TRUE(sparse.DebiasedCamera().has_value());
+  EXPECT_DOUBLE_EQ(sparse.DebiasedCamera()->f, 310.0);
+  sparse.calibration_used = SparseReconstruction::kFallbackK1;
+  EXPECT_FALSE(sparse.DebiasedCamera().has_value());
+  sparse.calibration_used = "known-prior";
+  EXPECT_FALSE(sparse.DebiasedCamera().has_value());
+  SparseReconstruction::SelfEstimate self;
+  self.camera = CameraModel::Initial(320, 240);
+  self.camera.f = 400.0;
+  self.bias = bias;
+  sparse.self_estimate = self;
+  EXPECT_DOUBLE_EQ(sparse.DebiasedCamera()->f, 390.0);
 }
 
 TEST(BootstrapBiasOptions, CheckNamesTheOptionOutOfRange) {

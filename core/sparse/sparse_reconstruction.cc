@@ -299,7 +299,9 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
   sparse.bundle_adjustment = std::move(solved.summary);
   sparse.rank_one = std::move(solved.rank_one);
   sparse.runs = std::move(solved.runs);
-  sparse.intrinsics_bias = solved.bias;
+  // The bias of the camera the burst calibrated, where it kept it (a
+  // fallback's camera is another).
+  if (sparse.calibration_used == "self") sparse.intrinsics_bias = solved.bias;
 
   // A global scale is free: report depths with median inverse depth 1.
   SparseState& result = sparse.state;
@@ -353,6 +355,7 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
     StageTimer check_timer(&sparse.timings_ms);
     SparseOptions alone = options;
     alone.known.reset();
+    alone.bootstrap.replicas = 0;  // its camera is compared, not reported or fused
     SparseReconstruction::KnownFit fit;
     fit.known_tracks = CountUsed(sparse.inliers);
     fit.known_rms_px = sparse.bundle_adjustment.rms_reprojection_px;

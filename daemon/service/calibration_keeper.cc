@@ -79,23 +79,19 @@ std::string CalibrationKeeper::Record(const std::string& job, int64_t time_ms,
                                       const SparseReconstruction& sparse) {
   if (!config_.fuse) return "fusion off";
   CalibrationSample sample;
-  const CalibrationVerdict* verdict = nullptr;
   // Each burst's camera less the bias its tracks' noise gave it: the fusion
   // averages the bursts' noise out, their bias it would keep
-  // (core/sparse/bootstrap_bias.h).
-  if (sparse.self_estimate) {
-    sample.camera = *sparse.DebiasedCamera();
-    sample.covariance = sparse.self_estimate->uncertainty.covariance;
-    if (!sparse.self_estimate->uncertainty.available) return "no uncertainty";
-    verdict = &sparse.self_estimate->verdict;
-  } else if (sparse.calibration_used == "self") {
-    if (!sparse.uncertainty.available) return "no uncertainty";
-    sample.camera = *sparse.DebiasedCamera();
-    sample.covariance = sparse.uncertainty.covariance;
-    verdict = &sparse.verdict;
-  } else {
-    return "not estimated from the burst (" + sparse.calibration_used + ")";
-  }
+  // (core/sparse/bootstrap_bias.h). The burst's own calibration: beside a
+  // known prior where there is one, else where the burst kept it.
+  const std::optional<CameraModel> debiased = sparse.DebiasedCamera();
+  if (!debiased) return "not estimated from the burst (" + sparse.calibration_used + ")";
+  const CalibrationUncertainty& uncertainty =
+      sparse.self_estimate ? sparse.self_estimate->uncertainty : sparse.uncertainty;
+  if (!uncertainty.available) return "no uncertainty";
+  sample.camera = *debiased;
+  sample.covariance = uncertainty.covariance;
+  const CalibrationVerdict* verdict =
+      sparse.self_estimate ? &sparse.self_estimate->verdict : &sparse.verdict;
   if (verdict->quality == CalibrationQuality::kDegenerate) return "degenerate: not fused";
   sample.job = job;
   sample.time_ms = time_ms;

@@ -129,10 +129,11 @@ int RunProcessCommand(const Args& args) {
   std::printf("            %s (calibration: %s)\n", detail.value("quality", "").c_str(),
               detail.value("source", "").c_str());
   if (const auto bias = detail.find("noise_bias"); bias != detail.end())
-    std::printf("            noise bias f %+.2f px, k1 %+.4f, k2 %+.4f (%d replicas)%s\n",
-                bias->value("f_px", 0.0), bias->value("k1", 0.0), bias->value("k2", 0.0),
-                bias->value("replicas", 0),
-                bias->value("usable", false) ? "" : ": too large to be a bias, not taken off");
+    std::printf(
+        "            noise bias f %+.2f px, k1 %+.4f, k2 %+.4f (%d replicas)%s\n",
+        bias->value("f_px", 0.0), bias->value("k1", 0.0), bias->value("k2", 0.0),
+        bias->value("replicas", 0),
+        bias->value("usable", false) ? "" : ", not usable (too large, or most replicas failed)");
   const nlohmann::json& shutter = detail.value("rolling_shutter", nlohmann::json::object());
   if (shutter.value("mode", "global") != "global")
     std::printf("shutter     rolling, readout %.3f of the frame interval (%s)\n",
