@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -109,22 +110,26 @@ int main(int argc, char** argv) {
       "| distortion within 2 sigma | reliable / uncertain / degenerate | max f error of "
       "reliable %% |\n"
       "|---|---|---|---|---|---|---|---|\n");
-  const auto row = [](const char* name, const std::vector<SweepOutcome>& group) {
+  // Median and largest of |errors| (0 where empty).
+  const auto median_max = [](std::vector<double> errors) {
+    for (double& error : errors) error = std::abs(error);
+    std::sort(errors.begin(), errors.end());
+    return errors.empty() ? std::pair(0.0, 0.0)
+                          : std::pair(errors[errors.size() / 2], errors.back());
+  };
+  const auto row = [&](const char* name, const std::vector<SweepOutcome>& group) {
     std::vector<double> errors, debiased;
     for (const SweepOutcome& o : group)
       if (o.reconstructed) {
-        errors.push_back(std::abs(o.f_error_percent));
-        debiased.push_back(std::abs(o.debiased_f_error_percent));
+        errors.push_back(o.f_error_percent);
+        debiased.push_back(o.debiased_f_error_percent);
       }
-    std::sort(errors.begin(), errors.end());
-    std::sort(debiased.begin(), debiased.end());
+    const auto [median, max] = median_max(errors);
+    const auto [debiased_median, debiased_max] = median_max(debiased);
     const SweepSummary s = Summarize(group);
     std::printf(
         "| %s | %d | %.2f / %.2f | %.2f / %.2f | %.0f %% | %.0f %% | %d / %d / %d | %.2f |\n", name,
-        s.bursts, errors.empty() ? 0.0 : errors[errors.size() / 2],
-        errors.empty() ? 0.0 : errors.back(),
-        debiased.empty() ? 0.0 : debiased[debiased.size() / 2],
-        debiased.empty() ? 0.0 : debiased.back(), 100.0 * s.f_within_2_sigma,
+        s.bursts, median, max, debiased_median, debiased_max, 100.0 * s.f_within_2_sigma,
         100.0 * s.distortion_within_2_sigma, s.reliable, s.uncertain, s.degenerate,
         s.reliable_max_f_error_percent);
   };

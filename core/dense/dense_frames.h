@@ -1,10 +1,10 @@
 // The frames the plane sweep compares, made from a burst's gray frames alone:
 // each high-passed (high_pass.h) and Gaussian-prefiltered into float, and
 // where the coarse level's high-pass differs, a second time at its sigma and
-// downsampled to it. They do
-// not depend on the poses, so the pipeline has them made while the sparse
-// stage runs, on a core its focal-start probe leaves idle, instead of after it
-// (docs/dense.md, "The sweep's frames made beside the sparse stage").
+// downsampled to it. They do not depend on the poses, so the pipeline has
+// them made while the sparse stage runs, on a core its focal-start probe
+// leaves idle, instead of after it (docs/dense.md, "The sweep's frames made
+// beside the sparse stage").
 #pragma once
 
 #include <opencv2/core.hpp>

@@ -67,9 +67,6 @@ struct WindowSweep {
   }
 };
 
-// A wide window wherever the mask is set is exactly the wide window
-// everywhere: the streamed bands' halo covers it, and the mask's rows line
-// up with the bands' rows.
 // A level made from frames already downsampled to it (DenseFrames' coarse
 // frames) is the level made from the full-size frames, bit for bit.
 TEST(MakeSweepLevel, FramesAtTheLevelsSizeGiveTheSameLevel) {
@@ -92,6 +89,9 @@ TEST(MakeSweepLevel, FramesAtTheLevelsSizeGiveTheSameLevel) {
   }
 }
 
+// A wide window wherever the mask is set is exactly the wide window
+// everywhere: the streamed bands' halo covers it, and the mask's rows line
+// up with the bands' rows.
 TEST(SweepPlaneWindow, WideWindowUnderAFullMaskEqualsThatWindowEverywhere) {
   const WindowSweep sweep;
   PhotoCostOptions wide;

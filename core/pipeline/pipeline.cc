@@ -184,9 +184,7 @@ PipelineOutput RunPipeline(const Burst& burst, const PipelineOptions& options,
     // (bootstrap_bias.h): of the self-calibration beside a known prior where
     // there is one, which is what a fusion takes, else of the camera above;
     // the depth keeps the camera above, a fusion takes `debiased`.
-    const std::optional<IntrinsicsBias>& bias =
-        sparse.self_estimate ? sparse.self_estimate->bias : sparse.intrinsics_bias;
-    if (bias) {
+    if (const std::optional<IntrinsicsBias>& bias = sparse.OwnCalibrationBias()) {
       nlohmann::json& detail = result.calibration_detail["noise_bias"];
       detail = {{"of", sparse.self_estimate ? "self_estimate" : "calibration"},
                 {"f_px", bias->f},

@@ -408,9 +408,9 @@ namespace {
 // its depth is best with the camera that fits its tracks best.
 void MeasureIntrinsicsBias(const FeatureTracks& tracks, const SparseOptions& options,
                            const BundleAdjustmentOptions& adjust, AdjustmentAttempt* attempt) {
-  const BootstrapBiasOptions& bootstrap = options.bootstrap;
-  if (bootstrap.replicas == 0 || adjust.fix_intrinsics || adjust.HasKnownIntrinsicsPrior()) return;
-  attempt->bias = MeasureBiasIfItMatters(tracks, attempt->use, attempt->state, adjust, bootstrap);
+  if (adjust.fix_intrinsics || adjust.HasKnownIntrinsicsPrior()) return;
+  attempt->bias =
+      MeasureBiasIfItMatters(tracks, attempt->use, attempt->state, adjust, options.bootstrap);
 }
 
 }  // namespace

@@ -18,39 +18,45 @@ void BootstrapBiasOptions::Check() const {
     throw std::invalid_argument("bootstrap max_correction_percent must be > 0");
 }
 
-FeatureTracks ReplicaTracks(const FeatureTracks& tracks, const std::vector<bool>& use,
-                            const SparseState& state, double noise_px, uint64_t seed) {
+FeatureTracks ExplainedTracks(const FeatureTracks& tracks, const std::vector<bool>& use,
+                              const SparseState& state) {
   const CameraModel& camera = state.camera;
   // Each observation moved onto the state's projection: the residual is f
   // (projection - undistorted observation). Under a rolling shutter the
   // projection depends on the observation's own row, so a second pass takes
   // what the first left (2e-4 px at a readout of 0.6) to 1e-8 px.
-  FeatureTracks predicted = tracks;
+  FeatureTracks explained = tracks;
   for (int pass = 0; pass < 2; ++pass) {
-    const std::vector<Eigen::Matrix2Xd> residuals = ObservationResiduals(predicted, state);
+    const std::vector<Eigen::Matrix2Xd> residuals = ObservationResiduals(explained, state);
     for (int i = 0; i < tracks.num_frames(); ++i) {
       if (i == tracks.reference) continue;
       for (int j = 0; j < tracks.num_tracks(); ++j) {
         if (!use[j]) continue;
         const Eigen::Vector2d projected =
-            camera.PixelToUndistorted(predicted.pixels[i].col(j)) + residuals[i].col(j) / camera.f;
+            camera.PixelToUndistorted(explained.pixels[i].col(j)) + residuals[i].col(j) / camera.f;
         if (const std::optional<Eigen::Vector2d> pixel = camera.UndistortedToPixel(projected))
-          predicted.pixels[i].col(j) = *pixel;
+          explained.pixels[i].col(j) = *pixel;
       }
     }
   }
+  return explained;
+}
+
+FeatureTracks ReplicaTracks(const FeatureTracks& explained, const std::vector<bool>& use,
+                            double noise_px, uint64_t seed) {
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> normal(0.0, 1.0);
-  for (int i = 0; i < tracks.num_frames(); ++i) {
-    if (i == tracks.reference) continue;
-    for (int j = 0; j < tracks.num_tracks(); ++j) {
+  FeatureTracks replica = explained;
+  for (int i = 0; i < explained.num_frames(); ++i) {
+    if (i == explained.reference) continue;
+    for (int j = 0; j < explained.num_tracks(); ++j) {
       // Drawn for every observation, used or not, so that a track's noise
       // does not depend on which others are used.
       const Eigen::Vector2d noise(normal(rng), normal(rng));
-      if (use[j]) predicted.pixels[i].col(j) += noise_px * noise;
+      if (use[j]) replica.pixels[i].col(j) += noise_px * noise;
     }
   }
-  return predicted;
+  return replica;
 }
 
 double ResidualNoisePx(const FeatureTracks& tracks, const std::vector<bool>& use,
@@ -94,12 +100,14 @@ IntrinsicsBias EstimateIntrinsicsBias(const FeatureTracks& tracks, const std::ve
   const int replicas = bootstrap.replicas;
   BundleAdjustmentOptions replica_options = options;
   replica_options.num_threads = 1;  // the replicas share the pool instead
+  // What the replicas share, made once; each adds noise of its own.
+  const FeatureTracks explained = ExplainedTracks(tracks, use, state);
   std::vector<SparseState> adjusted(replicas, state);
   std::vector<char> solved(replicas, 0);
   cv::parallel_for_(cv::Range(0, replicas), [&](const cv::Range& range) {
     for (int r = range.start; r < range.end; ++r) {
       const FeatureTracks replica =
-          ReplicaTracks(tracks, use, state, bias.noise_px, bootstrap.seed + 7919 * r);
+          ReplicaTracks(explained, use, bias.noise_px, bootstrap.seed + 7919 * r);
       const BundleAdjustmentSummary summary =
           RunBundleAdjustment(replica, use, &adjusted[r], replica_options);
       // A replica that ran out of iterations still counts: leaving out the

@@ -68,11 +68,16 @@ struct IntrinsicsBias {
   bool usable = false;
 };
 
-// The tracks `state` explains exactly (every used track in every frame; the
-// others as observed), plus independent Gaussian noise of `noise_px` on
-// each coordinate of every frame but the reference.
-FeatureTracks ReplicaTracks(const FeatureTracks& tracks, const std::vector<bool>& use,
-                            const SparseState& state, double noise_px, uint64_t seed);
+// The tracks `state` explains exactly: every used track moved onto the
+// state's projection in every frame; the others as observed.
+FeatureTracks ExplainedTracks(const FeatureTracks& tracks, const std::vector<bool>& use,
+                              const SparseState& state);
+
+// `explained` (ExplainedTracks) plus independent Gaussian noise of
+// `noise_px` on each coordinate of every used track in every frame but the
+// reference.
+FeatureTracks ReplicaTracks(const FeatureTracks& explained, const std::vector<bool>& use,
+                            double noise_px, uint64_t seed);
 
 // The noise of the used tracks per coordinate, from their reprojection
 // errors at `state`, corrected for the parameters the adjustment `options`

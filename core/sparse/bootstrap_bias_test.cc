@@ -37,25 +37,17 @@ TrackSimulation SmallBurst(uint64_t seed, double noise_px, double readout = 0.0,
   return sim;
 }
 
-SparseState TrueState(const TrackSimulation& sim, double readout = 0.0) {
-  SparseState state;
-  state.camera = sim.camera;
-  state.poses = sim.poses;
-  state.inverse_depths = sim.inverse_depths;
-  state.readout = readout;
-  return state;
-}
-
 // Replica tracks without noise are what the state predicts: its residuals
 // on them vanish, under a global and a rolling shutter, while on the noisy
 // tracks they are the noise; tracks not used keep their observations.
 TEST(ReplicaTracks, WithoutNoiseTheStateExplainsThemExactly) {
   for (const double readout : {0.0, 0.6}) {
     const TrackSimulation sim = SmallBurst(1, 0.05, readout);
-    const SparseState truth = TrueState(sim, readout);
+    const SparseState truth = SimulatedState(sim, readout);
     std::vector<bool> use(sim.tracks.num_tracks(), true);
     use[3] = false;
-    const FeatureTracks replica = ReplicaTracks(sim.tracks, use, truth, 0.0, 1);
+    const FeatureTracks replica =
+        ReplicaTracks(ExplainedTracks(sim.tracks, use, truth), use, 0.0, 1);
     const std::vector<double> noisy = TrackReprojectionErrors(sim.tracks, truth);
     const std::vector<double> exact = TrackReprojectionErrors(replica, truth);
     for (int j = 0; j < sim.tracks.num_tracks(); ++j) {

@@ -124,16 +124,6 @@ TEST(BundleAdjustment, UncertaintyInflationGrowsForAWideLensOnly) {
               with_covariance.uncertainty_inflation * uncertainty.wide_angle_factor, 1e-12);
 }
 
-// The simulation's own camera, poses and inverse depths, under `readout`.
-SparseState SimulatedState(const TrackSimulation& sim, double readout = 0.0) {
-  SparseState state;
-  state.camera = sim.camera;
-  state.poses = sim.poses;
-  state.inverse_depths = sim.inverse_depths;
-  state.readout = readout;
-  return state;
-}
-
 TEST(BundleAdjustment, ReportsReprojectionErrorPerTrack) {
   TrackSimulatorOptions options;
   options.seed = 4;

@@ -1,5 +1,6 @@
-// The start the adjustment's tests share: simulated tracks initialized as the
-// pipeline does (rotation-only rotations, then the rank-1 factorization).
+// The states the adjustment's tests share: simulated tracks initialized as
+// the pipeline does (rotation-only rotations, then the rank-1
+// factorization), and the simulation's own truth.
 #pragma once
 
 #include <gtest/gtest.h>
@@ -25,6 +26,16 @@ inline SparseState RankOneStart(const TrackSimulation& sim, std::vector<bool>* u
   state.poses = init.poses;
   state.inverse_depths = init.inverse_depths;
   *use = init.inliers;
+  return state;
+}
+
+// The simulation's own camera, poses and inverse depths, under `readout`.
+inline SparseState SimulatedState(const TrackSimulation& sim, double readout = 0.0) {
+  SparseState state;
+  state.camera = sim.camera;
+  state.poses = sim.poses;
+  state.inverse_depths = sim.inverse_depths;
+  state.readout = readout;
   return state;
 }
 

@@ -83,8 +83,8 @@ std::vector<double> SparseReconstruction::InlierInverseDepths() const {
 }
 
 std::optional<CameraModel> SparseReconstruction::DebiasedCamera() const {
-  if (self_estimate) return Debiased(self_estimate->camera, self_estimate->bias);
-  if (calibration_used == "self") return Debiased(state.camera, intrinsics_bias);
+  if (self_estimate) return Debiased(self_estimate->camera, OwnCalibrationBias());
+  if (calibration_used == "self") return Debiased(state.camera, OwnCalibrationBias());
   return std::nullopt;
 }
 

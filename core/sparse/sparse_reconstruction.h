@@ -211,11 +211,15 @@ struct SparseReconstruction {
 
   // Inverse depths of the inlier tracks.
   std::vector<double> InlierInverseDepths() const;
-  // The camera the burst calibrated, less the bias its tracks' noise gave it
-  // where that was measured and usable: what a fusion of bursts should take
-  // (its mean keeps a bias that no number of bursts averages out). Of the
-  // self-calibration beside a known prior where there is one (self_estimate),
-  // else of `state` where calibration_used is "self"; empty otherwise.
+  // The bias measured for the burst's own calibration: the self-calibration
+  // beside a known prior where there is one (self_estimate), else the camera
+  // of `state` (intrinsics_bias, empty unless calibration_used is "self").
+  const std::optional<IntrinsicsBias>& OwnCalibrationBias() const {
+    return self_estimate ? self_estimate->bias : intrinsics_bias;
+  }
+  // That calibration less its bias where the bias is usable: what a fusion of
+  // bursts should take (its mean keeps a bias that no number of bursts
+  // averages out); empty where the burst did not calibrate itself.
   std::optional<CameraModel> DebiasedCamera() const;
   // Whether the tracks were refitted with fewer lens terms than the
   // adjustment estimated (calibration_used kFallbackK1 or kFallbackK0): the
