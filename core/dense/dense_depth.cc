@@ -231,8 +231,8 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
   made = DenseFrames();
 
   const RadialInverse radial(camera);
-  const SweepPoses sweep_poses = SweepPoses::Make(poses, burst.reference(), options.readout,
-                                                  burst.height(), options.frame_times);
+  const SweepPoses sweep_poses =
+      SweepPoses::Make(poses, burst.reference(), options.readout, camera, options.frame_times);
   const std::vector<int>& others = sweep_poses.frames;
   std::vector<Pose> other_poses;
   for (int i : others) other_poses.push_back(poses[i]);

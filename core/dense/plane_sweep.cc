@@ -5,54 +5,11 @@
 #include <opencv2/core/hal/intrin.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "core/dense/row_projection.h"
 #include "core/io/parallel_bands.h"
 
 namespace dfsm {
 namespace {
-
-// Sample positions of one reference row in one frame: the captured-grid
-// position (px, py) and whether the ray met the plane in front of the frame
-// inside the range where the U->D polynomial holds (1 or 0).
-struct RowSamples {
-  explicit RowSamples(int cols) : px(cols), py(cols), usable(cols) {}
-  std::vector<float> px, py, usable;
-};
-
-// Projects reference row y onto `frame` at inverse depth w[x]: homography,
-// then the U->D polynomial. All arithmetic, so it vectorizes (with
-// -fno-trapping-math, set for this file); positions stay finite where the
-// sample is not usable.
-inline void ProjectRow(const SweepLevel& level, int frame, int y, const float* w, RowSamples* out) {
-  const PlaneHomography& h = level.Warp(frame, y);
-  const int cols = level.reference.cols;
-  const float* rx = level.ray_x.ptr<float>(y);
-  const float* ry = level.ray_y.ptr<float>(y);
-  const RadialInverse& radial = *level.radial;
-  const float max_r2 = radial.max_r2();
-  // Onto the frames' grid (level pixels times the oversampling).
-  const float grid = static_cast<float>(level.oversample);
-  const float focal = grid * level.focal, centre_x = grid * level.centre_x,
-              centre_y = grid * level.centre_y;
-  float* px = out->px.data();
-  float* py = out->py.data();
-  float* usable = out->usable.data();
-  // Locals, so the compiler need not fear that the stores below alias them.
-  const float r0 = h.r[0], r1 = h.r[1], r2_ = h.r[2], r3 = h.r[3], r4 = h.r[4], r5 = h.r[5];
-  const float r6 = h.r[6], r7 = h.r[7], r8 = h.r[8], t0 = h.t[0], t1 = h.t[1], t2 = h.t[2];
-  for (int x = 0; x < cols; ++x) {
-    const float X = r0 * rx[x] + r1 * ry[x] + r2_ + w[x] * t0;
-    const float Y = r3 * rx[x] + r4 * ry[x] + r5 + w[x] * t1;
-    const float Z = r6 * rx[x] + r7 * ry[x] + r8 + w[x] * t2;
-    const float inv = 1.0f / (Z > 1e-6f ? Z : 1.0f);
-    const float x_u = X * inv, y_u = Y * inv;
-    const float r2 = x_u * x_u + y_u * y_u;
-    const float scaled = focal * radial.Ratio(std::min(r2, max_r2));
-    px[x] = centre_x + scaled * x_u;
-    py[x] = centre_y + scaled * y_u;
-    // Bitwise & (no short circuit) keeps the loop free of branches.
-    usable[x] = ((Z > 1e-6f) & (r2 <= max_r2)) ? 1.0f : 0.0f;
-  }
-}
 
 #if CV_SIMD128
 // The pixels at offset[lane] and offset[lane] + 1 of `data` for every lane,

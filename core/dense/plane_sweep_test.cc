@@ -53,9 +53,8 @@ struct WindowSweep {
     // Burst order: the reference first, then the three frames.
     std::vector<Pose> burst_poses = {Pose{}};
     burst_poses.insert(burst_poses.end(), f.poses.begin(), f.poses.end());
-    level =
-        MakeSweepLevel(f.reference, f.frames,
-                       SweepPoses::Make(burst_poses, 0, 0.0, f.camera.height), f.camera, radial, 1);
+    level = MakeSweepLevel(f.reference, f.frames, SweepPoses::Make(burst_poses, 0, 0.0, f.camera),
+                           f.camera, radial, 1);
     lattice.min_inverse_depth = 0.2;
     lattice.max_inverse_depth = 2.0;
     lattice.planes = 32;
@@ -74,7 +73,7 @@ TEST(MakeSweepLevel, FramesAtTheLevelsSizeGiveTheSameLevel) {
   const RadialInverse radial(f.camera);
   std::vector<Pose> burst_poses = {Pose{}};
   burst_poses.insert(burst_poses.end(), f.poses.begin(), f.poses.end());
-  const SweepPoses poses = SweepPoses::Make(burst_poses, 0, 0.0, f.camera.height);
+  const SweepPoses poses = SweepPoses::Make(burst_poses, 0, 0.0, f.camera);
   std::vector<cv::Mat> small;
   for (const cv::Mat& frame : f.frames) small.push_back(DownsampleToLevel(frame, 2));
   const SweepLevel whole = MakeSweepLevel(f.reference, f.frames, poses, f.camera, radial, 2, 2);

@@ -17,9 +17,20 @@ namespace dfsm {
 // For the plane Z = 1/w of the reference, a reference ray x = (x_u, y_u, 1)
 // lands in a frame at the undistorted normalized point dehomogenized from
 // H(w) x, H(w) = R + w T e3^T: linear in w.
+//
+// Under a rolling shutter the pose is that of the frame's row the sample
+// lands on, which depends on where it lands: H is the pose at frame row
+// `row` (on the frames' grid), and a sample first projected to grid row py
+// moves on by (py - row) times the image motion per grid row there,
+// g = g0 + g1 x + w (g2 + g3 x) at reference column x and inverse depth w:
+// the rotation's flow is linear across a row but for terms in (x / f)^2,
+// the translation's linear in w, and a sample moves hundredths of a pixel per
+// row. Global shutter: all zero and unread.
 struct PlaneHomography {
   float r[9];  // R, row-major
   float t[3];  // T
+  float row = 0.0f;
+  float gx[4] = {}, gy[4] = {};
 };
 
 struct SweepLevel {
@@ -33,8 +44,9 @@ struct SweepLevel {
   int oversample = 1;
   // Per entry of `frames`: one homography (a global shutter), or one per row
   // of the level (a rolling shutter: each reference row seen from its own
-  // row's pose, the frame's sample taken at the same row's time).
+  // row's pose, the frame's sample taken at the time of the row it lands on).
   std::vector<std::vector<PlaneHomography>> warps;
+  bool rolling_shutter() const { return !warps.empty() && warps[0].size() > 1; }
   const PlaneHomography& Warp(int frame, int y) const {
     const std::vector<PlaneHomography>& rows = warps[frame];
     return rows.size() == 1 ? rows[0] : rows[y];
@@ -48,14 +60,22 @@ struct SweepLevel {
 // The frames' poses relative to the reference, each frame's at every captured
 // row (a rolling shutter) or one pose per frame (a global shutter).
 struct SweepPoses {
+  // Under a rolling shutter, captured row y of the reference against frame i:
+  // the pose of frame row `row`, where the row's centre pixel lands at
+  // infinity, and the pose of frame row `row` + 1 (the path's step per row
+  // there; a sample's own row is read from where it lands, SweepLevel).
+  struct RowPose {
+    Pose at, next;
+    double row = 0.0;
+  };
   std::vector<int> frames;  // burst index of each swept frame (the reference excluded)
-  // Global shutter: one pose per frame; rolling: `rows` of them, the pose of
-  // captured row y of the frame relative to captured row y of the reference.
-  std::vector<std::vector<Pose>> relative;
+  // Per swept frame: one pose (a global shutter), or one per captured row of
+  // the reference (a rolling shutter).
+  std::vector<std::vector<RowPose>> relative;
 
   // times: the frames' capture times (rolling_shutter.h; empty: consecutive).
-  static SweepPoses Make(const std::vector<Pose>& poses, int reference, double readout, int height,
-                         const std::vector<double>& times = {});
+  static SweepPoses Make(const std::vector<Pose>& poses, int reference, double readout,
+                         const CameraModel& camera, const std::vector<double>& times = {});
 };
 
 // `image` area-downsampled by the integer `scale` (itself where 1): pixel x
