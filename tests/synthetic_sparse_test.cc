@@ -108,13 +108,17 @@ TEST(SyntheticSparseCalibration, TheReliefsDependenceOnTheLensModelIsMeasured) {
   const Burst burst = ToBurst(generated);
   const SparseReconstruction sparse = ReconstructSparse(burst.gray, burst.reference());
   RecordProperty("lens_relief_shift_wide", std::to_string(sparse.lens_relief_shift));
-  EXPECT_GT(sparse.lens_relief_shift, 0.10);  // measured 0.129
+  // Measured 0.129 with the tracks realigned as translations, 0.090 since
+  // they follow each patch's predicted turn and shear (docs/sparse.md,
+  // "Patches that turn and shear"): under the depth check's 0.10 on this
+  // burst, six times the plain lens's.
+  EXPECT_GT(sparse.lens_relief_shift, 0.07);
 
   const Burst plain = ToBurst(VgaBurst());
   const SparseReconstruction described = ReconstructSparse(plain.gray, plain.reference());
   RecordProperty("lens_relief_shift_plain", std::to_string(described.lens_relief_shift));
   EXPECT_GE(described.lens_relief_shift, 0.0);
-  EXPECT_LT(described.lens_relief_shift, 0.05);  // measured 0.015
+  EXPECT_LT(described.lens_relief_shift, 0.05);  // measured 0.015, 0.018
   EXPECT_GT(sparse.lens_relief_shift, 3.0 * described.lens_relief_shift);
 }
 

@@ -79,50 +79,101 @@ bool GainBiasAligner::Prepare(cv::Point2f corner, Patch* patch) const {
   return true;
 }
 
-bool GainBiasAligner::Align(const Patch& patch, const cv::Mat& image, cv::Point2f* position) const {
-  CV_Assert(image.type() == CV_8UC1 && image.size() == intensity_.size());
-  const int half = options_.window / 2, side = options_.window;
-  const size_t size = weights_.size();
+namespace {
+
+// The residual r = I - a T - b of the window at p, summed against the
+// patch's four weighted columns: sum g r [Tx Ty T 1]. `Sample` gives frame
+// row v's samples at p (v, and u within it, from -half).
+template <class Sample>
+Eigen::Vector4d WindowSums(const GainBiasAligner::Patch& patch, int side, float gain, float bias,
+                           const Sample& sample) {
+  const size_t size = static_cast<size_t>(side) * side;
   const float* w_tx = patch.weighted.data();
   const float* w_ty = w_tx + size;
   const float* w_t = w_ty + size;
   const float* w_1 = w_t + size;
+  std::vector<float> row(side);
+  Eigen::Vector4d sums = Eigen::Vector4d::Zero();
+  for (int v = 0; v < side; ++v) {
+    sample(v, row.data());
+    const int k0 = v * side;
+    float s_tx = 0.0f, s_ty = 0.0f, s_t = 0.0f, s_1 = 0.0f;
+    for (int u = 0; u < side; ++u) {
+      const float residual = row[u] - gain * patch.intensity[k0 + u] - bias;
+      s_tx += residual * w_tx[k0 + u];
+      s_ty += residual * w_ty[k0 + u];
+      s_t += residual * w_t[k0 + u];
+      s_1 += residual * w_1[k0 + u];
+    }
+    sums += Eigen::Vector4d(s_tx, s_ty, s_t, s_1);
+  }
+  return sums;
+}
 
-  const cv::Point2f start = *position;
-  cv::Point2f p = start;
-  double gain = 1.0, bias = 0.0;
-  bool converged = false;
-  for (int iteration = 0; iteration < options_.max_iterations && !converged; ++iteration) {
-    if (!WindowInside(image, p, half)) return false;
+}  // namespace
+
+bool GainBiasAligner::Align(const Patch& patch, const cv::Mat& image, cv::Point2f* position) const {
+  const int half = options_.window / 2, side = options_.window;
+  return Solve(patch, image, half, position, [&](cv::Point2f p, float gain, float bias) {
     // Every window pixel shares p's sub-pixel phase: one set of bilinear weights.
     const float left = p.x - static_cast<float>(half), top = p.y - static_cast<float>(half);
     const int x0 = static_cast<int>(left), y0 = static_cast<int>(top);
     const float ax = left - static_cast<float>(x0), ay = top - static_cast<float>(y0);
     const float w00 = (1.0f - ax) * (1.0f - ay), w01 = ax * (1.0f - ay);
     const float w10 = (1.0f - ax) * ay, w11 = ax * ay;
-    const float a = static_cast<float>(gain), b = static_cast<float>(bias);
-    double r_tx = 0.0, r_ty = 0.0, r_t = 0.0, r_1 = 0.0;  // sum g r [Tx Ty T 1]
-    for (int v = 0; v < side; ++v) {
+    return WindowSums(patch, side, gain, bias, [&](int v, float* out) {
       const uchar* row0 = image.ptr<uchar>(y0 + v) + x0;
       const uchar* row1 = image.ptr<uchar>(y0 + v + 1) + x0;
-      const int k0 = v * side;
-      float s_tx = 0.0f, s_ty = 0.0f, s_t = 0.0f, s_1 = 0.0f;
-      for (int u = 0; u < side; ++u) {
-        const float value =
-            w00 * static_cast<float>(row0[u]) + w01 * static_cast<float>(row0[u + 1]) +
-            w10 * static_cast<float>(row1[u]) + w11 * static_cast<float>(row1[u + 1]);
-        const float residual = value - a * patch.intensity[k0 + u] - b;
-        s_tx += residual * w_tx[k0 + u];
-        s_ty += residual * w_ty[k0 + u];
-        s_t += residual * w_t[k0 + u];
-        s_1 += residual * w_1[k0 + u];
-      }
-      r_tx += s_tx;
-      r_ty += s_ty;
-      r_t += s_t;
-      r_1 += s_1;
-    }
-    const Eigen::Vector4d gradient(gain * r_tx, gain * r_ty, -r_t, -r_1);
+      for (int u = 0; u < side; ++u)
+        out[u] = w00 * static_cast<float>(row0[u]) + w01 * static_cast<float>(row0[u + 1]) +
+                 w10 * static_cast<float>(row1[u]) + w11 * static_cast<float>(row1[u + 1]);
+    });
+  });
+}
+
+bool GainBiasAligner::Align(const Patch& patch, const cv::Mat& image, const float shape[4],
+                            cv::Point2f* position) const {
+  const int half = options_.window / 2, side = options_.window;
+  // The window's corners reach this far from p through the shape (one pixel
+  // more: the samples' rounding must not step past the last pixel).
+  const float reach = static_cast<float>(half) * std::max(std::abs(shape[0]) + std::abs(shape[1]),
+                                                          std::abs(shape[2]) + std::abs(shape[3]));
+  const int stride = static_cast<int>(image.step1());
+  const uchar* data = image.ptr<uchar>(0);
+  return Solve(patch, image, static_cast<int>(std::ceil(reach)) + 1, position,
+               [&](cv::Point2f p, float gain, float bias) {
+                 return WindowSums(patch, side, gain, bias, [&](int v, float* out) {
+                   // Each sample has a sub-pixel phase of its own.
+                   const float dv = static_cast<float>(v - half);
+                   for (int u = 0; u < side; ++u) {
+                     const float du = static_cast<float>(u - half);
+                     const float x = p.x + shape[0] * du + shape[1] * dv;
+                     const float y = p.y + shape[2] * du + shape[3] * dv;
+                     const int x0 = static_cast<int>(x), y0 = static_cast<int>(y);
+                     const float ax = x - static_cast<float>(x0), ay = y - static_cast<float>(y0);
+                     const uchar* q = data + y0 * stride + x0;
+                     const float top = q[0] + ax * (static_cast<float>(q[1]) - q[0]);
+                     const float bottom =
+                         q[stride] + ax * (static_cast<float>(q[stride + 1]) - q[stride]);
+                     out[u] = top + ay * (bottom - top);
+                   }
+                 });
+               });
+}
+
+template <class Sums>
+bool GainBiasAligner::Solve(const Patch& patch, const cv::Mat& image, int reach,
+                            cv::Point2f* position, const Sums& sums) const {
+  CV_Assert(image.type() == CV_8UC1 && image.size() == intensity_.size());
+  const cv::Point2f start = *position;
+  cv::Point2f p = start;
+  double gain = 1.0, bias = 0.0;
+  bool converged = false;
+  for (int iteration = 0; iteration < options_.max_iterations && !converged; ++iteration) {
+    if (!WindowInside(image, p, reach)) return false;
+    const Eigen::Vector4d r =
+        sums(p, static_cast<float>(gain), static_cast<float>(bias));  // sum g r [Tx Ty T 1]
+    const Eigen::Vector4d gradient(gain * r[0], gain * r[1], -r[2], -r[3]);
     // J^T g J with J = [a Tx, a Ty, -T, -1]: the sums scaled by diag(a, a, -1, -1).
     const Eigen::Vector4d scale(gain, gain, -1.0, -1.0);
     const Eigen::Matrix4d normal = scale.asDiagonal() * patch.sums * scale.asDiagonal();

@@ -75,8 +75,20 @@ class GainBiasAligner {
   // when the window leaves the image, the system is singular, the solve has
   // not converged within max_iterations, or a bound of the options is broken.
   bool Align(const Patch& patch, const cv::Mat& image, cv::Point2f* position) const;
+  // The same with the window sampled through `shape` (2x2, row-major): frame
+  // position p + shape w for the reference's window offset w, the patch's
+  // predicted turn and shear.
+  bool Align(const Patch& patch, const cv::Mat& image, const float shape[4],
+             cv::Point2f* position) const;
 
  private:
+  // The Gauss-Newton solve from *position; `sums(p, gain, bias)` gives the
+  // window's residual against the patch's weighted columns, and `reach` how
+  // far the window reaches from p (it must stay inside the image).
+  template <class Sums>
+  bool Solve(const Patch& patch, const cv::Mat& image, int reach, cv::Point2f* position,
+             const Sums& sums) const;
+
   GainBiasAlignmentOptions options_;
   cv::Mat intensity_, dx_, dy_;  // CV_32F; the derivatives in grey levels per pixel
   std::vector<double> weights_;  // g per window pixel, row-major

@@ -1,9 +1,12 @@
 #include "core/sparse/grided_features.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
+#include <optional>
 
 #include "core/io/parallel_bands.h"
 
@@ -63,6 +66,48 @@ std::vector<cv::Point2f> DetectGridedCorners(const cv::Mat& gray, int cell_px, d
   return corners;
 }
 
+namespace {
+
+// The homography least-squares fitted to the matches of the corners kept in
+// one frame (`kept`): the frame's motion, a rotation's exactly, the
+// parallax's not (a few pixels over a burst, of which a patch's shape sees
+// nothing). None with fewer than 8 matches or where the fit fails.
+std::optional<cv::Matx33d> FitFrameMotion(const std::vector<cv::Point2f>& corners,
+                                          const std::vector<cv::Point2f>& positions,
+                                          const std::vector<uchar>& kept) {
+  std::vector<cv::Point2f> from, to;
+  for (size_t j = 0; j < corners.size(); ++j)
+    if (kept[j]) from.push_back(corners[j]), to.push_back(positions[j]);
+  if (from.size() < 8) return std::nullopt;
+  const cv::Mat H = cv::findHomography(from, to, 0);
+  if (H.empty()) return std::nullopt;
+  return cv::Matx33d(H);
+}
+
+// Whether `shape` moves the window's corners by min_shape_px or more against
+// a translation. Below that the translation samples the window with one
+// sub-pixel phase, one blur for every pixel, which the shape's samples,
+// each with a phase of its own, would trade for a deformation they do not see.
+bool ShapeMovesTheWindow(const std::array<float, 4>& shape, const GridedFeatureOptions& options) {
+  const double half = options.klt_window / 2;
+  const double moved = half * std::max(std::abs(shape[0] - 1.0f) + std::abs(shape[1]),
+                                       std::abs(shape[2]) + std::abs(shape[3] - 1.0f));
+  return moved >= options.min_shape_px;
+}
+
+}  // namespace
+
+std::array<float, 4> PatchShape(const cv::Matx33d& H, cv::Point2f corner) {
+  const double X = H(0, 0) * corner.x + H(0, 1) * corner.y + H(0, 2);
+  const double Y = H(1, 0) * corner.x + H(1, 1) * corner.y + H(1, 2);
+  const double Z = H(2, 0) * corner.x + H(2, 1) * corner.y + H(2, 2);
+  const double z2 = Z * Z;
+  return {static_cast<float>((H(0, 0) * Z - X * H(2, 0)) / z2),
+          static_cast<float>((H(0, 1) * Z - X * H(2, 1)) / z2),
+          static_cast<float>((H(1, 0) * Z - Y * H(2, 0)) / z2),
+          static_cast<float>((H(1, 1) * Z - Y * H(2, 1)) / z2)};
+}
+
 FeatureTracks TrackGridedFeatures(const std::vector<cv::Mat>& frames, int reference,
                                   const GridedFeatureOptions& options, GridedFeatureStats* stats) {
   CV_Assert(!frames.empty() && reference >= 0 && reference < static_cast<int>(frames.size()));
@@ -92,7 +137,6 @@ FeatureTracks TrackGridedFeatures(const std::vector<cv::Mat>& frames, int refere
     if (reference + d < n) order.push_back(reference + d);
     if (reference - d >= 0) order.push_back(reference - d);
   }
-  const double max_fb2 = options.max_forward_backward_px * options.max_forward_backward_px;
   std::vector<cv::Mat> pyramid;
   for (const int i : order) {
     if (m == 0) break;
@@ -109,7 +153,11 @@ FeatureTracks TrackGridedFeatures(const std::vector<cv::Mat>& frames, int refere
       const cv::Point2f d = backward[j] - corners[j];
       const bool inside = forward[j].x >= 0 && forward[j].y >= 0 &&
                           forward[j].x <= frames[i].cols - 1 && forward[j].y <= frames[i].rows - 1;
-      valid[i][j] = status_forward[j] && status_backward[j] && inside && d.dot(d) <= max_fb2;
+      const cv::Point2f travel = forward[j] - corners[j];
+      const double bound =
+          std::max(options.max_forward_backward_px,
+                   options.max_forward_backward_fraction * std::hypot(travel.x, travel.y));
+      valid[i][j] = status_forward[j] && status_backward[j] && inside && d.dot(d) <= bound * bound;
       // A lost track keeps its neighbour's position as the next frame's guess.
       if (!valid[i][j]) forward[j] = positions[neighbour][j];
     }
@@ -119,6 +167,12 @@ FeatureTracks TrackGridedFeatures(const std::vector<cv::Mat>& frames, int refere
   std::vector<uchar> tracked(m, 1);
   for (int j = 0; j < m; ++j)
     for (int i = 0; i < n; ++i) tracked[j] = tracked[j] && valid[i][j];
+  // Each frame's motion as the homography that fits KLT's matches: its
+  // Jacobian at a corner is how that corner's patch turned and sheared.
+  std::vector<std::optional<cv::Matx33d>> motion(n);
+  if (options.gain_bias && options.predicted_shape)
+    for (int i = 0; i < n; ++i)
+      if (i != reference) motion[i] = FitFrameMotion(corners, positions[i], valid[i]);
   if (options.gain_bias && m > 0) {
     // Track by track, so that each reference patch is prepared once for all
     // of its frames; only the tracks KLT kept in every frame.
@@ -131,7 +185,13 @@ FeatureTracks TrackGridedFeatures(const std::vector<cv::Mat>& frames, int refere
         if (!tracked[j]) continue;
         tracked[j] = aligner.Prepare(corners[j], &patch);
         for (int i = 0; i < n && tracked[j]; ++i)
-          if (i != reference) tracked[j] = aligner.Align(patch, frames[i], &positions[i][j]);
+          if (i != reference) {
+            const std::optional<std::array<float, 4>> shape =
+                motion[i] ? std::optional(PatchShape(*motion[i], corners[j])) : std::nullopt;
+            tracked[j] = shape && ShapeMovesTheWindow(*shape, options)
+                             ? aligner.Align(patch, frames[i], shape->data(), &positions[i][j])
+                             : aligner.Align(patch, frames[i], &positions[i][j]);
+          }
       }
     });
   }

@@ -6,6 +6,7 @@
 // the rank-1 factorization and bundle adjustment cheap.
 #pragma once
 
+#include <array>
 #include <opencv2/core.hpp>
 #include <vector>
 
@@ -34,6 +35,15 @@ struct GridedFeatureOptions {
   // and at 2 deg of VGA tremor they cost up to 0.75 points of focal accuracy
   // at 0.3 px (seed 1: 0.41 -> 1.16 %), 0.5 at 0.2 px (0.91 %).
   double max_forward_backward_px = 0.2;
+  // ... or this fraction of the track's travel where that is more. KLT
+  // moves a translation, and a patch that travelled far has also turned and
+  // sheared (the roll, and a rolling shutter, under a tremor of 1-2 deg), so
+  // its forward and backward matches part by more the further it went: at
+  // 1080p and 2 deg (50-77 px of travel) the 0.2 px bound alone left 26 of
+  // 336 tracks on one burst (docs/sparse.md, "Patches that turn and shear").
+  // 0.008: 0.2 px up to 25 px of travel, 0.6 px at 75 px; the realignment
+  // through the patch's shape (below) then decides.
+  double max_forward_backward_fraction = 0.008;
   // Each match that passes the check is realigned at full resolution with a
   // gain and a bias of its own (gain_bias_alignment.h; its window is
   // klt_window, which overrides alignment.window and must be odd), and
@@ -41,6 +51,14 @@ struct GridedFeatureOptions {
   // white-balance drift moved f by 8-23 % on the generator's phone and webcam
   // bursts at 640x480 (docs/sparse.md, "A gain and a bias per track").
   bool gain_bias = true;
+  // The realignment samples each patch as the frame's motion turned and
+  // sheared it: the Jacobian, at the corner, of the homography that fits the
+  // frame's KLT matches (PatchShape). A translation alone lands tenths of a
+  // pixel off a patch turned by 3 deg (gain_bias_alignment_test).
+  bool predicted_shape = true;
+  // ... where the shape moves the window's corners by this much (px) or more
+  // against a translation (a roll of 0.5 deg moves them 0.09 px).
+  double min_shape_px = 0.1;
   GainBiasAlignmentOptions alignment;
 };
 
@@ -68,6 +86,11 @@ struct GridedFeatureStats {
 FeatureTracks TrackGridedFeatures(const std::vector<cv::Mat>& frames, int reference,
                                   const GridedFeatureOptions& options = {},
                                   GridedFeatureStats* stats = nullptr);
+
+// How the patch around `corner` maps into a frame whose motion is the
+// homography H: H's Jacobian at the corner, row-major (GainBiasAligner's
+// shape).
+std::array<float, 4> PatchShape(const cv::Matx33d& H, cv::Point2f corner);
 
 // The Shi-Tomasi response of every pixel: cv::cornerMinEigenVal(gray, 3, 3)
 // computed in bands of rows on OpenCV's pool (the same values but for the

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <opencv2/imgproc.hpp>
 #include <set>
 
@@ -83,6 +84,64 @@ TEST(GridedFeatures, TracksSubpixelShiftsInEveryFrame) {
     }
     EXPECT_LT(error / tracks.num_tracks(), 0.08) << "frame " << i;
   }
+}
+
+// A pure rotation's homography: its Jacobian is the rotation everywhere.
+TEST(GridedFeatures, APatchsShapeIsTheFramesMotionsJacobian) {
+  const double angle = 2.0 * M_PI / 180.0;
+  const cv::Matx33d rotation(std::cos(angle), -std::sin(angle), 30.0, std::sin(angle),
+                             std::cos(angle), -12.0, 0.0, 0.0, 1.0);
+  const std::array<float, 4> shape = PatchShape(rotation, cv::Point2f(200.0f, 90.0f));
+  EXPECT_NEAR(shape[0], std::cos(angle), 1e-6);
+  EXPECT_NEAR(shape[1], -std::sin(angle), 1e-6);
+  EXPECT_NEAR(shape[2], std::sin(angle), 1e-6);
+  EXPECT_NEAR(shape[3], std::cos(angle), 1e-6);
+}
+
+// Frames turned about the image centre by up to 3 degrees and moved by up to
+// 40 px (a roll under a large tremor): through the shape each frame's motion
+// predicts, the tracks land within 0.03 px of the truth on average; as
+// translations, twice as far (measured 0.028 against 0.062 px).
+TEST(GridedFeatures, PatchesThatTurnKeepTheirTracks) {
+  const cv::Mat reference = Texture(640, 480, 4);
+  const cv::Point2d centre(320.0, 240.0);
+  std::vector<cv::Mat> frames = {reference};
+  std::vector<cv::Matx23d> motions = {cv::Matx23d(1, 0, 0, 0, 1, 0)};
+  for (int i = 1; i < 5; ++i) {
+    const double angle = 0.75 * i * M_PI / 180.0, c = std::cos(angle), s = std::sin(angle);
+    const cv::Point2d t(10.0 * i, -4.0 * i);
+    motions.emplace_back(c, -s, centre.x + t.x - c * centre.x + s * centre.y, s, c,
+                         centre.y + t.y - s * centre.x - c * centre.y);
+    cv::Mat frame;
+    cv::warpAffine(reference, frame, cv::Mat(motions.back()), reference.size(), cv::INTER_CUBIC,
+                   cv::BORDER_REFLECT);
+    frames.push_back(frame);
+  }
+  const auto run = [&](bool predicted_shape, double* mean_error) {
+    GridedFeatureOptions options;
+    options.predicted_shape = predicted_shape;
+    GridedFeatureStats stats;
+    const FeatureTracks tracks = TrackGridedFeatures(frames, 0, options, &stats);
+    double sum = 0.0;
+    int count = 0;
+    for (int i = 1; i < 5; ++i)
+      for (int j = 0; j < tracks.num_tracks(); ++j) {
+        const cv::Vec3d at(tracks.pixels[0](0, j), tracks.pixels[0](1, j), 1.0);
+        const cv::Vec2d truth = motions[i] * at;
+        sum += std::hypot(tracks.pixels[i](0, j) - truth[0], tracks.pixels[i](1, j) - truth[1]);
+        ++count;
+      }
+    *mean_error = count > 0 ? sum / count : 0.0;
+    return std::pair<int, int>(stats.tracks, stats.corners);
+  };
+  double shaped_error = 0.0, translated_error = 0.0;
+  const auto [shaped, corners] = run(true, &shaped_error);
+  const int translated = run(false, &translated_error).first;
+  std::printf("through the shape %d of %d tracks, %.4f px; as translations %d, %.4f px\n", shaped,
+              corners, shaped_error, translated, translated_error);
+  EXPECT_GT(shaped, 0.8 * corners);
+  EXPECT_LT(shaped_error, 0.05);
+  EXPECT_GT(translated_error, 1.5 * shaped_error);
 }
 
 TEST(GridedFeatures, ForwardBackwardCheckDropsUntrackablePoints) {
