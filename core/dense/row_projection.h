@@ -12,9 +12,9 @@
 
 namespace dfsm {
 
-// Sample positions of one reference row in one frame: the captured-grid
-// position (px, py) and whether the ray met the plane in front of the frame
-// inside the range where the U->D polynomial holds (1 or 0).
+// Sample positions of one reference row in one frame: the position (px, py)
+// on the frames' grid (SweepLevel::oversample) and whether the ray met the plane in front of the
+// frame inside the range where the U->D polynomial holds (1 or 0).
 struct RowSamples {
   explicit RowSamples(int cols) : px(cols), py(cols), usable(cols) {}
   std::vector<float> px, py, usable;
@@ -23,9 +23,9 @@ struct RowSamples {
 // Projects reference row y onto `frame` at inverse depth w[x]: homography,
 // then the U->D polynomial. Under a rolling shutter (`kRolling`) the sample
 // moves on by the image motion over the rows between the row its pose is
-// taken at and the row it landed on (PlaneHomography). All arithmetic, so it vectorizes
-// (with -fno-trapping-math, set for this file); positions stay finite where
-// the sample is not usable.
+// taken at and the row it landed on (PlaneHomography). All arithmetic, so it
+// vectorizes (with -fno-trapping-math, set for plane_sweep.cc); positions
+// stay finite where the sample is not usable.
 template <bool kRolling>
 inline void ProjectRowWith(const SweepLevel& level, int frame, int y, const float* w,
                            RowSamples* out) {
