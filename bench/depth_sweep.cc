@@ -14,6 +14,8 @@
 //               preset at the generator's default strengths, seeds 1-N at every
 //               size (DefaultStrengthSettings): the bursts the targets
 //               name; a table of means and medians per size follows the docs table.
+//   --known prior|fixed: each burst given its own camera as a known
+//               calibration (the model's f, k1, k2; not its k3, p1, p2).
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -21,6 +23,7 @@
 #include <cstring>
 #include <filesystem>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -53,13 +56,24 @@ struct DepthSweepOutcome {
 
 // keep: where not empty, the burst is written to keep/burst and its result
 // to keep/result, for `dfsm evaluate` and a look at the maps.
+// known: where set, the burst's own camera (f, k1, k2 of its ground truth;
+// the rendered k3, p1, p2 are not in the model) is given as a known
+// calibration in that mode, as a user gives a calibration file.
 DepthSweepOutcome RunDepthSweepBurst(const SynthOptions& settings, const std::string& keep,
-                                     const PipelineOptions& pipeline) {
+                                     PipelineOptions pipeline,
+                                     std::optional<KnownCalibrationMode> known) {
   DepthSweepOutcome outcome;
   outcome.settings = settings;
   const SynthBurst synth = SynthesizeBurst(settings);
   const Burst burst = ToBurst(synth);
   if (!keep.empty()) WriteSynthBurst(std::filesystem::path(keep) / "burst", synth);
+  if (known) {
+    KnownCalibration calibration;
+    calibration.camera = synth.truth.camera;
+    calibration.mode = *known;
+    calibration.source = "truth";
+    pipeline.sparse.known = calibration;
+  }
   const auto start = std::chrono::steady_clock::now();
   PipelineOutput output = RunPipeline(burst, pipeline);
   outcome.total_ms =
@@ -190,6 +204,7 @@ int main(int argc, char** argv) {
   uint64_t seed = 1;
   std::string camera = "phone", field_of_view = "normal", keep;
   PipelineOptions pipeline;
+  std::optional<KnownCalibrationMode> known;
   try {
     for (int i = 1; i < argc; ++i) {
       if (!std::strcmp(argv[i], "--bursts") && i + 1 < argc) {
@@ -210,6 +225,8 @@ int main(int argc, char** argv) {
         only = WholeNumber("--only", argv[++i], 0);
       } else if (!std::strcmp(argv[i], "--keep") && i + 1 < argc) {
         keep = argv[++i];
+      } else if (!std::strcmp(argv[i], "--known") && i + 1 < argc) {
+        known = ParseKnownCalibrationMode(argv[++i]);
       } else if (!std::strcmp(argv[i], "--reweight-rounds") && i + 1 < argc) {
         // 0: every track weighs the same
         pipeline.sparse.reweight_rounds = WholeNumber("--reweight-rounds", argv[++i], 0);
@@ -217,8 +234,9 @@ int main(int argc, char** argv) {
         std::fprintf(stderr,
                      "usage: depth_sweep [--bursts N] [--seed S] [--camera ideal|webcam|phone]\n"
                      "                   [--field-of-view normal|wide] [--only I [--keep DIR]]\n"
-                     "                   [--reweight-rounds N]\n"
-                     "       depth_sweep --defaults N [--camera ...] [--only I [--keep DIR]]\n");
+                     "                   [--reweight-rounds N] [--known prior|fixed]\n"
+                     "       depth_sweep --defaults N [--camera ...] [--only I [--keep DIR]]\n"
+                     "                   [--known prior|fixed]\n");
         return 2;
       }
     }
@@ -255,7 +273,7 @@ int main(int argc, char** argv) {
   if (only >= 0) sweep = {sweep[only]};
   std::vector<DepthSweepOutcome> outcomes;
   for (const SynthOptions& settings : sweep) {
-    outcomes.push_back(RunDepthSweepBurst(settings, keep, pipeline));
+    outcomes.push_back(RunDepthSweepBurst(settings, keep, pipeline, known));
     std::printf("%s\n", ToJson(outcomes.back()).dump().c_str());
     std::fflush(stdout);
   }

@@ -30,7 +30,8 @@ nlohmann::json ToJson(const Result& result) {
                             {"final_cost", ba.final_cost},
                             {"rms_reprojection_px", ba.rms_reprojection_px},
                             {"termination", ba.termination},
-                            {"start_f_px", ba.start_f}};
+                            {"start_f_px", ba.start_f},
+                            {"from_self_calibration", ba.from_self_calibration}};
   nlohmann::json runs = nlohmann::json::array();
   for (const BundleAdjustmentRun& run : ba.runs)
     runs.push_back({{"iterations", run.iterations},

@@ -36,6 +36,10 @@ struct BundleAdjustmentSummary {
   std::string termination;  // Ceres' own words, for people
   // The focal length (px) the chosen solution started from (SparseOptions::focal_starts).
   double start_f = 0.0;
+  // Under a known calibration: the chosen solution started from the burst's
+  // own, self-calibrated one, its camera replaced by the known one (`init`
+  // is then how that one started).
+  bool from_self_calibration = false;
 };
 
 struct DepthSummary {

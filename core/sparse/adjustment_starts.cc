@@ -418,7 +418,7 @@ void MeasureIntrinsicsBias(const FeatureTracks& tracks, const SparseOptions& opt
 AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraModel& initial,
                                    const SparseOptions& options,
                                    const BundleAdjustmentOptions& adjust, StageTimer* timer,
-                                   SharedWork* beside) {
+                                   SharedWork* beside, const GivenStart* given) {
   CheckAdjustmentOptions(options);
   const StartedAdjustment steps(tracks, options);
   SparseOptions naive_options = options;
@@ -431,10 +431,13 @@ AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraMode
   const bool restarts = !options.known && options.init == InitMode::kRankOne;
   const size_t focal = restarts ? options.focal_starts.size() : 1;
   const bool naive_probe = options.init == InitMode::kRankOne && options.naive_probe;
-  const size_t starts = focal + (naive_probe ? 1 : 0);
+  const size_t given_index = focal + (naive_probe ? 1 : 0);
+  const size_t starts = given_index + (given ? 1 : 0);
   // The steps of a start, by how it was made (AdjustmentAttempt::init).
-  const auto steps_for = [&](InitMode init) -> const StartedAdjustment& {
-    return init == InitMode::kNaive ? naive_steps : steps;
+  // A given start finishes as a naive one: without the readout restarts,
+  // which its own adjustment has been through.
+  const auto steps_for = [&](const AdjustmentAttempt& attempt) -> const StartedAdjustment& {
+    return attempt.init == InitMode::kNaive || attempt.given ? naive_steps : steps;
   };
   std::vector<AdjustmentAttempt> attempts(starts);
   std::vector<std::optional<ReconstructionError>> errors(starts);
@@ -456,9 +459,23 @@ AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraMode
       BundleAdjustmentOptions probe = adjust;
       if (n > 0) probe.max_iterations = std::min(probe.max_iterations, kProbeIterations);
       try {
-        measured_iterations[n] = steps_for(attempts[n].init)
-                                     .Solve(start, probe, n == 0 ? timer : nullptr, &attempts[n],
-                                            n > 0 ? std::max(kProbeTracks, options.min_tracks) : 0);
+        if (n == given_index) {
+          // Probed from where it stands: its camera replaced by the initial
+          // one (the known camera), its readout kept as the adjustment's start.
+          AdjustmentAttempt& attempt = attempts[n];
+          attempt.state = given->state;
+          attempt.state.camera = initial;
+          attempt.use = given->use;
+          attempt.init = given->init;
+          attempt.given = true;
+          attempt.Adjust(tracks, probe);
+          measured_iterations[n] = probe.max_iterations;
+        } else {
+          measured_iterations[n] =
+              steps_for(attempts[n])
+                  .Solve(start, probe, n == 0 ? timer : nullptr, &attempts[n],
+                         n > 0 ? std::max(kProbeTracks, options.min_tracks) : 0);
+        }
         // The first start's finish depends on no other start, so it runs
         // here, beside the probes, unless it restarts from several readouts
         // (those restarts run side by side after the probes, with the cores
@@ -512,11 +529,11 @@ AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraMode
   if (!best) throw *errors[0];
   AdjustmentAttempt solved = std::move(attempts[*best]);
   // A probed start that won goes on from there with the whole budget.
-  if (*best > 0) steps_for(solved.init).Finish(adjust, measured_iterations[*best], &solved);
+  if (*best > 0) steps_for(solved).Finish(adjust, measured_iterations[*best], &solved);
   if (starts > 1) LapIfTimed(timer, "later_starts");
   MeasureIntrinsicsBias(tracks, options, adjust, &solved);
   LapIfTimed(timer, "bias");
-  steps_for(solved.init).Reweight(adjust, &solved);
+  steps_for(solved).Reweight(adjust, &solved);
   LapIfTimed(timer, "reweight");
   return solved;
 }

@@ -41,6 +41,7 @@ struct AdjustmentAttempt {
   std::vector<BundleAdjustmentRun> runs;
   double start_f = 0.0;                // the focal length it started from, pixels
   InitMode init = InitMode::kRankOne;  // its start: rank-1, or naive (the probe)
+  bool given = false;                  // it started from a GivenStart (of `init`)
   // A probe adjusts a share of its tracks (kProbeTracks in
   // adjustment_starts.cc): the ones it would have adjusted, `use` before the
   // thinning; empty where it adjusted them all.
@@ -52,6 +53,15 @@ struct AdjustmentAttempt {
   // One adjustment of the `use` tracks from `state`, in place, recorded in
   // `summary` and `runs`; `tracks` weighted by `weights` where it has them.
   void Adjust(const FeatureTracks& tracks, const BundleAdjustmentOptions& options);
+};
+
+// A solution to start from beside the starts AdjustFromStarts makes itself:
+// the burst's own calibration, given to the adjustment under a known one
+// (ReconstructSparse). Its camera is replaced by the adjustment's initial one.
+struct GivenStart {
+  SparseState state;
+  std::vector<bool> use;
+  InitMode init = InitMode::kRankOne;  // how the given solution itself started
 };
 
 // Throws std::invalid_argument naming the option of `options` that
@@ -81,9 +91,12 @@ void CheckAdjustmentOptions(const SparseOptions& options);
 // runs, filling the core the first start leaves idle beside the probes; the
 // time a piece taken last keeps the starts' region open is lapped as
 // "beside_starts". Pieces not taken (SharedWork::taken), the caller runs.
+//
+// `given` (may be null): one start more, probed and compared like the naive
+// one (AdjustmentAttempt::given says it won).
 AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraModel& initial,
                                    const SparseOptions& options,
                                    const BundleAdjustmentOptions& adjust, StageTimer* timer,
-                                   SharedWork* beside = nullptr);
+                                   SharedWork* beside = nullptr, const GivenStart* given = nullptr);
 
 }  // namespace dfsm

@@ -36,6 +36,15 @@ TrackSimulatorOptions PhoneCamera() {
 
 TrackSimulation PhoneTracks() { return SimulateTracks(PhoneCamera()); }
 
+// The phone camera's scene through a wide lens (f 0.5 x 640 px) with a
+// global shutter.
+TrackSimulation WideLensTracks() {
+  TrackSimulatorOptions camera = PhoneCamera();
+  camera.f = 0.5 * 640;
+  camera.readout = 0.0;
+  return SimulateTracks(camera);
+}
+
 SparseOptions EstimatedReadout() {
   SparseOptions options;
   options.rolling_shutter.mode = RollingShutterOptions::Mode::kEstimate;
@@ -224,10 +233,7 @@ TEST(AdjustFromStarts, TheNaiveProbeLeavesASolutionBothStartsReachAsItWas) {
 // focal start at a wide lens's f where the first is 4 times too long, 300
 // tracks.
 TEST(AdjustFromStarts, AProbeThatWinsAdjustsEveryTrack) {
-  TrackSimulatorOptions camera = PhoneCamera();
-  camera.f = 0.5 * 640;
-  camera.readout = 0.0;
-  const TrackSimulation sim = SimulateTracks(camera);
+  const TrackSimulation sim = WideLensTracks();
   SparseOptions options;
   options.focal_starts = {2.0, 0.5};
   options.naive_probe = false;
@@ -248,6 +254,53 @@ TEST(AdjustFromStarts, AProbeThatWinsAdjustsEveryTrack) {
   EXPECT_EQ(alone.state.inverse_depths, attempt.state.inverse_depths);
   EXPECT_EQ(alone.use, attempt.use);
   EXPECT_NEAR(attempt.state.camera.f, sim.camera.f, 0.06 * sim.camera.f);  // measured 3.6 %
+}
+
+// A given start (ReconstructSparse gives the burst's own solution under a
+// known camera) is probed beside the others and judged as they are: from
+// the true scene where the only focal start is 4 times too long, it wins,
+// keeps nearly every track and finds the camera; given the solution the
+// starts reach anyway, it is not clearly better and changes nothing.
+TEST(AdjustFromStarts, AGivenStartIsProbedAndJudgedAsTheOthers) {
+  const TrackSimulation sim = WideLensTracks();
+  SparseOptions options;
+  options.focal_starts = {2.0};
+  options.naive_probe = false;
+  GivenStart truth;
+  truth.state.camera = sim.camera;
+  truth.state.poses = sim.poses;
+  truth.state.inverse_depths = sim.inverse_depths;
+  truth.use.assign(sim.tracks.num_tracks(), true);
+  const BundleAdjustmentOptions adjust = options.bundle_adjustment;
+  const AdjustmentAttempt alone =
+      AdjustFromStarts(sim.tracks, CameraModel::Initial(640, 480), options, adjust, nullptr);
+  EXPECT_FALSE(alone.given);
+  EXPECT_GT(std::abs(alone.state.camera.f - sim.camera.f), 0.1 * sim.camera.f)
+      << "f " << alone.state.camera.f << ": the focal start alone found the camera";
+  const AdjustmentAttempt given = AdjustFromStarts(sim.tracks, CameraModel::Initial(640, 480),
+                                                   options, adjust, nullptr, nullptr, &truth);
+  EXPECT_TRUE(given.given);
+  EXPECT_NEAR(given.state.camera.f, sim.camera.f, 0.03 * sim.camera.f);
+  const int used = static_cast<int>(std::count(given.use.begin(), given.use.end(), true));
+  EXPECT_GT(used, sim.tracks.num_tracks() * 9 / 10);
+
+  // The true camera known: the starts made under it reach the minimum the
+  // given start (their own solution) stands at, and the first stands.
+  options.focal_starts = {1.0};
+  options.naive_probe = true;
+  KnownCalibration known;
+  known.camera = sim.camera;
+  known.mode = KnownCalibrationMode::kFixed;
+  options.known = known;
+  BundleAdjustmentOptions fixed = adjust;
+  fixed.fix_intrinsics = true;
+  const AdjustmentAttempt made = AdjustFromStarts(sim.tracks, sim.camera, options, fixed, nullptr);
+  GivenStart own{made.state, made.use, made.init};
+  const AdjustmentAttempt again =
+      AdjustFromStarts(sim.tracks, sim.camera, options, fixed, nullptr, nullptr, &own);
+  EXPECT_FALSE(again.given);
+  EXPECT_EQ(again.state.inverse_depths, made.state.inverse_depths);
+  EXPECT_EQ(again.use, made.use);
 }
 
 // Tracks that are noisier than the rest (a corner in weak texture, blur)

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <functional>
 #include <opencv2/imgproc.hpp>
+#include <optional>
 
 #include "core/camera/rolling_shutter.h"
 #include "core/io/parallel_tasks.h"
@@ -101,7 +102,7 @@ namespace {
 // known-fit check's run of the burst alone does not read.
 SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int height,
                                   const SparseOptions& options, bool measure_lens_relief,
-                                  SharedWork* beside) {
+                                  SharedWork* beside, const GivenStart* given = nullptr) {
   StageTimer timer(&sparse.timings_ms);
   const int tracked = sparse.tracks.num_tracks();
   const double parallax = sparse.tracks.MedianMaxDisplacement();
@@ -132,7 +133,7 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
   // The solution from the starts; the rest below (a fallback refit) goes on
   // adjusting it.
   AdjustmentAttempt solved =
-      AdjustFromStarts(sparse.tracks, initial, options, ba_options, &timer, beside);
+      AdjustFromStarts(sparse.tracks, initial, options, ba_options, &timer, beside, given);
   SparseState& state = solved.state;
   std::vector<bool>& use = solved.use;
   if (options.known && options.known->mode == KnownCalibrationMode::kPrior &&
@@ -295,6 +296,7 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
   // Where the solution started, also where a fallback refitted from it.
   solved.summary.start_f = solved.start_f;
   solved.summary.init = InitModeName(solved.init);
+  solved.summary.from_self_calibration = solved.given;
   sparse.state = std::move(solved.state);
   sparse.bundle_adjustment = std::move(solved.summary);
   sparse.rank_one = std::move(solved.rank_one);
@@ -341,53 +343,65 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
   const int width = frames[reference].cols, height = frames[reference].rows;
   const bool check_known =
       options.known && options.known->check_fit && options.max_known_fit_ratio > 0.0;
+  if (!check_known)
+    return AdjustTracks(std::move(tracked), width, height, options,
+                        /*measure_lens_relief=*/true, beside);
+  // The same tracks calibrated by the burst alone, first: a camera that fits
+  // them much better than the known one (more tracks, or a smaller error)
+  // says the known calibration, or the motion model under it, does not hold
+  // here. A geometry wrong as a whole agrees with its own tracks, so nothing
+  // later would notice; a wrong camera also rejects tracks, which is why the
+  // comparison starts from the tracking, not from the known camera's
+  // solution. Its solution is also one more start of the adjustment under
+  // the known camera: the starts made under it (rank-1, naive) can all end
+  // in a minimum that rejects a third of the tracks, where the burst's own
+  // solution, its camera replaced by the known one, converges to one that
+  // fits them all (docs/sparse.md, "The burst's own solution as a start
+  // under a known calibration").
+  const auto check_start = std::chrono::steady_clock::now();
+  SparseOptions alone = options;
+  alone.known.reset();
+  alone.bootstrap.replicas = 0;  // its camera is compared, not reported or fused
+  std::optional<SparseReconstruction> free;
+  try {
+    free = AdjustTracks(tracked, width, height, alone, /*measure_lens_relief=*/false, beside);
+  } catch (const ReconstructionError&) {
+    // The burst cannot calibrate itself: nothing to compare the known camera with.
+  }
+  const double check_ms = MillisecondsBetween(check_start);
+  std::optional<GivenStart> own;
+  if (free)
+    own = GivenStart{free->state, free->inliers, ParseInitMode(free->bundle_adjustment.init)};
   SparseReconstruction sparse =
-      AdjustTracks(check_known ? tracked : std::move(tracked), width, height, options,
-                   /*measure_lens_relief=*/true, beside);
-  if (check_known) {
-    // The same tracks calibrated by the burst alone: a camera that fits them
-    // much better than the known one (more tracks, or a smaller error) says
-    // the known calibration, or the motion model under it, does not hold
-    // here. A geometry wrong as a whole agrees with its own tracks, so
-    // nothing later would notice; a wrong camera also rejects tracks, which
-    // is why the comparison starts from the tracking, not from the known
-    // camera's solution.
-    StageTimer check_timer(&sparse.timings_ms);
-    SparseOptions alone = options;
-    alone.known.reset();
-    alone.bootstrap.replicas = 0;  // its camera is compared, not reported or fused
+      AdjustTracks(std::move(tracked), width, height, options,
+                   /*measure_lens_relief=*/true, beside, own ? &*own : nullptr);
+  if (free) {
     SparseReconstruction::KnownFit fit;
     fit.known_tracks = CountUsed(sparse.inliers);
     fit.known_rms_px = sparse.bundle_adjustment.rms_reprojection_px;
-    try {
-      const SparseReconstruction free = AdjustTracks(std::move(tracked), width, height, alone,
-                                                     /*measure_lens_relief=*/false, beside);
-      fit.free_tracks = CountUsed(free.inliers);
-      fit.free_rms_px = free.bundle_adjustment.rms_reprojection_px;
-      fit.free_camera = free.state.camera;
-      fit.free_quality = free.verdict.quality;
-      fit.fits = fit.Fits(options.max_known_fit_ratio);
-      sparse.known_fit = fit;
-      if (!fit.fits) {
-        const std::string reason =
-            "known calibration does not fit this burst: under it " +
-            std::to_string(fit.known_tracks) + " tracks fit to " + FixedText(fit.known_rms_px) +
-            " px RMS, calibrated by the burst alone " + std::to_string(fit.free_tracks) +
-            " tracks to " + FixedText(fit.free_rms_px) + " px (f " +
-            FixedText(fit.free_camera.f, 1) + " px)";
-        sparse.warnings.push_back(reason +
-                                  "; the calibration, or the motion model under it, does not "
-                                  "hold here and the depth may be wrong as a whole");
-        // The camera used is no longer one the burst vouches for.
-        if (sparse.verdict.quality == CalibrationQuality::kReliable)
-          sparse.verdict.quality = CalibrationQuality::kUncertain;
-        sparse.verdict.reasons.insert(sparse.verdict.reasons.begin(), reason);
-      }
-    } catch (const ReconstructionError&) {
-      // The burst cannot calibrate itself: nothing to compare the known camera with.
+    fit.free_tracks = CountUsed(free->inliers);
+    fit.free_rms_px = free->bundle_adjustment.rms_reprojection_px;
+    fit.free_camera = free->state.camera;
+    fit.free_quality = free->verdict.quality;
+    fit.fits = fit.Fits(options.max_known_fit_ratio);
+    sparse.known_fit = fit;
+    if (!fit.fits) {
+      const std::string reason =
+          "known calibration does not fit this burst: under it " +
+          std::to_string(fit.known_tracks) + " tracks fit to " + FixedText(fit.known_rms_px) +
+          " px RMS, calibrated by the burst alone " + std::to_string(fit.free_tracks) +
+          " tracks to " + FixedText(fit.free_rms_px) + " px (f " + FixedText(fit.free_camera.f, 1) +
+          " px)";
+      sparse.warnings.push_back(reason +
+                                "; the calibration, or the motion model under it, does not "
+                                "hold here and the depth may be wrong as a whole");
+      // The camera used is no longer one the burst vouches for.
+      if (sparse.verdict.quality == CalibrationQuality::kReliable)
+        sparse.verdict.quality = CalibrationQuality::kUncertain;
+      sparse.verdict.reasons.insert(sparse.verdict.reasons.begin(), reason);
     }
-    check_timer.Lap("known_fit");
   }
+  sparse.timings_ms.emplace_back("known_fit", check_ms);
   return sparse;
 }
 
