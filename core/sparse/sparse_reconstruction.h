@@ -50,7 +50,8 @@ struct KnownCalibration {
   // without counting the prior twice (SparseReconstruction::self_estimate).
   bool also_self_calibrate = false;
   // Compare it with the burst calibrated alone on the same tracks
-  // (SparseOptions::max_known_fit_ratio; the sparse stage runs twice). Off
+  // (SparseOptions::max_known_fit_ratio; the sparse stage runs twice), whose
+  // solution is also a start of the adjustment under it (GivenStart). Off
   // where the camera comes from this camera's own bursts (the daemon's fused
   // calibration) or is a loose guess (EXIF's focal length).
   bool check_fit = true;
