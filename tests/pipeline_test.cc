@@ -14,8 +14,10 @@
 
 #include "core/dense/dense_depth.h"
 #include "core/io/depth_tiff.h"
+#include "core/io/exif_focal.h"
 #include "core/io/file_util.h"
 #include "core/pipeline/evaluation.h"
+#include "core/sparse/calibration_fusion.h"
 #include "core/synth/burst_synthesizer.h"
 #include "core/synth/camera_effects.h"
 
@@ -326,6 +328,10 @@ TEST(Pipeline, ARepeatedFrameIsLeftOutAndKeepsItsOriginalsPose) {
 // self-calibrated), and the known-fit check flagged the true camera. The
 // burst's own solution, its camera replaced by the known one, is one more
 // start, and under the known camera it fits the tracks its own camera did.
+// The same where the known camera is not checked, as dfsmd gives its fused
+// calibration (a prior at the fusion's widths, the burst also calibrated
+// alone), once its first try keeps too few tracks: before, 120 tracks there
+// too, and the calibration called reliable.
 TEST(Pipeline, UnderAKnownCalibrationTheBurstsOwnSolutionIsAStart) {
   SynthOptions phone;
   phone.width = 320;
@@ -354,6 +360,30 @@ TEST(Pipeline, UnderAKnownCalibrationTheBurstsOwnSolutionIsAStart) {
       EvaluateSparse(output.sparse->state.camera, output.sparse->state.poses, generated.truth);
   RecordProperty("mean_rotation_error_deg", std::to_string(evaluation.mean_rotation_error_deg));
   EXPECT_LT(evaluation.mean_rotation_error_deg, 0.012);  // measured 0.0030; 0.052 before
+
+  KnownCalibration& fused = *sparse_only.sparse.known;
+  fused.f_sigma_percent = kMinFusedPriorSigmaFPercent;
+  fused.distortion_sigma_px = kMinFusedPriorDistortionPx;
+  fused.also_self_calibrate = true;
+  fused.check_fit = false;
+  const PipelineOutput unchecked = RunPipeline(burst, sparse_only);
+  ASSERT_TRUE(unchecked.result.ok) << unchecked.result.error;
+  EXPECT_FALSE(unchecked.sparse->known_fit.has_value());
+  // Its first try kept too few tracks (120 of 199), so the burst was
+  // calibrated alone and its solution won.
+  const auto& laps = unchecked.sparse->timings_ms;
+  EXPECT_TRUE(std::any_of(laps.begin(), laps.end(),
+                          [](const auto& lap) { return lap.first == "known_first_try"; }));
+  EXPECT_TRUE(unchecked.result.bundle_adjustment.from_self_calibration);
+  const int unchecked_tracks = static_cast<int>(
+      std::count(unchecked.sparse->inliers.begin(), unchecked.sparse->inliers.end(), true));
+  RecordProperty("unchecked_tracks", std::to_string(unchecked_tracks));
+  EXPECT_GE(unchecked_tracks, fit.free_tracks - 5);
+  const SparseEvaluation unchecked_evaluation = EvaluateSparse(
+      unchecked.sparse->state.camera, unchecked.sparse->state.poses, generated.truth);
+  RecordProperty("unchecked_rotation_error_deg",
+                 std::to_string(unchecked_evaluation.mean_rotation_error_deg));
+  EXPECT_LT(unchecked_evaluation.mean_rotation_error_deg, 0.012);
 }
 
 }  // namespace
@@ -374,7 +404,7 @@ TEST(Pipeline, AnExifFocalLengthIsAPriorAndTheResultSaysSo) {
   const SynthBurst synth = SynthesizeBurst(options);
   Burst burst = ToBurst(synth);
   // The 35 mm equivalent of the true focal length.
-  burst.exif_focal_35mm = std::round(synth.truth.camera.f * 43.2666 / std::hypot(640.0, 480.0));
+  burst.exif_focal_35mm = std::round(Focal35mmFromPixels(synth.truth.camera.f, 640, 480));
   PipelineOptions pipeline;
   pipeline.run_dense = false;
   const PipelineOutput output = RunPipeline(burst, pipeline);

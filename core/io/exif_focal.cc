@@ -26,9 +26,16 @@ std::optional<double> ReadExifFocalLength35mm(const std::string& file_bytes) {
   return static_cast<double>(focal);
 }
 
+namespace {
+constexpr double kFilmDiagonalMm = 43.2666;  // hypot(36, 24)
+}  // namespace
+
 double FocalPixelsFrom35mm(double focal_35mm, int width, int height) {
-  constexpr double kFilmDiagonalMm = 43.2666;  // hypot(36, 24)
   return focal_35mm * std::hypot(width, height) / kFilmDiagonalMm;
+}
+
+double Focal35mmFromPixels(double f_px, int width, int height) {
+  return f_px * kFilmDiagonalMm / std::hypot(width, height);
 }
 
 }  // namespace dfsm

@@ -16,5 +16,7 @@ std::optional<double> ReadExifFocalLength35mm(const std::string& file_bytes);
 // defines it. Digital zoom or a cropped video mode make it wrong, which is
 // why it only ever enters as a prior.
 double FocalPixelsFrom35mm(double focal_35mm, int width, int height);
+// Its inverse: what a camera of focal length `f_px` writes, unrounded.
+double Focal35mmFromPixels(double f_px, int width, int height);
 
 }  // namespace dfsm

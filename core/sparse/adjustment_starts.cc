@@ -394,6 +394,9 @@ void CheckAdjustmentOptions(const SparseOptions& options) {
     throw std::invalid_argument(
         "reweight_rounds must be >= 0 (0: every track weighs the same), got " +
         std::to_string(options.reweight_rounds));
+  if (!(options.min_known_inlier_share >= 0.0 && options.min_known_inlier_share <= 1.0))
+    throw std::invalid_argument("min_known_inlier_share must be in [0, 1] (0: never), got " +
+                                FixedText(options.min_known_inlier_share));
   if (!(options.min_track_weight > 0.0 && options.min_track_weight <= 1.0))
     throw std::invalid_argument("min_track_weight must be in (0, 1], got " +
                                 FixedText(options.min_track_weight));

@@ -365,8 +365,9 @@ TEST(AdjustFromStarts, RefusesFocalStartsNoCameraHas) {
                std::invalid_argument);
 }
 
-// The reweighting's options are refused by AdjustFromStarts itself, not only
-// by ReconstructSparse, and before any work: the message names the option.
+// The reweighting's options (and the known calibration's retry share) are
+// refused by AdjustFromStarts itself, not only by ReconstructSparse, and
+// before any work: the message names the option.
 TEST(AdjustFromStarts, RefusesReweightingOptionsOutOfRange) {
   const TrackSimulation sim = PhoneTracks();
   const auto message = [&](const SparseOptions& options) {
@@ -385,6 +386,11 @@ TEST(AdjustFromStarts, RefusesReweightingOptionsOutOfRange) {
     SparseOptions floor = EstimatedReadout();
     floor.min_track_weight = weight;
     EXPECT_NE(message(floor).find("min_track_weight"), std::string::npos) << weight;
+  }
+  for (const double share : {-0.1, 1.5, std::nan("")}) {
+    SparseOptions retry = EstimatedReadout();
+    retry.min_known_inlier_share = share;
+    EXPECT_NE(message(retry).find("min_known_inlier_share"), std::string::npos) << share;
   }
 }
 

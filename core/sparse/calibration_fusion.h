@@ -30,6 +30,13 @@ double ChiSquareCdf(double x, int degrees_of_freedom);
 // The x with ChiSquareCdf(x) = probability, probability in (0, 1), by bisection.
 double ChiSquareQuantile(double probability, int degrees_of_freedom);
 
+// Floors of the fused calibration's widths as a prior (KnownCalibration's
+// f_sigma_percent, distortion_sigma_px): its sigma counts each burst's noise,
+// not the model error the bursts share, and shrinks like 1 / sqrt(bursts);
+// without a floor many bursts would freeze the camera.
+constexpr double kMinFusedPriorSigmaFPercent = 0.2;
+constexpr double kMinFusedPriorDistortionPx = 0.1;
+
 struct CalibrationSample {  // one burst's estimate
   CameraModel camera;       // f, k1, k2 estimated; width, height, cx, cy as used
   // Of (f [px], k1, k2): symmetric positive definite. A burst that held k1, k2

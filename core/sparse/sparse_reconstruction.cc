@@ -319,6 +319,58 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
   return sparse;
 }
 
+// The same tracks calibrated by the burst alone (no known camera, no
+// bootstrap: its camera is compared or started from, not reported or
+// fused); empty where the burst cannot calibrate itself.
+std::optional<SparseReconstruction> CalibrateAlone(const SparseReconstruction& tracked, int width,
+                                                   int height, const SparseOptions& options,
+                                                   SharedWork* beside) {
+  SparseOptions alone = options;
+  alone.known.reset();
+  alone.bootstrap.replicas = 0;
+  try {
+    return AdjustTracks(tracked, width, height, alone, /*measure_lens_relief=*/false, beside);
+  } catch (const ReconstructionError&) {
+    return std::nullopt;
+  }
+}
+
+GivenStart OwnSolutionStart(const SparseReconstruction& free) {
+  return GivenStart{free.state, free.inliers, ParseInitMode(free.bundle_adjustment.init)};
+}
+
+// A known calibration without the fit check (SparseOptions::
+// min_known_inlier_share): adjusted under it; where that keeps too few of
+// the tracks, again with the burst's own solution as one more start (which
+// the starts made under it then have to beat, as in the checked case).
+SparseReconstruction AdjustUncheckedKnown(SparseReconstruction tracked, int width, int height,
+                                          const SparseOptions& options, SharedWork* beside) {
+  if (!(options.min_known_inlier_share > 0.0))
+    return AdjustTracks(std::move(tracked), width, height, options,
+                        /*measure_lens_relief=*/true, beside);
+  const auto first_start = std::chrono::steady_clock::now();
+  SparseReconstruction first =
+      AdjustTracks(tracked, width, height, options, /*measure_lens_relief=*/true, beside);
+  if (!(CountUsed(first.inliers) < options.min_known_inlier_share * tracked.tracks.num_tracks()))
+    return first;
+  const double first_ms = MillisecondsBetween(first_start);
+  const auto alone_start = std::chrono::steady_clock::now();
+  const std::optional<SparseReconstruction> free =
+      CalibrateAlone(tracked, width, height, options, beside);
+  if (!free) return first;
+  const double alone_ms = MillisecondsBetween(alone_start);
+  const GivenStart own = OwnSolutionStart(*free);
+  try {
+    SparseReconstruction again = AdjustTracks(std::move(tracked), width, height, options,
+                                              /*measure_lens_relief=*/true, beside, &own);
+    again.timings_ms.emplace_back("known_first_try", first_ms);
+    again.timings_ms.emplace_back("known_fit", alone_ms);
+    return again;
+  } catch (const ReconstructionError&) {
+    return first;  // the same starts and one more: not expected, but the first stands
+  }
+}
+
 }  // namespace
 
 SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int reference,
@@ -343,9 +395,10 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
   const int width = frames[reference].cols, height = frames[reference].rows;
   const bool check_known =
       options.known && options.known->check_fit && options.max_known_fit_ratio > 0.0;
-  if (!check_known)
+  if (!options.known)
     return AdjustTracks(std::move(tracked), width, height, options,
                         /*measure_lens_relief=*/true, beside);
+  if (!check_known) return AdjustUncheckedKnown(std::move(tracked), width, height, options, beside);
   // The same tracks calibrated by the burst alone, first: a camera that fits
   // them much better than the known one (more tracks, or a smaller error)
   // says the known calibration, or the motion model under it, does not hold
@@ -359,19 +412,11 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
   // fits them all (docs/sparse.md, "The burst's own solution as a start
   // under a known calibration").
   const auto check_start = std::chrono::steady_clock::now();
-  SparseOptions alone = options;
-  alone.known.reset();
-  alone.bootstrap.replicas = 0;  // its camera is compared, not reported or fused
-  std::optional<SparseReconstruction> free;
-  try {
-    free = AdjustTracks(tracked, width, height, alone, /*measure_lens_relief=*/false, beside);
-  } catch (const ReconstructionError&) {
-    // The burst cannot calibrate itself: nothing to compare the known camera with.
-  }
+  const std::optional<SparseReconstruction> free =
+      CalibrateAlone(tracked, width, height, options, beside);
   const double check_ms = MillisecondsBetween(check_start);
   std::optional<GivenStart> own;
-  if (free)
-    own = GivenStart{free->state, free->inliers, ParseInitMode(free->bundle_adjustment.init)};
+  if (free) own = OwnSolutionStart(*free);
   SparseReconstruction sparse =
       AdjustTracks(std::move(tracked), width, height, options,
                    /*measure_lens_relief=*/true, beside, own ? &*own : nullptr);

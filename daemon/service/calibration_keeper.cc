@@ -11,14 +11,6 @@
 namespace dfsm::service {
 namespace fs = std::filesystem;
 
-namespace {
-// Floors of the fused calibration's widths as a prior: its sigma counts each
-// burst's noise, not the model error the bursts share, and shrinks like
-// 1 / sqrt(bursts); without a floor many bursts would freeze the camera.
-constexpr double kMinFusedPriorSigmaFPercent = 0.2;
-constexpr double kMinFusedPriorDistortionPx = 0.1;
-}  // namespace
-
 CalibrationKeeper::CalibrationKeeper(const CalibrationSection& config, const fs::path& state_dir)
     : config_(config),
       path_(state_dir / "calibration" / "fusion.json"),
