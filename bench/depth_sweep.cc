@@ -14,10 +14,16 @@
 //               preset at the generator's default strengths, seeds 1-N at every
 //               size (DefaultStrengthSettings): the bursts the targets
 //               name; a table of means and medians per size follows the docs table.
-//   --known prior|fixed: each burst given its own camera as a known
-//               calibration (the model's f, k1, k2; not its k3, p1, p2).
+//   --known prior|fixed|fused: each burst given its own camera as a known
+//               calibration (the model's f, k1, k2; not its k3, p1, p2); fused:
+//               as dfsmd gives its fused calibration (a prior at the fusion's
+//               least widths, no fit check, the burst also calibrated alone:
+//               daemon/service/calibration_keeper.cc).
+//   --exif: each burst carries its true focal length as EXIF's 35 mm
+//               equivalent, in whole mm as cameras write it (a prior on f).
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -29,9 +35,11 @@
 #include <vector>
 
 #include "bench/report_options.h"
+#include "core/io/exif_focal.h"
 #include "core/pipeline/calibration_sweep.h"
 #include "core/pipeline/evaluation.h"
 #include "core/pipeline/pipeline.h"
+#include "core/sparse/calibration_fusion.h"
 #include "core/synth/burst_synthesizer.h"
 
 namespace dfsm {
@@ -49,6 +57,9 @@ struct DepthSweepOutcome {
   DepthEvaluation measured, filled;
   bool confirmed = false;
   nlohmann::json depth_check;  // result.json's, whole
+  // result.json's sparse_detail (tracks tracked, inliers, ...) and which
+  // start won (bundle_adjustment.from_self_calibration).
+  nlohmann::json sparse_detail;
   std::string quality;
   std::vector<std::string> warnings;
   double total_ms = 0.0;
@@ -58,20 +69,31 @@ struct DepthSweepOutcome {
 // to keep/result, for `dfsm evaluate` and a look at the maps.
 // known: where set, the burst's own camera (f, k1, k2 of its ground truth;
 // the rendered k3, p1, p2 are not in the model) is given as a known
-// calibration in that mode, as a user gives a calibration file.
+// calibration in that mode, as a user gives a calibration file; `fused`: as
+// dfsmd gives a fused calibration.
 DepthSweepOutcome RunDepthSweepBurst(const SynthOptions& settings, const std::string& keep,
                                      PipelineOptions pipeline,
-                                     std::optional<KnownCalibrationMode> known) {
+                                     std::optional<KnownCalibrationMode> known, bool fused,
+                                     bool exif) {
   DepthSweepOutcome outcome;
   outcome.settings = settings;
   const SynthBurst synth = SynthesizeBurst(settings);
-  const Burst burst = ToBurst(synth);
+  Burst burst = ToBurst(synth);
+  if (exif)
+    burst.exif_focal_35mm =
+        std::round(Focal35mmFromPixels(synth.truth.camera.f, burst.width(), burst.height()));
   if (!keep.empty()) WriteSynthBurst(std::filesystem::path(keep) / "burst", synth);
   if (known) {
     KnownCalibration calibration;
     calibration.camera = synth.truth.camera;
     calibration.mode = *known;
     calibration.source = "truth";
+    if (fused) {
+      calibration.f_sigma_percent = kMinFusedPriorSigmaFPercent;
+      calibration.distortion_sigma_px = kMinFusedPriorDistortionPx;
+      calibration.also_self_calibrate = true;
+      calibration.check_fit = false;
+    }
     pipeline.sparse.known = calibration;
   }
   const auto start = std::chrono::steady_clock::now();
@@ -93,6 +115,9 @@ DepthSweepOutcome RunDepthSweepBurst(const SynthOptions& settings, const std::st
   const nlohmann::json& check = output.result.extra.at("depth_check");
   outcome.confirmed = check.at("confirmed").get<bool>();
   outcome.depth_check = check;
+  outcome.sparse_detail = output.result.extra.at("sparse_detail");
+  outcome.sparse_detail["from_self_calibration"] =
+      output.result.bundle_adjustment.from_self_calibration;
   outcome.quality = output.result.calibration_detail.value("quality", "");
   outcome.warnings = output.result.warnings;
   return outcome;
@@ -112,6 +137,7 @@ nlohmann::json ToJson(const DepthSweepOutcome& o) {
   j["confirmed"] = o.confirmed;
   j["relief_sigma"] = o.depth_check.at("relief_sigma");
   j["depth_check"] = o.depth_check;
+  j["sparse_detail"] = o.sparse_detail;
   j["quality"] = o.quality;
   j["warnings"] = o.warnings;
   return j;
@@ -205,6 +231,7 @@ int main(int argc, char** argv) {
   std::string camera = "phone", field_of_view = "normal", keep;
   PipelineOptions pipeline;
   std::optional<KnownCalibrationMode> known;
+  bool fused = false, exif = false;
   try {
     for (int i = 1; i < argc; ++i) {
       if (!std::strcmp(argv[i], "--bursts") && i + 1 < argc) {
@@ -226,17 +253,22 @@ int main(int argc, char** argv) {
       } else if (!std::strcmp(argv[i], "--keep") && i + 1 < argc) {
         keep = argv[++i];
       } else if (!std::strcmp(argv[i], "--known") && i + 1 < argc) {
-        known = ParseKnownCalibrationMode(argv[++i]);
+        ++i;
+        fused = !std::strcmp(argv[i], "fused");
+        known = fused ? KnownCalibrationMode::kPrior : ParseKnownCalibrationMode(argv[i]);
+      } else if (!std::strcmp(argv[i], "--exif")) {
+        exif = true;
       } else if (!std::strcmp(argv[i], "--reweight-rounds") && i + 1 < argc) {
         // 0: every track weighs the same
         pipeline.sparse.reweight_rounds = WholeNumber("--reweight-rounds", argv[++i], 0);
       } else {
-        std::fprintf(stderr,
-                     "usage: depth_sweep [--bursts N] [--seed S] [--camera ideal|webcam|phone]\n"
-                     "                   [--field-of-view normal|wide] [--only I [--keep DIR]]\n"
-                     "                   [--reweight-rounds N] [--known prior|fixed]\n"
-                     "       depth_sweep --defaults N [--camera ...] [--only I [--keep DIR]]\n"
-                     "                   [--known prior|fixed]\n");
+        std::fprintf(
+            stderr,
+            "usage: depth_sweep [--bursts N] [--seed S] [--camera ideal|webcam|phone]\n"
+            "                   [--field-of-view normal|wide] [--only I [--keep DIR]]\n"
+            "                   [--reweight-rounds N] [--known prior|fixed|fused] [--exif]\n"
+            "       depth_sweep --defaults N [--camera ...] [--only I [--keep DIR]]\n"
+            "                   [--known prior|fixed|fused] [--exif]\n");
         return 2;
       }
     }
@@ -273,7 +305,7 @@ int main(int argc, char** argv) {
   if (only >= 0) sweep = {sweep[only]};
   std::vector<DepthSweepOutcome> outcomes;
   for (const SynthOptions& settings : sweep) {
-    outcomes.push_back(RunDepthSweepBurst(settings, keep, pipeline, known));
+    outcomes.push_back(RunDepthSweepBurst(settings, keep, pipeline, known, fused, exif));
     std::printf("%s\n", ToJson(outcomes.back()).dump().c_str());
     std::fflush(stdout);
   }
