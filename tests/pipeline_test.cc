@@ -12,6 +12,7 @@
 #include <ostream>
 #include <string>
 
+#include "core/camera/pose.h"
 #include "core/dense/dense_depth.h"
 #include "core/io/depth_tiff.h"
 #include "core/io/exif_focal.h"
@@ -89,6 +90,36 @@ INSTANTIATE_TEST_SUITE_P(Bursts, PipelineDepth,
                                            DepthCase{640, 480, 10, 90, 0.04, 0.87, 0.87, 0.04},
                                            DepthCase{1920, 1080, 10, 0, 0.02, 0.95, 0.87, 0.02},
                                            DepthCase{1920, 1080, 15, 90, 0.02, 0.95, 0.87, 0.02}));
+
+// A burst whose reference is not its first frame (dfsmd makes the first its
+// reference; TUM's windows take the middle one; `dfsm synth --reference`):
+// the pipeline reports the depth of that frame and poses relative to it.
+TEST(Pipeline, AReferenceInTheMiddleIsMeasuredAsTheFirstIs) {
+  SynthOptions options;
+  options.width = 640;
+  options.height = 480;
+  options.supersampling = 2;
+  options.reference = 5;
+  const SynthBurst generated = SynthesizeBurst(options);
+  const Burst burst = ToBurst(generated);
+  ASSERT_EQ(burst.reference(), 5);
+  const PipelineOutput output = RunPipeline(burst, {});
+  ASSERT_TRUE(output.result.ok) << output.result.error;
+  ASSERT_TRUE(output.dense.has_value());
+  ASSERT_EQ(output.result.poses.size(), generated.truth.poses.size());
+  EXPECT_TRUE(output.result.poses[5].R.isIdentity(1e-12));
+  EXPECT_LT(output.result.poses[5].T.norm(), 1e-12);
+  for (size_t i = 0; i < generated.truth.poses.size(); ++i)
+    EXPECT_LT(RotationErrorDeg(output.result.poses[i].R, generated.truth.poses[i].R), 0.02)
+        << "frame " << i;
+  // The bounds of the first-frame bursts of PipelineDepth at this size.
+  const cv::Mat textured = TexturedMask(burst.gray[burst.reference()]);
+  const DepthEvaluation score = EvaluateDepth(output.dense->depth, generated.truth.depth, textured);
+  RecordProperty("abs_rel", std::to_string(score.abs_rel));
+  EXPECT_LE(score.abs_rel, 0.03);
+  EXPECT_GE(score.within_5_percent, 0.90);
+  EXPECT_GE(score.coverage, 0.87);
+}
 
 // The dense stage alone (true camera and poses) with and without the test
 // for breaks among the raw winners (DenseOptions::raw_discontinuity_radius,

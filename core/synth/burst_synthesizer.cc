@@ -31,6 +31,8 @@ void Validate(const SynthOptions& o) {
   Require(o.width >= 64 && o.width <= 8192, "width must be between 64 and 8192 pixels");
   Require(o.height >= 64 && o.height <= 8192, "height must be between 64 and 8192 pixels");
   Require(o.frames >= 3 && o.frames <= 200, "frames must be between 3 and 200");
+  Require(o.reference >= 0 && o.reference < o.frames,
+          "reference must be the index of one of the frames (0 to frames - 1)");
   Require(o.f >= 0.0 && std::isfinite(o.f), "f must be positive (or 0 for the default)");
   Require(std::isfinite(o.k1) && std::isfinite(o.k2), "k1 and k2 must be finite");
   Require(o.baseline >= 0.0 && o.baseline <= 1.0, "baseline must be between 0 and 1 m");
@@ -240,6 +242,7 @@ nlohmann::json OptionsJson(const SynthOptions& o, const CameraModel& camera,
           {"jpeg_quality", o.jpeg_quality},
           {"supersampling", o.supersampling},
           {"seed", o.seed},
+          {"reference", o.reference},
           {"effects", ToJson(o.effects)},
           {"moving_object", o.moving_object},
           {"curved_surfaces", o.curved_surfaces},
@@ -314,21 +317,25 @@ SynthBurst SynthesizeBurst(const SynthOptions& options) {
   path_options.rotation_deg = options.rotation_deg;
   path_options.seed = options.seed;
 
+  // The path is in the coordinates of its first frame, where the scene is
+  // laid out; frames and depth are rendered from it whichever frame is the
+  // reference, and only the truth's poses are re-expressed.
+  const std::vector<Pose> path = HandheldCameraPath(path_options);
   SynthBurst burst;
   burst.effects = options.effects;
   burst.truth.camera = camera;
-  burst.truth.poses = HandheldCameraPath(path_options);
+  burst.truth.poses = PosesRelativeTo(path, options.reference);
   burst.manifest.width = options.width;
   burst.manifest.height = options.height;
   burst.manifest.pixel_format = options.color ? "bgr8" : "gray8";
-  burst.manifest.reference = 0;
-  burst.truth.depth = RenderReferenceDepth(scene, moving_object, camera, options.effects,
-                                           burst.truth.poses, burst.manifest.reference);
+  burst.manifest.reference = options.reference;
+  burst.truth.depth = RenderReferenceDepth(scene, moving_object, camera, options.effects, path,
+                                           burst.manifest.reference);
   burst.manifest.source = {{"device", "synthetic"},
                            {"fps", 30.0},
                            {"synthetic", OptionsJson(options, camera, scene.texture_names())}};
-  const RenderInputs inputs{scene,           moving_object,     camera,
-                            options.effects, burst.truth.poses, options.supersampling};
+  const RenderInputs inputs{scene,           moving_object, camera,
+                            options.effects, path,          options.supersampling};
   for (int i = 0; i < options.frames; ++i) {
     cv::Mat mask;
     cv::Mat radiance = RenderFrame(inputs, i, moving_object != nullptr ? &mask : nullptr);

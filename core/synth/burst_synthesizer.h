@@ -27,7 +27,7 @@ struct SynthOptions {
   double k1 = -0.06;
   double k2 = 0.015;
   double baseline = 0.008;    // largest distance between two camera centres, metres
-  double rotation_deg = 0.5;  // largest rotation of a frame against the reference
+  double rotation_deg = 0.5;  // largest rotation of a frame against the first one
   double noise_sigma = 1.0;   // Gaussian sensor noise, grey levels (0: none)
   int jpeg_quality = 0;       // 1..100: JPEG round trip of every frame; 0: none
   int supersampling = 3;      // samples per pixel side (anti-aliasing)
@@ -38,13 +38,17 @@ struct SynthOptions {
   int curved_surfaces = 0;     // textured cylinders and spheres among the patches
   double untextured = 0.0;     // share of the patches rendered in one flat colour
   uint64_t seed = 1;
+  // The reference frame (the manifest's "reference"): the truth's poses are
+  // relative to it and depth_gt is its depth. The frames themselves do not
+  // depend on it.
+  int reference = 0;
   // Where real photographs are looked for (Debian's opencv-doc); a procedural
   // texture replaces any that is missing.
   std::string texture_dir = "/usr/share/doc/opencv-doc/examples/data";
 };
 
 struct SynthBurst {
-  BurstManifest manifest;       // reference 0, timestamps at 30 fps, source {"synthetic": options}
+  BurstManifest manifest;  // options.reference, timestamps at 30 fps, source {"synthetic": options}
   std::vector<cv::Mat> frames;  // CV_8UC3 (BGR) or CV_8UC1, as captured (distorted)
   GroundTruth truth;            // camera, poses (X_i = R_i X_ref + T_i, metres), reference depth
   CameraEffects effects;        // as rendered; k3, p1, p2 go into ground_truth.json

@@ -30,7 +30,7 @@ double WarpError(const SynthBurst& burst, int i, double shift) {
   const CameraModel& camera = burst.truth.camera;
   const Pose& pose = burst.truth.poses[i];
   cv::Mat reference, frame;
-  cv::cvtColor(burst.frames[0], reference, cv::COLOR_BGR2GRAY);
+  cv::cvtColor(burst.frames[burst.manifest.reference], reference, cv::COLOR_BGR2GRAY);
   cv::cvtColor(burst.frames[i], frame, cv::COLOR_BGR2GRAY);
   double sum = 0.0;
   int count = 0;
@@ -60,6 +60,43 @@ TEST(BurstSynthesizer, FramesFollowTheGroundTruthGeometry) {
     const double aligned = WarpError(burst, i, 0.0);
     EXPECT_LT(aligned, 4.0) << "frame " << i;
     EXPECT_LT(aligned * 2.0, WarpError(burst, i, 1.5)) << "frame " << i;
+  }
+}
+
+// The reference is a choice of the burst, not of the motion: the same frames,
+// the truth's poses re-expressed for it (the identity at the reference, every
+// pair's relative pose kept) and its own depth, which the frames follow.
+TEST(BurstSynthesizer, AnyFrameCanBeTheReference) {
+  const SynthBurst first = SynthesizeBurst(SmallOptions());
+  SynthOptions options = SmallOptions();
+  options.reference = 2;
+  const SynthBurst middle = SynthesizeBurst(options);
+  ASSERT_EQ(middle.manifest.reference, 2);
+  ASSERT_EQ(middle.frames.size(), first.frames.size());
+  for (size_t i = 0; i < first.frames.size(); ++i)
+    EXPECT_EQ(cv::norm(middle.frames[i], first.frames[i], cv::NORM_INF), 0.0) << "frame " << i;
+  EXPECT_TRUE(middle.truth.poses[2].R.isIdentity(0.0));
+  EXPECT_TRUE(middle.truth.poses[2].T.isZero(0.0));
+  for (int i = 0; i < 5; ++i) {
+    for (int j = 0; j < 5; ++j) {
+      // Frame j's pose seen from frame i: R_j R_i^T, T_j - R_j R_i^T T_i.
+      const auto relative = [](const Pose& a, const Pose& b) {
+        Pose p;
+        p.R = b.R * a.R.transpose();
+        p.T = b.T - p.R * a.T;
+        return p;
+      };
+      const Pose was = relative(first.truth.poses[i], first.truth.poses[j]);
+      const Pose is = relative(middle.truth.poses[i], middle.truth.poses[j]);
+      EXPECT_LT((is.R - was.R).norm(), 1e-12) << i << " -> " << j;
+      EXPECT_LT((is.T - was.T).norm(), 1e-12) << i << " -> " << j;
+    }
+  }
+  EXPECT_GT(cv::norm(middle.truth.depth, first.truth.depth, cv::NORM_L1), 0.0);
+  for (int i : {0, 1, 3, 4}) {
+    const double aligned = WarpError(middle, i, 0.0);
+    EXPECT_LT(aligned, 4.0) << "frame " << i;
+    EXPECT_LT(aligned * 2.0, WarpError(middle, i, 1.5)) << "frame " << i;
   }
 }
 
@@ -152,6 +189,19 @@ TEST(BurstSynthesizer, RejectsBadOptionsByName) {
         }
       },
       std::invalid_argument);
+  options = SmallOptions();
+  options.reference = options.frames;  // one past the last frame
+  EXPECT_THROW(
+      {
+        try {
+          SynthesizeBurst(options);
+        } catch (const std::invalid_argument& e) {
+          EXPECT_NE(std::string(e.what()).find("reference"), std::string::npos);
+          throw;
+        }
+      },
+      std::invalid_argument);
+  EXPECT_THROW(PosesRelativeTo(std::vector<Pose>(3), 3), std::invalid_argument);
   options = SmallOptions();
   options.k1 = -2.0;  // folds the image
   EXPECT_THROW(SynthesizeBurst(options), std::invalid_argument);

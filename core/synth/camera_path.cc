@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <random>
+#include <stdexcept>
 
 namespace dfsm {
 namespace {
@@ -71,6 +72,19 @@ std::vector<Pose> HandheldCameraPath(const CameraPathOptions& options) {
     poses[i].T = -poses[i].R * centre;
   }
   return poses;
+}
+
+std::vector<Pose> PosesRelativeTo(const std::vector<Pose>& poses, int reference) {
+  if (reference < 0 || reference >= static_cast<int>(poses.size()))
+    throw std::invalid_argument("reference must be the index of one of the poses");
+  const Pose& r = poses[reference];
+  std::vector<Pose> relative(poses.size());
+  for (size_t i = 0; i < poses.size(); ++i) {
+    relative[i].R = poses[i].R * r.R.transpose();
+    relative[i].T = poses[i].T - relative[i].R * r.T;
+  }
+  relative[reference] = Pose();  // exactly the identity, not a rounding of it
+  return relative;
 }
 
 }  // namespace dfsm

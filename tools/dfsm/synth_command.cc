@@ -28,7 +28,7 @@ int RunSynthCommand(const Args& args) {
   app.add_option("--baseline", options.baseline, "extent of the camera path, metres")
       ->capture_default_str();
   app.add_option("--rotation", options.rotation_deg,
-                 "largest rotation against the reference, degrees")
+                 "largest rotation against the first frame, degrees")
       ->capture_default_str();
   app.add_option("--noise", options.noise_sigma, "sensor noise in grey levels")
       ->capture_default_str();
@@ -40,6 +40,10 @@ int RunSynthCommand(const Args& args) {
       ->capture_default_str();
   app.add_flag("--gray", gray, "gray8 frames instead of bgr8");
   app.add_option("--seed", options.seed, "scene and motion seed")->capture_default_str();
+  app.add_option("--reference", options.reference,
+                 "the reference frame: the ground truth's poses are relative to it and "
+                 "depth_gt.tiff is its depth (the frames are the same whichever it is)")
+      ->capture_default_str();
   app.add_option("--textures", options.texture_dir, "photographs to texture the scene with")
       ->capture_default_str();
   // What a real camera adds (core/synth/camera_effects.h): a preset, then
