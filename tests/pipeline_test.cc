@@ -37,6 +37,15 @@ SynthBurst GenerateBurst(int width, int height, int frames, int jpeg_quality) {
 
 SynthBurst SmallBurst() { return GenerateBurst(640, 480, 10, 0); }
 
+// The generator's defaults at 640x480, rendered with 2 x 2 rays per pixel.
+SynthOptions VgaOptions() {
+  SynthOptions options;
+  options.width = 640;
+  options.height = 480;
+  options.supersampling = 2;
+  return options;
+}
+
 struct DepthCase {
   int width, height, frames, jpeg_quality;
   double max_abs_rel, min_within_5_percent, min_coverage;
@@ -95,10 +104,7 @@ INSTANTIATE_TEST_SUITE_P(Bursts, PipelineDepth,
 // reference; TUM's windows take the middle one; `dfsm synth --reference`):
 // the pipeline reports the depth of that frame and poses relative to it.
 TEST(Pipeline, AReferenceInTheMiddleIsMeasuredAsTheFirstIs) {
-  SynthOptions options;
-  options.width = 640;
-  options.height = 480;
-  options.supersampling = 2;
+  SynthOptions options = VgaOptions();
   options.reference = 5;
   const SynthBurst generated = SynthesizeBurst(options);
   const Burst burst = ToBurst(generated);
@@ -427,11 +433,8 @@ namespace {
 // calibration is known: result.json names it, and the burst's own estimate is
 // still made beside it.
 TEST(Pipeline, AnExifFocalLengthIsAPriorAndTheResultSaysSo) {
-  SynthOptions options;
-  options.width = 640;
-  options.height = 480;
+  SynthOptions options = VgaOptions();
   options.rotation_deg = 2.0;
-  options.supersampling = 2;
   const SynthBurst synth = SynthesizeBurst(options);
   Burst burst = ToBurst(synth);
   // The 35 mm equivalent of the true focal length.
