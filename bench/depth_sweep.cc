@@ -83,17 +83,14 @@ DepthSweepOutcome RunDepthSweepBurst(const SynthOptions& settings, const std::st
     burst.exif_focal_35mm =
         std::round(Focal35mmFromPixels(synth.truth.camera.f, burst.width(), burst.height()));
   if (!keep.empty()) WriteSynthBurst(std::filesystem::path(keep) / "burst", synth);
-  if (known) {
+  if (known && fused) {
+    // As sure of it as a fusion can be: the widths at their floors.
+    pipeline.sparse.known = FusedCalibrationPrior(synth.truth.camera, 0.0, 0.0, "truth");
+  } else if (known) {
     KnownCalibration calibration;
     calibration.camera = synth.truth.camera;
     calibration.mode = *known;
     calibration.source = "truth";
-    if (fused) {
-      calibration.f_sigma_percent = kMinFusedPriorSigmaFPercent;
-      calibration.distortion_sigma_px = kMinFusedPriorDistortionPx;
-      calibration.also_self_calibrate = true;
-      calibration.check_fit = false;
-    }
     pipeline.sparse.known = calibration;
   }
   const auto start = std::chrono::steady_clock::now();

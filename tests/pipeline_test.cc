@@ -398,11 +398,7 @@ TEST(Pipeline, UnderAKnownCalibrationTheBurstsOwnSolutionIsAStart) {
   RecordProperty("mean_rotation_error_deg", std::to_string(evaluation.mean_rotation_error_deg));
   EXPECT_LT(evaluation.mean_rotation_error_deg, 0.012);  // measured 0.0030; 0.052 before
 
-  KnownCalibration& fused = *sparse_only.sparse.known;
-  fused.f_sigma_percent = kMinFusedPriorSigmaFPercent;
-  fused.distortion_sigma_px = kMinFusedPriorDistortionPx;
-  fused.also_self_calibrate = true;
-  fused.check_fit = false;
+  sparse_only.sparse.known = FusedCalibrationPrior(generated.truth.camera, 0.0, 0.0, "fused");
   const PipelineOutput unchecked = RunPipeline(burst, sparse_only);
   ASSERT_TRUE(unchecked.result.ok) << unchecked.result.error;
   EXPECT_FALSE(unchecked.sparse->known_fit.has_value());

@@ -10,6 +10,7 @@
 
 #include "core/sparse/calibration_uncertainty.h"
 #include "core/sparse/fixed_text.h"
+#include "core/sparse/sparse_reconstruction.h"
 
 namespace dfsm {
 namespace {
@@ -474,6 +475,19 @@ CalibrationFusion CalibrationFusion::FromJson(const nlohmann::json& j,
     fusion.history_.push_back(std::move(entry));
   }
   return fusion;
+}
+
+KnownCalibration FusedCalibrationPrior(const CameraModel& fused, double sigma_f_percent,
+                                       double distortion_sigma_px, const std::string& source) {
+  KnownCalibration known;
+  known.camera = fused;
+  known.mode = KnownCalibrationMode::kPrior;
+  known.f_sigma_percent = std::max(sigma_f_percent, kMinFusedPriorSigmaFPercent);
+  known.distortion_sigma_px = std::max(distortion_sigma_px, kMinFusedPriorDistortionPx);
+  known.source = source;
+  known.also_self_calibrate = true;
+  known.check_fit = false;
+  return known;
 }
 
 }  // namespace dfsm

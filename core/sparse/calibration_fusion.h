@@ -37,6 +37,16 @@ double ChiSquareQuantile(double probability, int degrees_of_freedom);
 constexpr double kMinFusedPriorSigmaFPercent = 0.2;
 constexpr double kMinFusedPriorDistortionPx = 0.1;
 
+struct KnownCalibration;  // core/sparse/sparse_reconstruction.h
+
+// A fused camera as the known calibration of a later burst, as dfsmd gives
+// it: a prior whose widths are the fusion's (`sigma_f_percent`,
+// `distortion_sigma_px`) raised to the floors above; not checked against
+// the burst (it was made from this camera's own bursts, with their sigma),
+// and the burst calibrated alone beside it for the next fusion.
+KnownCalibration FusedCalibrationPrior(const CameraModel& fused, double sigma_f_percent,
+                                       double distortion_sigma_px, const std::string& source);
+
 struct CalibrationSample {  // one burst's estimate
   CameraModel camera;       // f, k1, k2 estimated; width, height, cx, cy as used
   // Of (f [px], k1, k2): symmetric positive definite. A burst that held k1, k2

@@ -78,15 +78,15 @@ TEST(BurstSynthesizer, AnyFrameCanBeTheReference) {
     EXPECT_EQ(cv::norm(middle.frames[i], first.frames[i], cv::NORM_INF), 0.0) << "frame " << i;
   EXPECT_TRUE(middle.truth.poses[2].R.isIdentity(0.0));
   EXPECT_TRUE(middle.truth.poses[2].T.isZero(0.0));
+  // Frame b's pose seen from frame a: R_b R_a^T, T_b - R_b R_a^T T_a.
+  const auto relative = [](const Pose& a, const Pose& b) {
+    Pose p;
+    p.R = b.R * a.R.transpose();
+    p.T = b.T - p.R * a.T;
+    return p;
+  };
   for (int i = 0; i < 5; ++i) {
     for (int j = 0; j < 5; ++j) {
-      // Frame j's pose seen from frame i: R_j R_i^T, T_j - R_j R_i^T T_i.
-      const auto relative = [](const Pose& a, const Pose& b) {
-        Pose p;
-        p.R = b.R * a.R.transpose();
-        p.T = b.T - p.R * a.T;
-        return p;
-      };
       const Pose was = relative(first.truth.poses[i], first.truth.poses[j]);
       const Pose is = relative(middle.truth.poses[i], middle.truth.poses[j]);
       EXPECT_LT((is.R - was.R).norm(), 1e-12) << i << " -> " << j;

@@ -56,14 +56,9 @@ bool CalibrationKeeper::ForJob(const JobOptions& options, int width, int height,
   if (fusion_->empty() || !fusion_->reliable()) return false;
   const CameraModel fused = fusion_->camera();
   if (fused.width != width || fused.height != height) return false;  // another mode of the sensor
-  known->camera = fused;
-  known->mode = KnownCalibrationMode::kPrior;
   // The fusion's own sigma: it knows f and the distortion this well.
-  known->f_sigma_percent = std::max(fusion_->sigma_f_percent(), kMinFusedPriorSigmaFPercent);
-  known->distortion_sigma_px = std::max(fusion_->distortion_sigma_px(), kMinFusedPriorDistortionPx);
-  known->source = "fused (" + std::to_string(fusion_->bursts()) + " bursts)";
-  known->also_self_calibrate = true;
-  known->check_fit = false;  // made from this camera's own bursts, with their sigma
+  *known = FusedCalibrationPrior(fused, fusion_->sigma_f_percent(), fusion_->distortion_sigma_px(),
+                                 "fused (" + std::to_string(fusion_->bursts()) + " bursts)");
   return true;
 }
 
