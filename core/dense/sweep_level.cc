@@ -1,5 +1,6 @@
 #include "core/dense/sweep_level.h"
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <opencv2/imgproc.hpp>
 #include <optional>
