@@ -5,6 +5,7 @@
 #include <poll.h>
 #include <sys/socket.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
 
@@ -43,15 +44,31 @@ void SocketAddress(int socket, bool peer, std::string& ip, int& port) {
 
 GateStream::GateStream(int socket, std::string replay, size_t replay_from,
                        std::chrono::milliseconds read_timeout,
-                       std::chrono::milliseconds write_timeout, size_t max_line_bytes)
+                       std::chrono::milliseconds write_timeout, size_t max_line_bytes,
+                       ReadPace pace)
     : socket_(socket),
       replay_(std::move(replay)),
       position_(replay_from),
       read_timeout_(read_timeout),
       write_timeout_(write_timeout),
-      max_line_bytes_(max_line_bytes) {}
+      max_line_bytes_(max_line_bytes),
+      pace_(pace) {}
 
-bool GateStream::WaitReadable() const { return WaitFor(socket_, POLLIN, read_timeout_); }
+std::chrono::milliseconds GateStream::PaceLeft() const {
+  const auto earned = std::chrono::milliseconds(
+      pace_.min_bytes_per_s == 0
+          ? read_timeout_.count()
+          : static_cast<int64_t>(bytes_read_ * 1000 / pace_.min_bytes_per_s));
+  const auto deadline = started_ + pace_.grace + earned;
+  return std::chrono::duration_cast<std::chrono::milliseconds>(deadline -
+                                                               std::chrono::steady_clock::now());
+}
+
+bool GateStream::WaitReadable() const {
+  const std::chrono::milliseconds left = PaceLeft();
+  if (left.count() <= 0) return false;
+  return WaitFor(socket_, POLLIN, std::min(read_timeout_, left));
+}
 
 bool GateStream::is_readable() const { return position_ < replay_.size() || WaitReadable(); }
 

@@ -5,7 +5,8 @@
 //
 // A run of single-byte reads is how httplib reads a line (chunk sizes and
 // trailers of a chunked body); such a run longer than `max_line_bytes` without
-// a newline fails the read, so no line is buffered without bound.
+// a newline fails the read, so no line is buffered without bound. A read that
+// would fall behind the ReadPace fails too.
 #pragma once
 
 #include <httplib.h>
@@ -19,11 +20,21 @@ namespace dfsm::api {
 // end; "" and 0 when the socket has none.
 void SocketAddress(int socket, bool peer, std::string& ip, int& port);
 
+// How fast a request must keep arriving once a worker serves it: within
+// `grace` of the start, then at `min_bytes_per_s` on average (the rule of
+// Apache's mod_reqtimeout, body=20,MinRate=500). A body trickled a byte every
+// few seconds would otherwise hold a worker and the job queue place it
+// reserved for as long as the trickle lasts.
+struct ReadPace {
+  std::chrono::milliseconds grace{20000};
+  uint64_t min_bytes_per_s = 500;
+};
+
 class GateStream final : public httplib::Stream {
  public:
   GateStream(int socket, std::string replay, size_t replay_from,
              std::chrono::milliseconds read_timeout, std::chrono::milliseconds write_timeout,
-             size_t max_line_bytes);
+             size_t max_line_bytes, ReadPace pace = {});
 
   bool is_readable() const override;
   bool is_writable() const override;
@@ -40,6 +51,8 @@ class GateStream final : public httplib::Stream {
 
  private:
   bool WaitReadable() const;
+  // Time left before the read pace is missed (zero or less: missed).
+  std::chrono::milliseconds PaceLeft() const;
 
   const int socket_;
   std::string replay_;
@@ -47,6 +60,8 @@ class GateStream final : public httplib::Stream {
   const std::chrono::milliseconds read_timeout_;
   const std::chrono::milliseconds write_timeout_;
   const size_t max_line_bytes_;
+  const ReadPace pace_;
+  const std::chrono::steady_clock::time_point started_ = std::chrono::steady_clock::now();
   uint64_t bytes_read_ = 0;
   size_t line_run_ = 0;  // bytes of the current run of single-byte reads without '\n'
 };

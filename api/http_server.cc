@@ -12,6 +12,7 @@
 #include <chrono>
 #include <cstring>
 
+#include "api/byte_range.h"
 #include "api/gate_stream.h"
 #include "api/problem.h"
 #include "daemon/log/log.h"
@@ -33,6 +34,25 @@ std::string PeerAddress(int socket) {
   int port = 0;
   SocketAddress(socket, true, ip, port);
   return ip.empty() ? "?" : ip;
+}
+
+// Range never reaches httplib (api/byte_range.h says why): one byte range of
+// a GET or HEAD travels on as kGateRangeField, anything else is dropped and
+// the resource is served whole. Without a validator (dfsmd sends no ETag or
+// Last-Modified) an If-Range cannot match, so it, too, means the whole.
+void GateRange(ReadyRequest& request) {
+  RequestHead& head = request.head;
+  if (!head.Field("Range") && !head.Field(kGateRangeField)) return;
+  std::optional<ByteRange> range;
+  if (const std::string* value = head.Field("Range");
+      value && (head.method == "GET" || head.method == "HEAD") && !head.Field("If-Range"))
+    range = ParseSingleByteRange(*value);
+  if (head.RemoveFields("Range") != 1) range.reset();
+  head.RemoveFields(kGateRangeField);
+  if (range) head.fields.emplace_back(kGateRangeField, FormatRangeSpec(*range));
+  const std::string rewritten = head.Serialize();
+  request.bytes = rewritten + request.bytes.substr(request.head_size);
+  request.head_size = rewritten.size();
 }
 
 // Requests served on one connection before it is closed (httplib's default).
@@ -98,6 +118,7 @@ HttpServer::HttpServer(const service::ServerConfig& config)
   gate_ = std::make_unique<ConnectionGate>(
       gate, [this](ReadyRequest& request) { return Dispatch(request); },
       [this](int status, const std::string& slug, const std::string& detail) {
+        if (refusal_observer_) refusal_observer_(status);
         log::WriteLimited(log::Priority::kNotice, "refused connection",
                           "refused a connection: " + std::to_string(status) + " " + detail);
         return ProblemResponse(
@@ -125,11 +146,13 @@ HeadVerdict HttpServer::Dispatch(ReadyRequest& request) {
   if (std::optional<std::string> refusal = Judge(request.head, &lane)) {
     // "HTTP/1.1 421 Misdirected request": the status line names the refusal.
     const std::string status_line = refusal->substr(9, refusal->find('\r') - 9);
+    if (refusal_observer_) refusal_observer_(std::stoi(status_line.substr(0, 3)));
     log::WriteLimited(log::Priority::kNotice, "refused request",
                       "refused " + request.head.method + " " + request.head.path.substr(0, 200) +
                           " from " + PeerAddress(request.socket) + ": " + status_line);
     return {false, std::move(*refusal)};
   }
+  GateRange(request);
   httplib::ThreadPool* pool = lane == Lane::kControl ? control_.get() : bulk_.get();
   // std::function needs a copyable callable: the request travels by pointer.
   auto owned = std::make_shared<ReadyRequest>(std::move(request));
@@ -138,8 +161,11 @@ HeadVerdict HttpServer::Dispatch(ReadyRequest& request) {
 }
 
 void HttpServer::Serve(ReadyRequest request) {
+  ReadPace pace;
+  pace.grace = std::chrono::milliseconds(config_.body_grace_ms);
+  pace.min_bytes_per_s = static_cast<uint64_t>(config_.min_body_rate);
   GateStream stream(request.socket, std::move(request.bytes), 0, std::chrono::seconds(30),
-                    std::chrono::seconds(30), static_cast<size_t>(config_.max_head_bytes));
+                    std::chrono::seconds(30), static_cast<size_t>(config_.max_head_bytes), pace);
   const bool close =
       request.head.WantsClose() || request.served + 1 >= kKeepAliveMaxCount || stopping_.load();
   bool connection_closed = false;

@@ -13,6 +13,7 @@
 #include <httplib.h>
 
 #include <atomic>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <stdexcept>
@@ -37,6 +38,12 @@ class HttpServer {
 
   // Every request head passes `guard` before it is served. Call before Start().
   void SetGuard(RequestGuard guard) { guard_.emplace(std::move(guard)); }
+  // Told the status of every request the gate refuses itself (the guard's
+  // 401, 403, 421, ... and the gate's 400, 408, 431, 503), which httplib never
+  // sees. Any thread. Call before Start().
+  void SetRefusalObserver(std::function<void(int status)> observer) {
+    refusal_observer_ = std::move(observer);
+  }
   // The gate's decision on a complete head: nullopt to serve it (in *lane), or
   // the complete HTTP response that refuses it. For the fuzzers, too.
   std::optional<std::string> Judge(const RequestHead& head, Lane* lane) const;
@@ -63,6 +70,7 @@ class HttpServer {
   const service::ServerConfig config_;
   std::unique_ptr<Listener> listener_;
   std::optional<RequestGuard> guard_;
+  std::function<void(int)> refusal_observer_;
   std::unique_ptr<ConnectionGate> gate_;
   std::unique_ptr<httplib::ThreadPool> control_;
   std::unique_ptr<httplib::ThreadPool> bulk_;

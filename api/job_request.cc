@@ -27,7 +27,7 @@ constexpr Field kFields[] = {
     {"planes", "pipeline.planes"}, {"grid", "pipeline.grid"},
     {"init", "pipeline.init"},     {"rolling_shutter", "pipeline.rolling_shutter"},
     {"dense", "pipeline.dense"},   {"keep_burst", "jobs.keep_burst"},
-    {"calibration", nullptr}};
+    {"calibration", nullptr},      {"camera", nullptr}};
 
 // "auto": the configured or the fused calibration; "self": this burst alone.
 ConfigKey CalibrationChoice() {
@@ -38,15 +38,29 @@ ConfigKey CalibrationChoice() {
   return key;
 }
 
+// An upload's "camera": "capture" says the burst comes from the daemon's
+// capture camera, whose calibration it may then use and feed; "other" (the
+// default) keeps it apart. A capture's camera is the capture camera.
+ConfigKey CameraChoice() {
+  ConfigKey key;
+  key.name = "camera";
+  key.type = KeyType::kString;
+  key.choices = {"other", "capture"};
+  return key;
+}
+
 const Field* FindField(const std::string& name, bool upload) {
   for (const Field& field : kFields) {
-    if (name == field.name && !(upload && name == "when")) return &field;
+    if (name != field.name) continue;
+    if (upload ? name == "when" : name == "camera") return nullptr;
+    return &field;
   }
   return nullptr;
 }
 
 ConfigKey KeyOf(const Field& field) {
-  return field.key ? ConfigKeyNamed(field.key) : CalibrationChoice();
+  if (field.key) return ConfigKeyNamed(field.key);
+  return std::string(field.name) == "camera" ? CameraChoice() : CalibrationChoice();
 }
 
 int64_t ParseIntegerText(const std::string& field, const std::string& text) {
@@ -118,6 +132,8 @@ void ApplyField(const std::string& name, const nlohmann::json& value, bool uploa
     options->keep_burst = boolean();
   } else if (name == "calibration") {
     options->calibration = text();
+  } else if (name == "camera") {
+    options->camera = text();
   }
 }
 
@@ -157,6 +173,7 @@ JobOptions ParseUploadQuery(const std::multimap<std::string, std::string>& query
   JobOptions options = DefaultJobOptions(config);
   options.frames = 0;
   options.when.reset();  // an upload's frames are taken already
+  options.camera = "other";
   std::string previous;
   for (const auto& [field, text] : query) {
     if (field == previous) throw RequestError("'" + field + "' is given more than once");

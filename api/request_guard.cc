@@ -67,11 +67,14 @@ std::vector<std::string> AllowedHosts(const service::ServerConfig& config) {
 }
 
 RequestGuard::RequestGuard(const service::ServerConfig& config,
-                           std::function<std::string(const std::string&)> allowed_methods)
+                           std::function<std::string(const std::string&)> allowed_methods,
+                           std::function<bool()> queue_full, int retry_after_s)
     : auth_(config.token),
       cors_origin_(config.cors_origin),
       max_body_bytes_(static_cast<uint64_t>(config.max_body_bytes)),
       allowed_methods_(std::move(allowed_methods)),
+      queue_full_(std::move(queue_full)),
+      retry_after_s_(retry_after_s),
       allowed_hosts_(AllowedHosts(config)) {
   any_host_ = std::find(allowed_hosts_.begin(), allowed_hosts_.end(), "*") != allowed_hosts_.end();
   if (!cors_origin_.empty()) {
@@ -163,6 +166,13 @@ std::optional<Refusal> RequestGuard::Check(const RequestHead& head, Lane* lane) 
                      "POST " + head.path + " needs Content-Type " + wanted +
                          (type.empty() ? " (none was sent)" : ", not '" + type.substr(0, 80) + "'"),
                      {}};
+    }
+    if (!types.empty() && queue_full_ && queue_full_()) {
+      const std::string retry = std::to_string(retry_after_s_);
+      return Refusal{503,
+                     "queue-full",
+                     "the job queue is full; retry after " + retry + " s",
+                     {{"Retry-After", retry}}};
     }
   }
   if (!safe || head.HasBody() || IsBulkRead(head.path)) *lane = Lane::kBulk;

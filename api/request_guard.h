@@ -13,7 +13,10 @@
 //   413  a declared body over server.max_body_bytes;
 //   415  a POST whose Content-Type is missing or not the route's: a browser
 //        sends text/plain or a form type without a CORS preflight, never
-//        application/json or application/x-tar.
+//        application/json or application/x-tar;
+//   503  a capture or upload while the job queue is full, with Retry-After:
+//        answered here, so that no worker waits for a body or a burst that
+//        would be refused anyway.
 //
 // Everything else is served, in one of two lanes: short reads (probes,
 // status, lists) on the control workers, everything that carries or returns
@@ -45,9 +48,12 @@ struct Refusal {
 class RequestGuard {
  public:
   // `allowed_methods(path)`: the methods the API has on `path` ("GET, DELETE"),
-  // "" for a path it does not have.
+  // "" for a path it does not have. `queue_full()`: whether the job queue
+  // takes no job now (null: never full); its 503 says retry after
+  // `retry_after_s`.
   RequestGuard(const service::ServerConfig& config,
-               std::function<std::string(const std::string& path)> allowed_methods);
+               std::function<std::string(const std::string& path)> allowed_methods,
+               std::function<bool()> queue_full = nullptr, int retry_after_s = 5);
 
   // nullopt: serve the request in *lane.
   std::optional<Refusal> Check(const RequestHead& head, Lane* lane) const;
@@ -70,6 +76,8 @@ class RequestGuard {
   const std::string cors_origin_;
   const uint64_t max_body_bytes_;
   const std::function<std::string(const std::string&)> allowed_methods_;
+  const std::function<bool()> queue_full_;
+  const int retry_after_s_;
   std::vector<std::string> allowed_hosts_;
   bool any_host_ = false;
   std::vector<std::pair<std::string, std::string>> common_headers_;

@@ -99,6 +99,19 @@ bool RequestHead::WantsClose() const {
   return minor_version == 0 && !(connection && EqualsIgnoringCase(Trim(*connection), "keep-alive"));
 }
 
+int RequestHead::RemoveFields(std::string_view name) {
+  const auto named = [name](const auto& field) { return EqualsIgnoringCase(field.first, name); };
+  const int count = static_cast<int>(std::count_if(fields.begin(), fields.end(), named));
+  fields.erase(std::remove_if(fields.begin(), fields.end(), named), fields.end());
+  return count;
+}
+
+std::string RequestHead::Serialize() const {
+  std::string text = method + " " + target + " HTTP/1." + std::to_string(minor_version) + "\r\n";
+  for (const auto& [name, value] : fields) text += name + ": " + value + "\r\n";
+  return text + "\r\n";
+}
+
 size_t FindHeadEnd(std::string_view bytes) {
   size_t at = 0;
   // Empty lines before the request line are allowed (and skipped).

@@ -51,6 +51,11 @@ struct RequestHead {
   bool HasBody() const { return chunked || content_length.value_or(0) > 0; }
   // Whether the client asked for the connection to end after this request.
   bool WantsClose() const;
+  // Removes every field named `name` (case-insensitive); returns how many.
+  int RemoveFields(std::string_view name);
+  // The head as HTTP/1.1 bytes: request line and fields ended by CR LF, then
+  // the empty line. What the gate hands on after changing fields.
+  std::string Serialize() const;
 };
 
 // The length of the head at the start of `bytes` including its terminating

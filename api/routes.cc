@@ -11,6 +11,7 @@
 #include <thread>
 
 #include "api/bearer_auth.h"
+#include "api/file_response.h"
 #include "api/job_request.h"
 #include "api/openapi.h"
 #include "api/problem.h"
@@ -257,7 +258,7 @@ void GetJobFile(const ApiContext& context, const httplib::Request& request,
                             ? "job " + id + " failed (" + job->error + "); it has no " + file
                             : "job " + id + " did not produce " + file);
     }
-    response.set_content(ReadFileToString(path), content_type);
+    ServeFile(request, response, path, content_type);
   } catch (const std::exception& e) {
     // Deleted by retention or DELETE between the lookup and the read.
     SetProblem(response, 404, "file-gone", "File no longer available",
@@ -396,7 +397,8 @@ const char* WwwContentType(const std::string& path) {
 
 // The page's files (www/, compiled in). Same-origin only: the page talks to
 // this dfsmd and nothing else, and is never framed.
-void GetWwwFile(const std::string& path, httplib::Response& response) {
+void GetWwwFile(const httplib::Request& request, const std::string& path,
+                httplib::Response& response) {
   for (const WwwFile& file : WwwFiles()) {
     if (file.path != path) continue;
     response.set_header("Content-Security-Policy",
@@ -404,8 +406,7 @@ void GetWwwFile(const std::string& path, httplib::Response& response) {
                         "connect-src 'self'; frame-ancestors 'none'");
     response.set_header("X-Content-Type-Options", "nosniff");
     response.set_header("Cache-Control", "no-cache");
-    response.set_content(std::string(file.data), WwwContentType(path));
-    return;
+    return ServeStaticBytes(request, response, file.data, WwwContentType(path));
   }
   SetProblem(response, 404, "not-found", "No such page file",
              WwwFiles().empty() ? "this dfsmd was built without its web page (no www/)"
@@ -437,7 +438,7 @@ void StreamJobEvents(const ApiContext& context, httplib::Response& response) {
   auto seen = std::make_shared<Seen>();
   seen->end = std::chrono::steady_clock::now() +
               std::chrono::seconds(context.config->server.event_stream_s);
-  response.set_header("Cache-Control", "no-cache");
+  response.set_header("Cache-Control", "no-store");
   response.set_chunked_content_provider(
       "text/event-stream",
       [context, seen](size_t, httplib::DataSink& sink) {
@@ -534,7 +535,15 @@ std::string AllowedMethods(const std::string& path) {
 
 void RegisterRoutes(const ApiContext& context, HttpServer* http) {
   const ApiContext c = context;
-  http->SetGuard(RequestGuard(context.config->server, AllowedMethods));
+  service::JobScheduler* scheduler = context.scheduler;
+  service::Metrics* metrics = context.metrics;
+  const auto queue_full = [scheduler, metrics] {
+    if (!scheduler->Full()) return false;
+    metrics->JobRejected();
+    return true;
+  };
+  http->SetGuard(RequestGuard(context.config->server, AllowedMethods, queue_full,
+                              context.config->jobs.retry_after_s));
   httplib::Server* server = http->server();
   // The guard already refused unauthenticated requests; this second check
   // covers requests that reach httplib without the gate (the fuzzers).
@@ -552,10 +561,11 @@ void RegisterRoutes(const ApiContext& context, HttpServer* http) {
               [c](const httplib::Request&, httplib::Response& r) { GetCamera(c, r); });
   server->Get("/api/v1/snapshot.jpg",
               [c](const httplib::Request&, httplib::Response& r) { GetSnapshot(c, r); });
-  server->Get("/",
-              [](const httplib::Request&, httplib::Response& r) { GetWwwFile("index.html", r); });
-  server->Get("/ui/(.+)",
-              [](const httplib::Request& q, httplib::Response& r) { GetWwwFile(q.matches[1], r); });
+  server->Get(
+      "/", [](const httplib::Request& q, httplib::Response& r) { GetWwwFile(q, "index.html", r); });
+  server->Get("/ui/(.+)", [](const httplib::Request& q, httplib::Response& r) {
+    GetWwwFile(q, q.matches[1], r);
+  });
   server->Get("/api/v1/events",
               [c](const httplib::Request&, httplib::Response& r) { StreamJobEvents(c, r); });
   server->Get("/api/v1/calibration",
@@ -601,12 +611,16 @@ void RegisterRoutes(const ApiContext& context, HttpServer* http) {
         SetProblem(response, 500, "internal-error", "Internal error", what);
       });
   const std::string origin = context.config->server.cors_origin;
+  server->set_post_routing_handler([origin](const httplib::Request&, httplib::Response& response) {
+    // Job files, calibration, snapshots and metrics are what a token protects:
+    // no browser or proxy cache keeps a copy. The page's own files say
+    // no-cache (public, revalidated) themselves.
+    if (!response.has_header("Cache-Control")) response.set_header("Cache-Control", "no-store");
+    if (origin.empty()) return;
+    response.set_header("Access-Control-Allow-Origin", origin);
+    response.set_header("Access-Control-Expose-Headers", "Location, Retry-After, Link");
+  });
   if (!origin.empty()) {
-    server->set_post_routing_handler(
-        [origin](const httplib::Request&, httplib::Response& response) {
-          response.set_header("Access-Control-Allow-Origin", origin);
-          response.set_header("Access-Control-Expose-Headers", "Location, Retry-After, Link");
-        });
     server->Options(".*", [origin](const httplib::Request&, httplib::Response& response) {
       response.set_header("Access-Control-Allow-Methods", "GET, POST, DELETE, OPTIONS");
       response.set_header("Access-Control-Allow-Headers", "Authorization, Content-Type");
@@ -614,7 +628,9 @@ void RegisterRoutes(const ApiContext& context, HttpServer* http) {
       response.status = 204;
     });
   }
-  service::Metrics* metrics = context.metrics;
+  // The gate's refusals never reach httplib's logger: counted here, so that
+  // token guessing and cross-site attempts show in /metrics.
+  http->SetRefusalObserver([metrics](int status) { metrics->HttpRequest(status); });
   server->set_logger([metrics](const httplib::Request&, const httplib::Response& response) {
     metrics->HttpRequest(response.status);
   });

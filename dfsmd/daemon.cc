@@ -42,6 +42,9 @@ sigset_t StopSignals() {
   sigemptyset(&signals);
   sigaddset(&signals, SIGTERM);
   sigaddset(&signals, SIGINT);
+  // A stop too: dfsmd reads its configuration once, and SIGHUP's default
+  // action would end it at once (exit 129) with the running job cut off.
+  sigaddset(&signals, SIGHUP);
   return signals;
 }
 
@@ -90,12 +93,18 @@ std::unique_ptr<Parts> Assemble(const service::DaemonConfig& config,
   Parts& p = *parts;
   const service::DaemonConfig& c = p.config;
   try {
+    p.lock = std::make_unique<service::StateDirLock>(c.jobs.state_dir);
+  } catch (const std::system_error& e) {
+    throw ConfigError(std::string("jobs.state_dir: ") + e.what());
+  }
+  try {
     p.store = std::make_unique<service::JobStore>(c.jobs.state_dir);
   } catch (const service::JobStoreError& e) {
     throw ConfigError(std::string("jobs.state_dir: ") + e.what());
   }
   p.persister = std::make_unique<service::BurstPersister>(p.store.get());
-  p.calibration = std::make_unique<service::CalibrationKeeper>(c.calibration, c.jobs.state_dir);
+  p.calibration = std::make_unique<service::CalibrationKeeper>(c.calibration, c.capture.source,
+                                                               c.jobs.state_dir);
   p.processor = std::make_unique<service::JobProcessor>(p.store.get(), &p.metrics, c.retention,
                                                         p.calibration.get(), p.persister.get());
   p.scheduler = std::make_unique<service::JobScheduler>(
@@ -149,6 +158,10 @@ std::string WatchdogVerdict(const Parts& p) {
     if (!health.streaming && (health.last_frame_age_ns < 0 || health.last_frame_age_ns >= stall_ns))
       return "capture is stuck";
   }
+  if (p.config.jobs.stall_timeout_s > 0 &&
+      p.scheduler->Stalled(std::chrono::seconds(p.config.jobs.stall_timeout_s)))
+    return "no job has started or finished for jobs.stall_timeout_s (" +
+           std::to_string(p.config.jobs.stall_timeout_s) + " s) while jobs wait or run";
   // The API's own health probe through the listening port: a server whose
   // workers or connections are all taken is restarted too.
   if (!p.http->Probe(std::chrono::milliseconds(kApiProbeTimeoutMs)))
@@ -189,7 +202,10 @@ int Serve(Parts& p) {
   int signal_number = 0;
   while (sigwait(&signals, &signal_number) != 0) {
   }
-  log::Notice(std::string(signal_number == SIGINT ? "SIGINT" : "SIGTERM") + ", shutting down");
+  log::Notice(std::string(signal_number == SIGINT   ? "SIGINT"
+                          : signal_number == SIGHUP ? "SIGHUP"
+                                                    : "SIGTERM") +
+              ", shutting down");
   notifier.Stopping();
   p.http->Stop();
   if (p.capture) p.capture->Stop();

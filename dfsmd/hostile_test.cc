@@ -11,10 +11,13 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cstdlib>
+#include <fstream>
 #include <iostream>
 #include <thread>
 #include <vector>
 
+#include "core/io/file_util.h"
 #include "dfsmd/routes_test_harness.h"
 
 namespace dfsm::api {
@@ -77,6 +80,7 @@ class HostileClientTest : public ::testing::Test {
     config.server.port = 0;
     config.server.max_body_bytes = 256 << 10;
     config.server.head_timeout_ms = 1500;
+    config.server.body_grace_ms = 1500;
     config.server.max_connections = 64;
     routes_ = std::make_unique<RoutesTestHarness>("dfsm-hostile-test", config);
   }
@@ -115,8 +119,38 @@ class HostileClientTest : public ::testing::Test {
     EXPECT_LT(latency.worst.count(), 3000) << attack;
   }
 
+  // A finished job whose depth_filled.tiff holds `bytes` bytes (a 1080p
+  // result's size), each byte its offset modulo 251.
+  std::string JobWithFile(size_t bytes) {
+    const std::string id = routes_->AddJob(service::JobStatus::kSucceeded);
+    std::string data(bytes, '\0');
+    for (size_t i = 0; i < bytes; ++i) data[i] = static_cast<char>(i % 251);
+    const std::filesystem::path output = routes_->store().OutputDir(id);
+    std::filesystem::create_directories(output);
+    WriteFileAtomically(output / "depth_filled.tiff", data);
+    file_ = data;
+    return "/api/v1/jobs/" + id + "/depth_filled.tiff";
+  }
+
   std::unique_ptr<RoutesTestHarness> routes_;
+  std::string file_;
 };
+
+// The status line's header `name` ("" when absent).
+std::string HeaderOf(const std::string& answer, const std::string& name) {
+  const size_t end = answer.find("\r\n\r\n");
+  const std::string head = answer.substr(0, end);
+  const std::string key = "\r\n" + name + ": ";
+  const size_t at = head.find(key);
+  if (at == std::string::npos) return "";
+  const size_t from = at + key.size();
+  return head.substr(from, head.find("\r\n", from) - from);
+}
+
+std::string BodyOf(const std::string& answer) {
+  const size_t end = answer.find("\r\n\r\n");
+  return end == std::string::npos ? "" : answer.substr(end + 4);
+}
 
 TEST_F(HostileClientTest, SlowlorisConnectionsNeitherStarveHealthzNorLastBeyondTheHeadTimeout) {
   // Twelve connections (more than the 8 bulk and 2 control workers) each
@@ -304,6 +338,162 @@ TEST_F(HostileClientTest, PipelinedRequestsOnOneConnectionAreAllAnswered) {
        at = answer.find("HTTP/1.1 200", at + 1))
     ++count;
   EXPECT_EQ(count, 3u) << answer;
+}
+
+// 2700 ranges of the whole file in an 8 KiB header made httplib build a
+// 3.3 GB multipart body and dfsmd died of bad_alloc; the page's public files
+// did the same without a token. The gate lets no Range reach httplib: several
+// ranges are ignored (200, the file once), one range is a 206.
+TEST_F(HostileClientTest, ManyRangesGetTheWholeFileOnce) {
+  const std::string path = JobWithFile(1200 * 1000);
+  std::string ranges = "bytes=0-";
+  for (int i = 1; i < 2700; ++i) ranges += ",0-";
+  for (const char* method : {"GET", "HEAD"}) {
+    const std::string answer = Exchange(
+        routes_->port(),
+        std::string(method) + " " + path +
+            " HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\nRange: " + ranges + "\r\n\r\n");
+    EXPECT_EQ(Status(answer), 200) << method << " " << answer.substr(0, 300);
+    EXPECT_EQ(HeaderOf(answer, "Content-Length"), std::to_string(file_.size())) << method;
+    EXPECT_EQ(HeaderOf(answer, "Content-Range"), "") << method;
+    EXPECT_EQ(BodyOf(answer), std::string(method) == "GET" ? file_ : "") << method;
+  }
+  // The public page files, the same way.
+  const std::string page = Exchange(
+      routes_->port(),
+      "HEAD /ui/index.html HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\nRange: " + ranges +
+          "\r\n\r\n");
+  EXPECT_TRUE(Status(page) == 200 || Status(page) == 404) << page.substr(0, 300);
+  EXPECT_EQ(HeaderOf(page, "Content-Range"), "");
+  ExpectHealthzAnswers(std::chrono::milliseconds(300), "after the range requests");
+}
+
+TEST_F(HostileClientTest, OneRangeIsServedAsA206AndAnUnsatisfiableOneIs416) {
+  const std::string path = JobWithFile(1200 * 1000);
+  const auto get = [&](const std::string& range) {
+    return Exchange(routes_->port(), "GET " + path +
+                                         " HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: "
+                                         "close\r\nRange: " +
+                                         range + "\r\n\r\n");
+  };
+  std::string answer = get("bytes=100-199");
+  EXPECT_EQ(Status(answer), 206) << answer.substr(0, 300);
+  EXPECT_EQ(HeaderOf(answer, "Content-Range"), "bytes 100-199/1200000");
+  EXPECT_EQ(BodyOf(answer), file_.substr(100, 100));
+  answer = get("bytes=-10");
+  EXPECT_EQ(Status(answer), 206);
+  EXPECT_EQ(BodyOf(answer), file_.substr(file_.size() - 10));
+  answer = get("bytes=1199990-5000000");
+  EXPECT_EQ(Status(answer), 206);
+  EXPECT_EQ(HeaderOf(answer, "Content-Range"), "bytes 1199990-1199999/1200000");
+  answer = get("bytes=5000000-");
+  EXPECT_EQ(Status(answer), 416) << answer.substr(0, 300);
+  EXPECT_EQ(HeaderOf(answer, "Content-Range"), "bytes */1200000");
+  // Another unit, bad syntax, a reversed range: ignored, the whole file.
+  for (const char* ignored : {"items=0-5", "bytes=abc", "bytes=9-3", "bytes=0-1,5-6"}) {
+    answer = get(ignored);
+    EXPECT_EQ(Status(answer), 200) << ignored;
+    EXPECT_EQ(BodyOf(answer).size(), file_.size()) << ignored;
+  }
+  // The gate's own field from a client means nothing.
+  answer = Exchange(routes_->port(), "GET " + path +
+                                         " HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: "
+                                         "close\r\nDfsm-Range: 0-9\r\n\r\n");
+  EXPECT_EQ(Status(answer), 200);
+  EXPECT_EQ(BodyOf(answer).size(), file_.size());
+}
+
+// What a token protects is never kept by a cache; refusals of the gate are
+// counted in /metrics like any answer.
+TEST_F(HostileClientTest, ProtectedAnswersAreNotCachedAndRefusalsAreCounted) {
+  const std::string path = JobWithFile(1000);
+  httplib::Client client("127.0.0.1", routes_->port());
+  EXPECT_EQ(client.Get(path.c_str())->get_header_value("Cache-Control"), "no-store");
+  EXPECT_EQ(client.Get("/metrics")->get_header_value("Cache-Control"), "no-store");
+  EXPECT_EQ(client.Get("/api/v1/calibration")->get_header_value("Cache-Control"), "no-store");
+  for (int i = 0; i < 3; ++i)
+    EXPECT_EQ(
+        Status(Exchange(routes_->port(), "GET /healthz HTTP/1.1\r\nHost: evil.example\r\n\r\n")),
+        421);
+  EXPECT_EQ(Status(Exchange(routes_->port(), "GET /healthz HTTP/1.1\r\n\r\n")), 400);
+  const std::string metrics = client.Get("/metrics")->body;
+  EXPECT_NE(metrics.find("dfsmd_http_responses_total{code=\"421\"} 3"), std::string::npos)
+      << metrics;
+  EXPECT_NE(metrics.find("dfsmd_http_responses_total{code=\"400\"} 1"), std::string::npos);
+}
+
+// Eight uploads announcing 100 MB and sending a byte every 300 ms held every
+// queue place and bulk worker, and a capture request hung. Now the capture is
+// refused at once, and the trickles are cut off once they fall behind
+// server.min_body_rate after server.body_grace_ms (1.5 s here).
+TEST_F(HostileClientTest, TrickledUploadsNeitherHangCapturesNorHoldTheQueue) {
+  std::vector<int> uploads;
+  for (int i = 0; i < 8; ++i) {
+    uploads.push_back(Connect(routes_->port()));
+    SendAll(uploads.back(),
+            "POST /api/v1/jobs HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Type: application/x-tar\r\n"
+            "Content-Length: 200000\r\n\r\n");
+  }
+  std::atomic<bool> stop{false};
+  std::thread trickle([&] {
+    while (!stop) {
+      for (int fd : uploads) SendAll(fd, "x");
+      std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    }
+  });
+  const auto start = Clock::now();
+  while (!routes_->scheduler().Full() && Clock::now() - start < std::chrono::seconds(2))
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  ASSERT_TRUE(routes_->scheduler().Full());
+  const auto asked = Clock::now();
+  const std::string refused = Exchange(
+      routes_->port(),
+      "POST /api/v1/captures HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Type: application/json\r\n"
+      "Content-Length: 2\r\n\r\n{}");
+  EXPECT_EQ(Status(refused), 503) << refused.substr(0, 300);
+  EXPECT_NE(refused.find("queue is full"), std::string::npos);
+  EXPECT_NE(HeaderOf(refused, "Retry-After"), "");
+  EXPECT_LT(Clock::now() - asked, std::chrono::milliseconds(1500) + std::chrono::seconds(1));
+  ExpectHealthzAnswers(std::chrono::milliseconds(500), "8 trickled uploads");
+  // Past the grace, at 3 bytes/s against 500: cut off, the queue drains.
+  const auto deadline = Clock::now() + std::chrono::seconds(5);
+  while (routes_->scheduler().Depth() > 0 && Clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  EXPECT_EQ(routes_->scheduler().Depth(), 0);
+  stop = true;
+  trickle.join();
+  for (int fd : uploads) ::close(fd);
+  EXPECT_TRUE(routes_->store().List().empty());
+}
+
+// A 20 KiB upload with a sparse entry wrote 240 MiB of zeros into the job.
+TEST_F(HostileClientTest, ASparseUploadIsRefusedAndWritesNothing) {
+  if (std::system("command -v tar >/dev/null 2>&1") != 0) GTEST_SKIP() << "no tar program";
+  const std::filesystem::path dir =
+      routes_->dir().parent_path() / ("hostile-sparse-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir / "burst");
+  WriteFileAtomically(dir / "burst" / "manifest.json", "{}");
+  { std::ofstream(dir / "burst" / "zeros.bin", std::ios::binary); }
+  // Under server.max_body_bytes (256 KiB here), as 240 MiB was under the default.
+  std::filesystem::resize_file(dir / "burst" / "zeros.bin", 200 << 10);
+  const std::string command =
+      "tar -C " + dir.string() + " -S --format=gnu -cf " + (dir / "sparse.tar").string() + " burst";
+  ASSERT_EQ(std::system(command.c_str()), 0);
+  const std::string tar = ReadFileToString(dir / "sparse.tar");
+  std::filesystem::remove_all(dir);
+  EXPECT_LT(tar.size(), 64u << 10);
+  httplib::Client client("127.0.0.1", routes_->port());
+  const auto answer = client.Post("/api/v1/jobs", tar, "application/x-tar");
+  ASSERT_TRUE(answer);
+  EXPECT_EQ(answer->status, 422) << answer->body;
+  EXPECT_TRUE(answer->body.find("sparse") != std::string::npos ||
+              answer->body.find("declares") != std::string::npos)
+      << answer->body;
+  uintmax_t stored = 0;
+  for (const auto& entry : std::filesystem::recursive_directory_iterator(routes_->dir()))
+    if (entry.is_regular_file()) stored += entry.file_size();
+  EXPECT_LT(stored, 64u << 10);
+  EXPECT_TRUE(routes_->store().List().empty());
 }
 
 }  // namespace

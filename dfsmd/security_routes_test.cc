@@ -268,6 +268,20 @@ TEST_F(SecurityRoutesTest, UploadLimitsAreNamed) {
   EXPECT_NE(ExpectProblem(upload(BurstTar(3, bomb, 8, 8)), 422)
                 .find("the file declares 16392x16392, the manifest says 8x8"),
             std::string::npos);
+  // A file the manifest does not name: it would be stored and served back.
+  {
+    std::map<std::string, std::string> files = {{"burst/manifest.json", ""},
+                                                {"burst/notes/extra.bin", "not a frame"}};
+    nlohmann::json manifest = {{"format", "dfsm-burst/1"}, {"width", 8}, {"height", 8}};
+    for (int i = 0; i < 3; ++i) {
+      const std::string name = "frames/" + std::to_string(i) + ".png";
+      manifest["frames"].push_back({{"file", name}});
+      files["burst/" + name] = Png(8, 8);
+    }
+    files["burst/manifest.json"] = manifest.dump();
+    EXPECT_NE(ExpectProblem(upload(Tar(files)), 422).find("'notes/extra.bin' is not a file of"),
+              std::string::npos);
+  }
   EXPECT_TRUE(routes_->store().List().empty());
   EXPECT_EQ(upload(BurstTar(3, Png(8, 8), 8, 8))->status, 202);
 }

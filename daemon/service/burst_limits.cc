@@ -29,6 +29,30 @@ std::string Dimensions(int64_t width, int64_t height) {
   return std::to_string(width) + "x" + std::to_string(height);
 }
 
+// The files a dfsm-burst/1 directory may hold besides its frames
+// (../shared/CONTRACT.md, section 2): the manifest and a synthetic burst's
+// ground truth.
+constexpr const char* kBurstFiles[] = {"manifest.json", "ground_truth.json", "depth_gt.tiff"};
+
+// Every regular file under `burst_dir` is the manifest, a frame it names or
+// ground truth: an upload is stored and served back as burst.tar, so it holds
+// nothing else.
+void CheckOnlyNamedFiles(const fs::path& burst_dir, const BurstManifest& manifest) {
+  std::vector<std::string> named(std::begin(kBurstFiles), std::end(kBurstFiles));
+  for (const BurstFrameInfo& frame : manifest.frames)
+    named.push_back(fs::path(frame.file).lexically_normal().generic_string());
+  for (const auto& entry : fs::recursive_directory_iterator(burst_dir)) {
+    if (entry.is_directory()) continue;
+    const std::string name = entry.path().lexically_relative(burst_dir).generic_string();
+    if (std::find(named.begin(), named.end(), name) == named.end()) {
+      throw BurstError("'" + name +
+                       "' is not a file of the burst: the manifest names no such frame (a burst "
+                       "holds manifest.json, its frames and optionally ground_truth.json and "
+                       "depth_gt.tiff)");
+    }
+  }
+}
+
 }  // namespace
 
 void CheckUploadedBurst(const fs::path& burst_dir, const BurstManifest& manifest,
@@ -73,6 +97,7 @@ void CheckUploadedBurst(const fs::path& burst_dir, const BurstManifest& manifest
                        ", the manifest says " + Dimensions(manifest.width, manifest.height));
     }
   }
+  CheckOnlyNamedFiles(burst_dir, manifest);
 }
 
 }  // namespace dfsm::service

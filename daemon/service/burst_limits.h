@@ -19,9 +19,11 @@ struct BurstLimits {
 };
 
 // Checks the manifest's frame count and frame size, the pixels of the frames
-// the job keeps (`requested_frames`, 0: all), and that every frame file is a
-// PNG or JPEG whose header declares the manifest's size. Throws BurstError
-// naming the limit's key, or the frame file and what is wrong with it.
+// the job keeps (`requested_frames`, 0: all), that every frame file is a
+// PNG or JPEG whose header declares the manifest's size, and that the
+// directory holds no file but the manifest, its frames and ground truth
+// (ground_truth.json, depth_gt.tiff). Throws BurstError naming the limit's
+// key, or the file and what is wrong with it.
 void CheckUploadedBurst(const std::filesystem::path& burst_dir, const BurstManifest& manifest,
                         int requested_frames, const BurstLimits& limits);
 

@@ -10,11 +10,21 @@
 
 namespace dfsm::service {
 namespace fs = std::filesystem;
+namespace {
 
-CalibrationKeeper::CalibrationKeeper(const CalibrationSection& config, const fs::path& state_dir)
+// fusion.json holds every fusion under its key; a file of one fusion (no
+// "format") is what dfsmd stored before fusions were kept per size.
+constexpr const char* kFusionsFormat = "dfsm-calibration-fusions/1";
+
+}  // namespace
+
+bool FromCaptureCamera(const JobOptions& options) { return options.camera == "capture"; }
+
+CalibrationKeeper::CalibrationKeeper(const CalibrationSection& config, std::string camera,
+                                     const fs::path& state_dir)
     : config_(config),
-      path_(state_dir / "calibration" / "fusion.json"),
-      fusion_(std::make_unique<CalibrationFusion>()) {
+      camera_(std::move(camera)),
+      path_(state_dir / "calibration" / "fusion.json") {
   if (!config_.file.empty()) {
     try {
       // The size comes from the file: jobs of another size calibrate alone.
@@ -29,21 +39,40 @@ CalibrationKeeper::CalibrationKeeper(const CalibrationSection& config, const fs:
   std::error_code error;
   if (!fs::exists(path_, error)) return;
   try {
-    *fusion_ = CalibrationFusion::FromJson(ParseBoundedJson(ReadFileToString(path_)));
+    Load();
   } catch (const std::exception& e) {
     const fs::path aside = path_.string() + ".damaged";
     fs::rename(path_, aside, error);
     notes_.push_back("the stored fusion was unreadable (" + std::string(e.what()) + "); moved to " +
                      aside.filename().string() + ", fusion restarted");
-    *fusion_ = CalibrationFusion();
+    fusions_.clear();
+    current_.clear();
   }
 }
 
 CalibrationKeeper::~CalibrationKeeper() = default;
 
+std::string CalibrationKeeper::Key(int width, int height) const {
+  return camera_ + " " + std::to_string(width) + "x" + std::to_string(height);
+}
+
+void CalibrationKeeper::Load() {
+  const nlohmann::json stored = ParseBoundedJson(ReadFileToString(path_));
+  if (stored.value("format", "") != kFusionsFormat) {
+    auto fusion = std::make_unique<CalibrationFusion>(CalibrationFusion::FromJson(stored));
+    current_ = fusion->empty() ? camera_ + " (size not recorded)"
+                               : Key(fusion->camera().width, fusion->camera().height);
+    fusions_[current_] = std::move(fusion);
+    return;
+  }
+  for (const auto& [key, fusion] : stored.at("fusions").items())
+    fusions_[key] = std::make_unique<CalibrationFusion>(CalibrationFusion::FromJson(fusion));
+  current_ = stored.value("current", "");
+}
+
 bool CalibrationKeeper::ForJob(const JobOptions& options, int width, int height,
                                KnownCalibration* known) const {
-  if (options.calibration == "self") return false;
+  if (options.calibration == "self" || !FromCaptureCamera(options)) return false;
   if (file_camera_ && file_camera_->width == width && file_camera_->height == height) {
     known->camera = *file_camera_;
     known->mode = ParseKnownCalibrationMode(config_.mode);
@@ -53,18 +82,24 @@ bool CalibrationKeeper::ForJob(const JobOptions& options, int width, int height,
   }
   if (config_.use_fused != "prior") return false;
   std::lock_guard<std::mutex> lock(mutex_);
-  if (fusion_->empty() || !fusion_->reliable()) return false;
-  const CameraModel fused = fusion_->camera();
-  if (fused.width != width || fused.height != height) return false;  // another mode of the sensor
+  const auto found = fusions_.find(Key(width, height));
+  if (found == fusions_.end()) return false;
+  const CalibrationFusion& fusion = *found->second;
+  if (fusion.empty() || !fusion.reliable()) return false;
   // The fusion's own sigma: it knows f and the distortion this well.
-  *known = FusedCalibrationPrior(fused, fusion_->sigma_f_percent(), fusion_->distortion_sigma_px(),
-                                 "fused (" + std::to_string(fusion_->bursts()) + " bursts)");
+  *known =
+      FusedCalibrationPrior(fusion.camera(), fusion.sigma_f_percent(), fusion.distortion_sigma_px(),
+                            "fused (" + std::to_string(fusion.bursts()) + " bursts)");
+  known->check_fit = true;
   return true;
 }
 
-std::string CalibrationKeeper::Record(const std::string& job, int64_t time_ms,
-                                      const SparseReconstruction& sparse) {
+std::string CalibrationKeeper::Record(const std::string& job, const JobOptions& options,
+                                      int64_t time_ms, const SparseReconstruction& sparse) {
   if (!config_.fuse) return "fusion off";
+  if (!FromCaptureCamera(options))
+    return "not fused: an upload feeds the camera's calibration only when its request says it "
+           "comes from the capture camera (camera=capture)";
   CalibrationSample sample;
   // Each burst's camera less the bias its tracks' noise gave it: the fusion
   // averages the bursts' noise out, their bias it would keep
@@ -83,8 +118,15 @@ std::string CalibrationKeeper::Record(const std::string& job, int64_t time_ms,
   sample.job = job;
   sample.time_ms = time_ms;
   std::lock_guard<std::mutex> lock(mutex_);
+  const std::string key = Key(sample.camera.width, sample.camera.height);
+  std::unique_ptr<CalibrationFusion>& fusion = fusions_[key];
+  if (!fusion) fusion = std::make_unique<CalibrationFusion>();
+  for (const CalibrationFusion::HistoryEntry& entry : fusion->history()) {
+    if (entry.job == job) return "already counted: the job ran again after an interruption";
+  }
   std::string reason;
-  const FusionOutcome outcome = fusion_->Add(sample, &reason);
+  const FusionOutcome outcome = fusion->Add(sample, &reason);
+  current_ = key;
   std::string said = FusionOutcomeName(outcome) + (reason.empty() ? "" : ": " + reason);
   try {
     Persist();
@@ -97,7 +139,18 @@ std::string CalibrationKeeper::Record(const std::string& job, int64_t time_ms,
 
 nlohmann::json CalibrationKeeper::Snapshot() const {
   std::lock_guard<std::mutex> lock(mutex_);
-  nlohmann::json snapshot = fusion_->ToJson();
+  const auto current = fusions_.find(current_);
+  nlohmann::json snapshot =
+      current == fusions_.end() ? CalibrationFusion().ToJson() : current->second->ToJson();
+  if (current != fusions_.end()) snapshot["key"] = current_;
+  nlohmann::json others = nlohmann::json::array();
+  for (const auto& [key, fusion] : fusions_) {
+    if (key == current_) continue;
+    others.push_back({{"key", key},
+                      {"bursts", fusion->bursts()},
+                      {"reliable", !fusion->empty() && fusion->reliable()}});
+  }
+  snapshot["other_sizes"] = others;
   snapshot["notes"] = notes_;
   if (file_camera_) snapshot["file"] = {{"source", file_source_}, {"mode", config_.mode}};
   return snapshot;
@@ -105,13 +158,16 @@ nlohmann::json CalibrationKeeper::Snapshot() const {
 
 void CalibrationKeeper::Reset() {
   std::lock_guard<std::mutex> lock(mutex_);
-  fusion_->Reset();
+  for (auto& [key, fusion] : fusions_) fusion->Reset();
   Persist();
 }
 
 void CalibrationKeeper::Persist() const {
+  nlohmann::json stored = {{"format", kFusionsFormat}, {"current", current_}};
+  stored["fusions"] = nlohmann::json::object();
+  for (const auto& [key, fusion] : fusions_) stored["fusions"][key] = fusion->ToJson();
   fs::create_directories(path_.parent_path());
-  WriteFileAtomically(path_, fusion_->ToJson().dump(2) + "\n");
+  WriteFileAtomically(path_, stored.dump(2) + "\n");
 }
 
 }  // namespace dfsm::service

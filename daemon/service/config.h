@@ -40,6 +40,10 @@ struct ServerConfig {
   int max_connections = 128;
   int head_timeout_ms = 10000;
   int max_head_bytes = 16384;
+  // Once a worker serves a request, its body must arrive within
+  // body_grace_ms and then at min_body_rate bytes/s on average (api/gate_stream.h).
+  int body_grace_ms = 20000;
+  int min_body_rate = 500;
   // Host names accepted in the Host header, comma-separated; empty: localhost,
   // this machine's name and the listen address. IP addresses are always
   // accepted; "*" accepts any name (api/request_guard.h, DNS rebinding).
@@ -103,6 +107,10 @@ struct JobsSection {
   int queue = 8;
   bool keep_burst = true;
   int retry_after_s = 5;
+  // Jobs wait or run and none has started or finished for this long: the
+  // queue cannot drain (a hung pipeline), and the watchdog stops its pings so
+  // that systemd restarts dfsmd (dfsmd/daemon.h). 0: never.
+  int stall_timeout_s = 1800;
 };
 
 struct RetentionSection {

@@ -70,6 +70,11 @@ std::vector<ConfigKey> MakeKeys() {
           "time for a request's line and headers to arrive (else 408)"),
       Key("server.max_head_bytes", kInt, DFSM_MEMBER(server.max_head_bytes), 1024, 1 << 20,
           "largest request line and headers, bytes (else 431)"),
+      Key("server.body_grace_ms", kInt, DFSM_MEMBER(server.body_grace_ms), 100, 600000,
+          "time a request body may take before server.min_body_rate applies"),
+      Key("server.min_body_rate", kInt, DFSM_MEMBER(server.min_body_rate), 1, 1 << 30,
+          "least average rate of a request body after server.body_grace_ms, bytes/s "
+          "(a slower upload is cut off)"),
       Key("server.event_stream_s", kInt, DFSM_MEMBER(server.event_stream_s), 1, 3600,
           "seconds a GET /api/v1/events stream lasts before the client reconnects"),
       Text("server.allowed_hosts", KeyType::kString, DFSM_MEMBER(server.allowed_hosts),
@@ -140,6 +145,9 @@ std::vector<ConfigKey> MakeKeys() {
            "keep each job's burst after success (default of the request field)"),
       Key("jobs.retry_after_s", kInt, DFSM_MEMBER(jobs.retry_after_s), 1, 3600,
           "Retry-After of a 503 when the queue is full"),
+      Key("jobs.stall_timeout_s", kInt, DFSM_MEMBER(jobs.stall_timeout_s), 0, 86400,
+          "jobs wait or run and none started or finished for this long: stop watchdog pings "
+          "(0: never)"),
       Key("retention.max_jobs", kInt, DFSM_MEMBER(retention.max_jobs), 0, 10000000,
           "finished jobs kept at most (0: no limit)"),
       Key("retention.max_bytes", kInt64, DFSM_MEMBER(retention.max_bytes), 0, kInt64Max,

@@ -57,7 +57,8 @@ nlohmann::json ToJson(const Job& job) {
         {"rolling_shutter", job.options.rolling_shutter},
         {"dense", job.options.dense},
         {"keep_burst", job.options.keep_burst},
-        {"calibration", job.options.calibration}}},
+        {"calibration", job.options.calibration},
+        {"camera", job.options.camera}}},
       {"created_ms", job.created_ms},
       {"started_ms", job.started_ms},
       {"finished_ms", job.finished_ms},
@@ -122,6 +123,8 @@ Job JobFromJson(const nlohmann::json& json) {
   job.options.dense = options.value("dense", true);
   job.options.keep_burst = options.value("keep_burst", true);
   job.options.calibration = options.value("calibration", "auto");
+  // Records from before the option: an upload's camera was not known.
+  job.options.camera = options.value("camera", job.origin == "capture" ? "capture" : "other");
   job.created_ms = json.at("created_ms").get<int64_t>();
   job.started_ms = json.value("started_ms", int64_t{0});
   job.finished_ms = json.value("finished_ms", int64_t{0});

@@ -40,6 +40,11 @@ struct JobOptions {
   // "auto": the configured or the fused calibration where there is one
   // (calibration_keeper.h); "self": this burst calibrates the camera alone.
   std::string calibration = "auto";
+  // Which camera took the burst: "capture" (the daemon's own: every capture,
+  // and an upload that says so) or "other" (an upload's default). Only the
+  // capture camera's bursts use and feed its calibration
+  // (calibration_keeper.h).
+  std::string camera = "capture";
 };
 
 struct Job {

@@ -73,7 +73,7 @@ void JobProcessor::Process(const std::string& id, std::shared_ptr<const Burst> p
     PipelineOutput output = RunPipeline(*burst, pipeline, on_stage);
     if (calibration_ && output.result.ok && output.sparse)
       output.result.extra["calibration_fusion"] =
-          calibration_->Record(id, NowUnixMs(), *output.sparse);
+          calibration_->Record(id, job.options, NowUnixMs(), *output.sparse);
     on_stage("writing");
     const std::filesystem::path staged = store_->NewStagingDir();
     try {

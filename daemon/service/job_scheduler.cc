@@ -16,6 +16,8 @@ JobScheduler::~JobScheduler() { Shutdown(); }
 void JobScheduler::Start() {
   std::lock_guard<std::mutex> lock(mutex_);
   if (!workers_.empty() || stopping_) return;
+  progress_ = std::chrono::steady_clock::now();
+  started_ = true;
   for (int i = 0; i < workers_count_; ++i) workers_.emplace_back([this] { WorkerLoop(); });
 }
 
@@ -86,6 +88,12 @@ int JobScheduler::Running() const {
   return static_cast<int>(running_.size());
 }
 
+bool JobScheduler::Stalled(std::chrono::steady_clock::duration limit) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!started_ || stopping_ || (queue_.empty() && running_.empty())) return false;
+  return std::chrono::steady_clock::now() - progress_ > limit;
+}
+
 void JobScheduler::WorkerLoop() {
   for (;;) {
     Entry entry;
@@ -96,11 +104,13 @@ void JobScheduler::WorkerLoop() {
       entry = std::move(queue_.front());
       queue_.pop_front();
       running_.insert(entry.id);
+      progress_ = std::chrono::steady_clock::now();
     }
     work_(entry.id, std::move(entry.burst));
     {
       std::lock_guard<std::mutex> lock(mutex_);
       running_.erase(entry.id);
+      progress_ = std::chrono::steady_clock::now();
     }
   }
 }

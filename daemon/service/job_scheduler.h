@@ -6,6 +6,7 @@
 // once; nothing here blocks the caller of TryReserve/Submit.
 #pragma once
 
+#include <chrono>
 #include <condition_variable>
 #include <deque>
 #include <functional>
@@ -65,6 +66,9 @@ class JobScheduler {
 
   int Depth() const;  // queued + reserved
   int Running() const;
+  // Whether jobs are queued or running and none has started or finished for
+  // `limit` since the workers started: the queue cannot drain.
+  bool Stalled(std::chrono::steady_clock::duration limit) const;
   int capacity() const { return capacity_; }
   bool Full() const { return Depth() >= capacity_; }
 
@@ -84,6 +88,9 @@ class JobScheduler {
   std::deque<Entry> queue_;
   int reserved_ = 0;
   std::set<std::string> running_;
+  // When a job last started or finished (or the workers started).
+  std::chrono::steady_clock::time_point progress_ = std::chrono::steady_clock::now();
+  bool started_ = false;
   bool stopping_ = false;
   std::vector<std::thread> workers_;
 };

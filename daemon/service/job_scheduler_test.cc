@@ -5,6 +5,7 @@
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
+#include <thread>
 
 namespace dfsm::service {
 namespace {
@@ -84,6 +85,29 @@ TEST(JobSchedulerTest, RecoveredJobsAreNeverRefusedAndShutdownKeepsTheQueue) {
   EXPECT_EQ(gate.started(), std::vector<std::string>{"r1"});
   EXPECT_EQ(scheduler.Depth(), 2);
   EXPECT_FALSE(scheduler.TryReserve());
+}
+
+// A job that never ends while others wait: the queue cannot drain, and the
+// watchdog is told so (dfsmd/daemon.h). An idle scheduler is never stalled.
+TEST(JobSchedulerTest, AQueueThatCannotDrainIsStalled) {
+  Gate gate;
+  JobScheduler scheduler(
+      1, 4, [&](const std::string& id, std::shared_ptr<const Burst>) { gate.Wait(id); });
+  const auto limit = std::chrono::milliseconds(200);
+  scheduler.Start();
+  std::this_thread::sleep_for(2 * limit);
+  EXPECT_FALSE(scheduler.Stalled(limit));  // nothing to do
+  scheduler.Submit(*scheduler.TryReserve(), "hung", nullptr);
+  scheduler.Submit(*scheduler.TryReserve(), "waiting", nullptr);
+  gate.AwaitStarted(1);
+  EXPECT_FALSE(scheduler.Stalled(std::chrono::seconds(60)));
+  std::this_thread::sleep_for(2 * limit);
+  EXPECT_TRUE(scheduler.Stalled(limit));
+  gate.Open();
+  gate.AwaitStarted(2);
+  EXPECT_FALSE(scheduler.Stalled(limit));  // "waiting" just started
+  scheduler.Shutdown();
+  EXPECT_FALSE(scheduler.Stalled(limit));
 }
 
 }  // namespace

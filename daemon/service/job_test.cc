@@ -17,7 +17,7 @@ nlohmann::json StoredRecord(const std::string& when, const std::string& init) {
       "options":{"frames":10,"when":")" +
                                when + R"(","planes":128,"grid":0,"init":")" + init +
                                R"(","rolling_shutter":"global","dense":true,
-      "keep_burst":true,"calibration":"auto"}})");
+      "keep_burst":true,"calibration":"auto","camera":"capture"}})");
 }
 
 std::string RecordErrorOf(const nlohmann::json& record) {
@@ -56,6 +56,13 @@ TEST(JobTest, StoredRecordsLoadAndRoundTrip) {
     }
   }
   EXPECT_EQ(JobFromJson(StoredRecord("next", "rank1")).options.when, BurstWhen::kNext);
+  // Records from before "camera" existed: a capture's was the capture camera,
+  // an upload's is not known and counts as another camera's.
+  nlohmann::json unnamed = StoredRecord("last", "rank1");
+  unnamed["options"].erase("camera");
+  EXPECT_EQ(JobFromJson(unnamed).options.camera, "capture");
+  unnamed["origin"] = "upload";
+  EXPECT_EQ(JobFromJson(unnamed).options.camera, "other");
   // Records from before "when" existed were captures of the last frames.
   nlohmann::json old = StoredRecord("last", "rank1");
   old["options"].erase("when");

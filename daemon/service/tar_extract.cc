@@ -37,6 +37,7 @@ struct Reader {
   std::vector<char> buffer = std::vector<char>(kBlock);
   bool first = true;
   const char* compression = nullptr;
+  uint64_t consumed = 0;  // archive bytes handed to libarchive
 
   static la_ssize_t Read(archive* a, void* self, const void** block) {
     auto* reader = static_cast<Reader*>(self);
@@ -50,6 +51,7 @@ struct Reader {
         return -1;
       }
       *block = reader->buffer.data();
+      reader->consumed += filled;
       return static_cast<la_ssize_t>(filled);
     } catch (const std::exception& e) {
       archive_set_error(a, EIO, "%s", e.what());
@@ -64,17 +66,28 @@ std::string ArchiveError(archive* a, const std::string& where) {
          (message ? message : "it ends inside an entry");
 }
 
-// Writes the current entry's data to `path`.
-void WriteEntry(archive* a, const fs::path& path, const std::string& name) {
+// Writes the current entry's data, `size` bytes as its header declares, to
+// `path`. `written` counts the archive's bytes written so far: they never
+// exceed the bytes read (`reader.consumed`), so no entry expands on disk.
+void WriteEntry(archive* a, const Reader& reader, const fs::path& path, const std::string& name,
+                int64_t size, uint64_t* written) {
   std::ofstream out(path, std::ios::binary);
   std::vector<char> buffer(kBlock);
-  // archive_read_data fills a GNU sparse file's holes with zeros.
+  int64_t bytes = 0;
   for (la_ssize_t n; out && (n = archive_read_data(a, buffer.data(), buffer.size())) != 0;) {
     if (n < 0) throw TarError(ArchiveError(a, " in '" + name + "'"));
+    bytes += n;
+    *written += static_cast<uint64_t>(n);
+    if (*written > reader.consumed)
+      throw TarError("tar entry '" + name + "' expands beyond the bytes uploaded");
     out.write(buffer.data(), n);
   }
   out.close();  // a full disk often shows only when the buffer is flushed
   if (!out) throw std::system_error(errno, std::generic_category(), "cannot write " + name);
+  if (bytes != size) {
+    throw TarError("tar entry '" + name + "' declares " + std::to_string(size) +
+                   " bytes but holds " + std::to_string(bytes));
+  }
 }
 
 }  // namespace
@@ -94,6 +107,7 @@ void ExtractTar(const TarSource& source, const fs::path& dir, const TarLimits& l
                    (message ? message : "unreadable"));
   }
   TarPolicy policy(limits);
+  uint64_t written = 0;
   std::string last;
   archive_entry* entry = nullptr;
   for (int status; (status = archive_read_next_header(a.get(), &entry)) != ARCHIVE_EOF;) {
@@ -109,13 +123,19 @@ void ExtractTar(const TarSource& source, const fs::path& dir, const TarLimits& l
                      archive_entry_size(entry));
     const fs::path path = dir / name;
     if (name.empty()) continue;
+    // A sparse file's holes come back as zeros: a few KiB of archive could
+    // fill the disk, and what is stored would not be what was uploaded.
+    if (archive_entry_sparse_count(entry) > 0) {
+      throw TarError("tar entry '" + name +
+                     "' is a sparse file; archive the burst without --sparse (-S)");
+    }
     // The policy refused every escaping name; this guards against its bugs.
     if (!IsLexicallyInside(dir, path)) throw TarError("tar entry '" + name + "' escapes");
     if (archive_entry_filetype(entry) == AE_IFDIR) {
       fs::create_directories(path);
     } else {
       fs::create_directories(path.parent_path());
-      WriteEntry(a.get(), path, name);
+      WriteEntry(a.get(), reader, path, name, archive_entry_size(entry), &written);
     }
   }
   policy.Finish();

@@ -1,7 +1,7 @@
 // Extracts an uploaded tar (ustar, pax or GNU) with libarchive under
 // TarPolicy's rules as it is read. Compressed tars are refused by name, not
-// decompressed: no upload expands beyond its bytes but for a GNU sparse
-// file's holes, which count at full size against the limits.
+// decompressed, and sparse files are refused: no upload expands beyond its
+// bytes, and every file holds exactly the bytes its header declares.
 #pragma once
 
 #include <filesystem>

@@ -1,7 +1,8 @@
 // The real dfsmd calibrating one camera over several of its bursts: each job's
 // own estimate is fused (GET /api/v1/calibration "fused"), the fused sigma
 // falls as bursts arrive and the fused camera nears the truth, the fusion
-// survives a restart, and DELETE resets it.
+// survives a restart, and DELETE resets it. Uploads feed it only when they
+// say they come from the capture camera (camera=capture).
 #include <gtest/gtest.h>
 #include <signal.h>
 
@@ -67,12 +68,25 @@ TEST_F(DfsmdCalibrationTest, FusesTheBurstsOfOneCameraAndKeepsItAcrossARestart) 
   fs::create_directories(dir);
   auto daemon = Start(dir / "state");
   httplib::Client client = daemon->Client();
+  {
+    // An upload that does not say it comes from the capture camera changes
+    // nothing: it may be another camera's burst of the same size.
+    const std::string tar = service::WriteTar(service::CollectFiles(root_ / "burst0"));
+    const std::string location = AcceptedLocation(
+        client.Post("/api/v1/jobs?dense=false&keep_burst=false", tar, "application/x-tar"));
+    ASSERT_EQ(AwaitFinished(client, location)["status"], "succeeded");
+    const json result = json::parse(client.Get((location + "/result.json").c_str())->body);
+    EXPECT_NE(result.value("calibration_fusion", "").find("camera=capture"), std::string::npos)
+        << result.dump(2);
+    const json fused = json::parse(client.Get("/api/v1/calibration")->body)["fused"];
+    EXPECT_TRUE(fused.value("empty", false)) << fused.dump(2);
+  }
   std::vector<double> sigmas;
   for (int i = 0; i < kBursts; ++i) {
     const std::string tar =
         service::WriteTar(service::CollectFiles(root_ / ("burst" + std::to_string(i))));
-    const std::string location = AcceptedLocation(
-        client.Post("/api/v1/jobs?dense=false&keep_burst=false", tar, "application/x-tar"));
+    const std::string location = AcceptedLocation(client.Post(
+        "/api/v1/jobs?dense=false&keep_burst=false&camera=capture", tar, "application/x-tar"));
     const json job = AwaitFinished(client, location);
     ASSERT_EQ(job["status"], "succeeded") << job.dump(2);
     const json result = json::parse(client.Get((location + "/result.json").c_str())->body);

@@ -278,6 +278,9 @@ TEST_F(DfsmdTest, FullQueueAnswers503AndBadRequestsAreProblems) {
   }
   EXPECT_GE(accepted, 1);
   EXPECT_GE(refused, 3);  // one runs, one waits, the rest are refused
+  // A full queue is answered from the request's head, before its body is
+  // read: the bodies below are judged once the queue has room.
+  for (const std::string& location : locations) AwaitFinished(client, location, kJobTimeout);
   ExpectProblem(client.Post("/api/v1/captures", R"({"frames":"many"})", "application/json"), 400);
   ExpectProblem(client.Post("/api/v1/captures", R"({"frames":500})", "application/json"), 400);
   ExpectProblem(client.Post("/api/v1/captures", "{", "application/json"), 400);
@@ -287,7 +290,6 @@ TEST_F(DfsmdTest, FullQueueAnswers503AndBadRequestsAreProblems) {
   ExpectProblem(client.Get((locations[0] + "/..%2F..%2Fjob.json").c_str()), 404);
   ExpectProblem(client.Get((locations[0] + "/job.json").c_str()), 404);
   ExpectProblem(client.Get("/api/v1/jobs/..%2F..%2F..%2Fetc%2Fpasswd"), 404);
-  for (const std::string& location : locations) AwaitFinished(client, location, kJobTimeout);
   EXPECT_EQ(daemon->Stop(SIGTERM), 0);
 }
 
@@ -339,6 +341,50 @@ TEST_F(DfsmdTest, SigtermFinishesTheRunningJobAndExitsCleanly) {
   EXPECT_EQ(record["status"], "succeeded");
   EXPECT_NE(daemon->Log().find("SIGTERM, shutting down"), std::string::npos);
   EXPECT_TRUE(fs::is_empty(dir_ / "state" / "tmp"));
+}
+
+// SIGHUP ended dfsmd at once (exit 129) with the running job cut off; it is a
+// stop like SIGTERM (dfsmd reads its configuration once).
+TEST_F(DfsmdTest, SighupStopsCleanlyLikeSigterm) {
+  auto daemon = Start();
+  httplib::Client client = daemon->Client();
+  const std::string location = Accepted(
+      client.Post("/api/v1/captures", R"({"frames":10,"when":"next"})", "application/json"));
+  while (json::parse(client.Get(location.c_str())->body)["status"] == "queued") {
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  EXPECT_EQ(daemon->Stop(SIGHUP), 0) << daemon->Log();
+  const std::string id = location.substr(location.rfind('/') + 1);
+  const json record = json::parse(ReadFileToString(dir_ / "state" / "jobs" / id / "job.json"));
+  EXPECT_EQ(record["status"], "succeeded");
+  EXPECT_NE(daemon->Log().find("SIGHUP, shutting down"), std::string::npos);
+}
+
+// A second dfsmd on the same state directory re-queued the first one's running
+// job and processed it too, before it found the port taken. The state
+// directory's lock refuses it before it reads anything.
+TEST_F(DfsmdTest, ASecondDaemonOnTheSameStateDirectoryIsRefused) {
+  auto daemon = Start({"--pipeline.planes", "256"});
+  httplib::Client client = daemon->Client();
+  const std::string location = Accepted(
+      client.Post("/api/v1/captures", R"({"frames":10,"when":"next"})", "application/json"));
+  while (json::parse(client.Get(location.c_str())->body)["status"] == "queued") {
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  EXPECT_EQ(RunDfsmd(DFSMD_BINARY, Args({"--server.port", "0"}), dir_ / "second.log"), 1);
+  const std::string second = ReadFileToString(dir_ / "second.log");
+  EXPECT_NE(second.find("another dfsmd (pid " + std::to_string(daemon->pid()) + ")"),
+            std::string::npos)
+      << second;
+  EXPECT_EQ(second.find("re-queueing"), std::string::npos) << second;
+  const json job = AwaitFinished(client, location, kJobTimeout);
+  EXPECT_EQ(job["status"], "succeeded");
+  EXPECT_EQ(job["attempts"], 1);
+  EXPECT_EQ(daemon->Stop(SIGTERM), 0);
+  // Once it has gone, the directory is free again.
+  auto next = Start();
+  EXPECT_EQ(json::parse(next->Client().Get(location.c_str())->body)["attempts"], 1);
+  EXPECT_EQ(next->Stop(SIGTERM), 0);
 }
 
 TEST_F(DfsmdTest, InvalidConfigurationExits78AndBusyPortFails) {
