@@ -5,7 +5,7 @@
 // burst's ground truth beside what the result says of itself: the depth check
 // (confirmed or its warnings), the relief's sigma and the calibration's verdict.
 // It measures what a user meets away from one favourable setting, and whether
-// a depth called confirmed is one to trust (docs/dense.md, "The depth sweep").
+// a depth called confirmed is one to trust (docs/experiments/228-depth-sweep.md).
 // One JSON line per burst, then the summary line and the docs table.
 //   depth_sweep [--bursts N] [--seed S] [--camera ideal|webcam|phone]
 //               [--field-of-view normal|wide] [--only I [--keep DIR]] (DIR/burst,
@@ -141,7 +141,7 @@ nlohmann::json ToJson(const DepthSweepOutcome& o) {
 }
 
 // The upper of the two middle values for an even count, as every table of
-// this sweep in docs/dense.md was made.
+// this sweep in docs/experiments/228-depth-sweep.md was made.
 double Median(std::vector<double> values) {
   if (values.empty()) return 0.0;
   std::sort(values.begin(), values.end());

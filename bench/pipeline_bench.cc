@@ -88,7 +88,7 @@ BENCHMARK(BM_Pipeline1080p)
 // A phone's burst (the generator's phone preset: rolling shutter, exposure
 // drift, blur, JPEG 90; 1 deg of tremor): what a phone user waits for.
 // Beside BM_Pipeline1080p's ideal burst the bundle adjustment is the stage
-// that grows (docs/sparse.md, "The adjustment that measures the readout").
+// that grows (docs/experiments/116-readout-measuring-adjustment.md).
 void BM_PipelinePhone1080p(benchmark::State& state) {
   RunWholePipeline(state, 1920, 1080, "phone", 1.0);
 }

@@ -6,11 +6,14 @@
 // then a Markdown table; with --pictures DIR, one picture per window
 // (reference, depth, Kinect depth, error; known calibration above,
 // self-calibrated below) as DIR/window-FIRST-LAST.jpg.
-//   tum_benchmark [--dataset DIR] [--frames N] [--step S] [--calibration FILE]
+//   tum_benchmark [--dataset DIR] [--frames N] [--step S] [--start K] [--calibration FILE]
 //                 [--rolling-shutter global|estimate|R] [--pictures DIR]
 //                 [--semi-global off|P1:P2] [--downscale N]
 // --downscale 2 runs the same windows at 320x240 (frames area-averaged, the
 // Kinect depth and the calibration scaled to match; TumSequence).
+// --start K: the first window's first frame. ../shared/data/tum_fr1_rpy holds
+// eight windows of 12 frames (one before and one after the 10 that count), so
+// its windows are --dataset ../shared/data/tum_fr1_rpy --start 1 --step 12.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -62,7 +65,7 @@ int main(int argc, char** argv) {
   std::string dataset = "../shared/data/tum_fr1_xyz";
   std::string calibration_file = TumFreiburg1CalibrationFile();
   std::string pictures;
-  int frames = 10, step = 3, downscale = 1;
+  int frames = 10, step = 3, start = 0, downscale = 1;
   RollingShutterOptions rolling_shutter;
   DenseOptions dense;
   std::optional<TumSequence> opened;  // once the options are read
@@ -77,6 +80,8 @@ int main(int argc, char** argv) {
         frames = WholeNumber("--frames", value, 1);
       else if (option == "--step")
         step = WholeNumber("--step", value, 1);
+      else if (option == "--start")
+        start = WholeNumber("--start", value, 0);
       else if (option == "--calibration")
         calibration_file = value;
       else if (option == "--pictures")
@@ -120,7 +125,7 @@ int main(int argc, char** argv) {
     std::string known_fit;       // "fits" | "does not fit" | "" (no calibration checked)
   };
   std::vector<Row> rows;
-  for (int first = 0; first + frames <= sequence.frames(); first += step) {
+  for (int first = start; first + frames <= sequence.frames(); first += step) {
     const Burst burst = sequence.Window(first, frames);
     const cv::Mat truth = sequence.ReferenceDepth(first, frames);
     const cv::Mat constant(truth.size(), CV_32FC1, cv::Scalar(1.0f));

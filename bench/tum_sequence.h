@@ -26,7 +26,7 @@ class TumSequence {
   // The sequence's frames and depth maps are 640x480.
   static constexpr int kWidth = 640, kHeight = 480;
   // The largest `downscale` accepted: 160x120, the smallest size measured
-  // (docs/dense.md, "TUM fr1/xyz at 320x240 and 160x120"); below it a window
+  // (docs/experiments/233-tum-320x240.md); below it a window
   // keeps too few of its tracks for the benchmark to say much.
   static constexpr int kMaxDownscale = 4;
   // A reduced depth pixel is kept where its block's depths lie within this

@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # The architecture rules of the tree, checked from the #include lines:
 #  1. api/ and daemon/service/ never include daemon/capture/ (the service sees
-#     the camera through its port; dfsmd/ plugs capture in behind it);
+#     the camera through its port; dfsmd/ plugs capture in behind it), and
+#     daemon/capture/ never includes daemon/service/ (capture knows nothing of
+#     jobs or the daemon's configuration);
 #  2. nothing outside tests/ includes tests/;
 #  3. no cycle between folders (core/<area>, daemon/<part>, and the top-level
 #     folders), found by tsort. Tests beside the code (*_test.cc, *_test_*)
@@ -34,6 +36,9 @@ while IFS= read -r source; do
     case "$from:$to" in
       api:daemon/capture | daemon/service:daemon/capture)
         echo "architecture: $source includes $included (capture is behind the camera port)"
+        status=1 ;;
+      daemon/capture:daemon/service)
+        echo "architecture: $source includes $included (capture does not know the service)"
         status=1 ;;
     esac
     if [ "$to" = tests ] && [ "$from" != tests ]; then

@@ -27,7 +27,7 @@
 #         suppressed in scripts/tsan.supp, each entry with its reason. Races
 #         in our code are fixed, never suppressed.
 #
-# README.md ("The two commands") has each stage's duration, measured by .ci/run.
+# docs/experiments/001-ci-durations.md has measured durations of each stage.
 #
 # Every sanitized process writes its report to <build>/sanitizer-reports/
 # (log_path), dfsmd children included: the daemon tests send a child's stderr

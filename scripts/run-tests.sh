@@ -6,7 +6,7 @@
 # leaves them out when that stage runs), and the daemon, capture, scheduler and
 # API tests under ThreadSanitizer (build-tsan). Every build is a unity build
 # (DFSM_UNITY_BUILD, CMakeLists.txt says why).
-# README.md ("The two commands") has each stage's measured duration.
+# docs/experiments/001-ci-durations.md has measured durations of each stage.
 #
 #   DFSM_TEST_LONG=1   also run the suites labelled "long"
 #   DFSM_SANITIZE=0    skip both sanitizer stages (=asan or =tsan: only that one)

@@ -46,8 +46,9 @@ TEST(FlowerSparse, ReconstructsWithAPlausibleCamera) {
 // The naive start (no motion, random inverse depths) with the readout
 // estimated lands in a wrong minimum (f in the tens of thousands, the readout
 // at its bound) on some draws of its inverse depths: 2 of seeds 0-4 with KLT
-// tracks alone, 1 with the gain-and-bias realignment (docs/sparse.md). Where
-// it lands right, it reaches the rank-1 start's camera in more iterations.
+// tracks alone, 1 with the gain-and-bias realignment
+// (docs/experiments/121-gain-bias.md). Where it lands right, it reaches the
+// rank-1 start's camera in more iterations.
 TEST(FlowerSparse, NaiveStartReachesTheSameCameraOnMostDrawsInMoreIterations) {
   DFSM_REQUIRE_SHARED_DATA("flower");
   const Burst burst = ReadBurst(testing::SharedData("flower"));

@@ -62,16 +62,16 @@ class PipelineDepth : public ::testing::TestWithParam<DepthCase> {};
 // against the ground truth, over textured pixels. The bounds were the
 // acceptance targets (AbsRel <= 2 %, >= 95 % within 5 %) everywhere until the
 // dense stage compared high-passed frames (DenseOptions::high_pass_sigma_px,
-// docs/dense.md "High-passed frames"): that gave real footage (TUM fr1/xyz)
+// docs/experiments/218-high-passed-frames.md): that gave real footage (TUM fr1/xyz)
 // and the realistic generated bursts most of their accuracy back and cost
 // these ideal bursts, which have no brightness change to remove, up to 1.6
 // points. At VGA they now measure 2.78 % / 92.3 % (JPEG 90: 3.42 % / 89.5 %),
 // so 3 % / 90 % (4 % / 87 %); 1080p still meets 2 % / 95 %. Since the breaks
-// among the raw winners (docs/dense.md) fewer pixels are measured and those
-// better: VGA 1.84 % / 95.3 % / 89.7 % covered (JPEG 90: 2.38 / 93.1 / 89.4),
-// 1080p 0.83-0.92 % / 98.0 % / 89.4-89.6 %, so coverage >= 87 %; the filled
-// map (every textured pixel) 2.72 % (3.28 %) and 1.72-1.85 %; since the
-// median of the fill's guide 2.69 % (3.29 %) and 1.65-1.80 %.
+// among the raw winners (docs/experiments/224-breaks-among-raw-winners.md) fewer
+// pixels are measured and those better: VGA 1.84 % / 95.3 % / 89.7 % covered (JPEG
+// 90: 2.38 / 93.1 / 89.4), 1080p 0.83-0.92 % / 98.0 % / 89.4-89.6 %, so coverage >=
+// 87 %; the filled map (every textured pixel) 2.72 % (3.28 %) and 1.72-1.85 %;
+// since the median of the fill's guide 2.69 % (3.29 %) and 1.65-1.80 %.
 TEST_P(PipelineDepth, MatchesTheGroundTruth) {
   const DepthCase c = GetParam();
   const SynthBurst generated = GenerateBurst(c.width, c.height, c.frames, c.jpeg_quality);
@@ -129,9 +129,9 @@ TEST(Pipeline, AReferenceInTheMiddleIsMeasuredAsTheFirstIs) {
 
 // The dense stage alone (true camera and poses) with and without the test
 // for breaks among the raw winners (DenseOptions::raw_discontinuity_radius,
-// docs/dense.md): it measures fewer pixels and those better, and the fill
-// takes the rest better too (this VGA burst: 2.44 -> 1.73 % measured,
-// 3.08 -> 2.60 % filled).
+// docs/experiments/224-breaks-among-raw-winners.md): it measures fewer pixels
+// and those better, and the fill takes the rest better too (this VGA burst:
+// 2.44 -> 1.73 % measured, 3.08 -> 2.60 % filled).
 TEST(DenseStage, BreaksAmongTheRawWinnersAreLeftToTheFill) {
   const SynthBurst generated = SmallBurst();
   const Burst burst = ToBurst(generated);
@@ -225,8 +225,9 @@ SynthBurst RollingShutterVgaBurst() {
 
 // A phone's rolling shutter (readout 0.6 of the frame interval): as a global
 // shutter the burst's camera is wrong by tens of percent (seed 3: f 188 %,
-// AbsRel 47 %, docs/sparse.md); the default estimate recovers the readout,
-// the camera and the depth, and result.json says which readout it used.
+// AbsRel 47 %, docs/experiments/113-rolling-shutter.md); the default estimate
+// recovers the readout, the camera and the depth, and result.json says which
+// readout it used.
 TEST(Pipeline, EstimatesARollingShutterAndReportsIt) {
   const SynthBurst generated = RollingShutterVgaBurst();
   const Burst burst = ToBurst(generated);

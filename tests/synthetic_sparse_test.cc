@@ -18,9 +18,10 @@ namespace dfsm {
 namespace {
 
 // The focal length shows only through second-order terms of the rotational
-// flow (f theta x^2, docs/sparse.md), so its accuracy is set by the tremor's
-// rotation over the tracking noise: a VGA burst needs more rotation than a
-// 1080p one for the same pixel evidence, and still reaches less.
+// flow (f theta x^2; docs/sparse.md, "What limits the focal length"), so its
+// accuracy is set by the tremor's rotation over the tracking noise: a VGA burst
+// needs more rotation than a 1080p one for the same pixel evidence, and still
+// reaches less.
 struct Case {
   int width, height, frames;
   uint64_t seed;
@@ -45,8 +46,8 @@ class SyntheticSparse : public ::testing::TestWithParam<Case> {};
 // 25 iterations, mean rotation error <= 0.05 deg, focal error <= 1 % and
 // distortion error <= 0.5 px. VGA bursts get 2 deg of tremor: at 0.5 deg a
 // VGA frame sees a third of the pixels of rotational flow that a 1080p one
-// does and the focal length is not determined to 1 % (docs/sparse.md has the
-// table over 12 VGA bursts, including the seeds not run here).
+// does and the focal length is not determined to 1 % (docs/experiments/102-vga-tremor.md
+// has the table over 12 VGA bursts, including the seeds not run here).
 TEST_P(SyntheticSparse, RankOneAndBundleAdjustmentRecoverTheCamera) {
   const Case c = GetParam();
   SynthOptions synth;
@@ -109,8 +110,8 @@ TEST(SyntheticSparseCalibration, TheReliefsDependenceOnTheLensModelIsMeasured) {
   const SparseReconstruction sparse = ReconstructSparse(burst.gray, burst.reference());
   RecordProperty("lens_relief_shift_wide", std::to_string(sparse.lens_relief_shift));
   // Measured 0.129 with the tracks realigned as translations, 0.090 since
-  // they follow each patch's predicted turn and shear (docs/sparse.md,
-  // "Patches that turn and shear"): under the depth check's 0.10 on this
+  // they follow each patch's predicted turn and shear
+  // (docs/experiments/134-patch-shape.md): under the depth check's 0.10 on this
   // burst, six times the plain lens's.
   EXPECT_GT(sparse.lens_relief_shift, 0.07);
 

@@ -1,6 +1,6 @@
 // The whole method on real webcam frames against real depth: the 10-frame
 // windows of TUM RGB-D fr1/xyz (../shared/data/tum_fr1_xyz) that
-// bench/tum_benchmark reports (docs/dense.md, "TUM fr1/xyz"), scored against
+// bench/tum_benchmark reports (docs/experiments/210-tum-fr1-xyz.md), scored against
 // the Kinect's depth after one global scale beside a constant-depth guess.
 // The bounds hold the issue's criterion, "clearly better than a constant
 // depth", with room for the machine-to-machine drift of the tracks.
@@ -85,7 +85,7 @@ void ExpectNoFalseConfirmation(const std::vector<WindowScore>& scores) {
 // pixels with a depth (24-48 % of the Kinect's), filled 5.0-7.8 %, against
 // 15.1-18.2 % for a constant depth. Window 18-27 reads 4.7 % since the
 // adjustment restarts from several readouts (it was 15.9 %: a readout that
-// trades against a tilt of the scene, docs/sparse.md).
+// trades against a tilt of the scene, docs/experiments/115-readout-restarts.md).
 TEST(TumPipeline, SelfCalibratedEveryWindowIsClearlyBetterThanAConstantDepth) {
   const TumSequence sequence(testing::SharedData("tum_fr1_xyz").string());
   DFSM_REQUIRE_TUM(sequence);
@@ -106,8 +106,7 @@ TEST(TumPipeline, SelfCalibratedEveryWindowIsClearlyBetterThanAConstantDepth) {
 // 96.7 %), every window clearly better than a constant depth. Window 18-27
 // reads 3.8 % since the naive start is probed beside the rank-1 one; it was
 // 14.9 % against 15.1 % for a constant depth: the rank-1 start settled in a
-// minimum with a flattened relief (docs/sparse.md, "The naive start as a
-// probe").
+// minimum with a flattened relief (docs/experiments/129-naive-probe.md).
 TEST(TumPipeline, PublishedCalibrationMediansAndWindowsBetterThanAConstantDepth) {
   const TumSequence sequence(testing::SharedData("tum_fr1_xyz").string());
   DFSM_REQUIRE_TUM(sequence);
@@ -132,8 +131,8 @@ TEST(TumPipeline, PublishedCalibrationMediansAndWindowsBetterThanAConstantDepth)
 // area-averaged, the Kinect's depth in 2x2 blocks, the calibration scaled).
 // Measured 2026-11-29 (bench/tum_benchmark --downscale 2): median AbsRel
 // 4.5 % measured (coverage 51-79 %), 6.2 % filled; window 18-27 is 14.6 %
-// against 15.0 % for a constant depth (docs/dense.md, "TUM fr1/xyz at
-// 320x240"). It said `confirmed` until the naive probe: the burst calibrated
+// against 15.0 % for a constant depth (docs/experiments/233-tum-320x240.md). It
+// said `confirmed` until the naive probe: the burst calibrated
 // alone now finds the minimum the known camera misses, and the known
 // calibration "does not fit" (0.28 px RMS against 0.21).
 TEST(TumPipeline, At320x240ThePublishedCalibrationMediansHold) {
@@ -158,8 +157,8 @@ TEST(TumPipeline, At320x240ThePublishedCalibrationMediansHold) {
 // Self-calibrated at 320x240. Measured 2026-11-29 (bench/tum_benchmark
 // --downscale 2): median AbsRel 4.4 % measured, 5.8 % filled, every window
 // clearly better than a constant depth. Window 18-27 reads 5.8 % since the
-// naive probe; it was 15.1 % and said `confirmed` (docs/sparse.md, "The naive
-// start as a probe").
+// naive probe; it was 15.1 % and said `confirmed`
+// (docs/experiments/129-naive-probe.md).
 TEST(TumPipeline, At320x240SelfCalibratedEveryWindowIsClearlyBetterThanAConstantDepth) {
   const TumSequence sequence(testing::SharedData("tum_fr1_xyz").string(), 2);
   DFSM_REQUIRE_TUM(sequence);

@@ -21,7 +21,8 @@ struct RollingShutterOptions {
   };
   // Estimated unless told: phones and most webcams read out row by row, and a
   // global shutter's burst estimates a readout of ~0 at no loss of accuracy
-  // (docs/sparse.md, "Rolling shutter"); it costs ~0.2 s of adjustment at 1080p.
+  // (docs/experiments/113-rolling-shutter.md); it costs ~0.2 s of adjustment
+  // at 1080p.
   Mode mode = Mode::kEstimate;
   double readout = 0.0;  // kKnown: the readout; otherwise unused
 

@@ -1,7 +1,8 @@
 // Accuracy of the dense stage on generated bursts (core/synth) with the true
-// camera and poses: the project's targets (see docs/dense.md for the
-// measured table). Renders 1080p bursts, so it
-// carries the ctest label `accuracy` and is not part of the default run.
+// camera and poses: the project's targets (see
+// docs/experiments/201-accuracy-true-geometry.md for the measured table).
+// Renders 1080p bursts, so it carries the ctest label `accuracy` and is not
+// part of the default run.
 #include <gtest/gtest.h>
 
 #include <string>
@@ -54,15 +55,17 @@ TEST_P(DenseAccuracyTest, MeetsTheBoundsWithTruePoses) {
 INSTANTIATE_TEST_SUITE_P(Synth, DenseAccuracyTest,
                          ::testing::Values(
                              // 640x480: regression bounds, not the 2 % target. Since the
-                             // dense stage high-passes its frames (docs/dense.md, "High-
-                             // passed frames") these ideal bursts measure 2.52 % / 92.9 % /
-                             // 94.1 % without JPEG, 3.06 % / 91.0 % with q90 at 10 frames,
-                             // 3.08 % / 90.9 % at 15 (they had 1.03-1.63 % before it; real
-                             // footage is what the high-pass is for); with the seed prior
+                             // dense stage high-passes its frames
+                             // (docs/experiments/218-high-passed-frames.md) these ideal
+                             // bursts measure 2.52 % / 92.9 % / 94.1 % without JPEG, 3.06 %
+                             // / 91.0 % with q90 at 10 frames, 3.08 % / 90.9 % at 15 (they
+                             // had 1.03-1.63 % before it; real footage is what the
+                             // high-pass is for); with the seed prior
                              // 2.42 / 93.0 / 94.4, 2.83 / 91.4, 2.77 / 92.0 %. Since the
-                             // breaks among the raw winners (docs/dense.md): 1.73 / 95.7 /
-                             // 90.0 %, 2.09 / 94.3 / 89.7 %, 2.07 / 94.8 / 89.8 %; filled
-                             // 2.60, 3.04, 3.01 %.
+                             // breaks among the raw winners
+                             // (docs/experiments/224-breaks-among-raw-winners.md): 1.73 /
+                             // 95.7 / 90.0 %, 2.09 / 94.3 / 89.7 %, 2.07 / 94.8 / 89.8 %;
+                             // filled 2.60, 3.04, 3.01 %.
                              Case{640, 480, 10, 0, 0.03, 0.91, 0.87, 0.03},
                              Case{640, 480, 10, 90, 0.035, 0.89, 0.87, 0.035},
                              Case{640, 480, 15, 90, 0.035, 0.89, 0.87, 0.035},

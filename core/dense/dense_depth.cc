@@ -32,9 +32,8 @@ namespace {
 // full-resolution window and gives it its confidence, so a level too coarse
 // for the image blurs both across depth edges: at 1280x720 the rule that preceded this one (width /
 // 320, 4 at 720p: 320 columns) left the depth sweep's 720p bursts 3.27 %
-// AbsRel (filled 4.58 %) against 3.12 % (4.12 %) at 3 (docs/dense.md, "The
-// coarse level's width"). At 1080p, 3 would gain as much but double the
-// coarse sweep, past the issue's time budget.
+// AbsRel (filled 4.58 %) against 3.12 % (4.12 %) at 3 (docs/experiments/230-coarse-level-width.md).
+// At 1080p, 3 would gain as much but double the coarse sweep, past the issue's time budget.
 constexpr double kCoarseLevelWidth = 480.0;
 
 // A coarse level narrower than this seeds the full-resolution window less
@@ -45,8 +44,8 @@ constexpr double kCoarseLevelWidth = 480.0;
 // parallax: 9 planes measure 5-12 points more of the pixels
 // (window 0-9: 37.9 -> 43.9 %) at the same AbsRel (median 4.1 %); at 720p and
 // 1080p (427 and 480 columns) 9 planes were no better on generated bursts and
-// cost the 1080p budget a quarter of the fine sweep (docs/dense.md, "The
-// full-resolution window").
+// cost the 1080p budget a quarter of the fine sweep
+// (docs/experiments/231-full-resolution-window.md).
 constexpr int kNarrowCoarseLevelWidth = 400;
 
 void Require(bool condition, const std::string& message) {
@@ -117,7 +116,7 @@ void ValidateInputs(const Burst& burst, const CameraModel& camera, const std::ve
 // parabola through three neighbours still resolves the minimum. 0.15, not
 // the 0.2 it was: the seeds of the 1080p phone bursts, and so the filled
 // map, are better for the 10 more planes, at 30-40 ms of coarse sweep
-// (docs/dense.md, "The coarse planes' spacing").
+// (docs/experiments/241-coarse-plane-spacing.md).
 constexpr double kCoarsePlaneParallax = 0.15;
 constexpr double kFinePlaneParallax = 0.35;
 // Level pixels of parallax between the planes a sweep projects exactly; the
@@ -130,7 +129,7 @@ constexpr double kProjectedSpan = 2.0;
 // `coarse_planes`, extends `lattice` toward the camera by its width and
 // returns true. Only toward the camera: the far end is also where a wrong
 // geometry spreads a map, and extending it there made such bursts worse
-// (docs/dense.md, "The depth sweep"); the depth check warns of either end.
+// (docs/experiments/228-depth-sweep.md); the depth check warns of either end.
 bool ExtendTowardTheCamera(const PlaneSelection& coarse, int coarse_planes, double share,
                            InverseDepthLattice* lattice) {
   if (!(share > 0.0) || coarse_planes < 2) return false;
@@ -261,8 +260,8 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
   // error in a corner, or none found) takes the nearest plane of the coarse
   // sweep; where more than options.range_extension_share of the confident
   // coarse pixels do, the range is extended toward the camera by its own
-  // width and the coarse level swept again, once (docs/dense.md, "The depth
-  // sweep").
+  // width and the coarse level swept again, once
+  // (docs/experiments/228-depth-sweep.md).
   result.coarse_scale = scale;
   double plane_parallax = 0.0, lattice_ratio = 1.0;
   InverseDepthLattice coarse_lattice;

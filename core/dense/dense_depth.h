@@ -34,7 +34,7 @@ struct DenseOptions {
   // range is extended toward the camera by its own width and the coarse level
   // swept again, once; 0: never. (A 1080p burst whose nearest photograph had
   // no inlier track: 18 % of its pixels at the near end, the photograph 60 %
-  // too far; docs/dense.md, "The depth sweep".)
+  // too far; docs/experiments/228-depth-sweep.md.)
   double range_extension_share = 0.03;
 
   // Coarse-to-fine: every plane is swept at 1/coarse_scale of the resolution;
@@ -51,8 +51,8 @@ struct DenseOptions {
   // 1/4 resolution the planes of a 128-lattice are often only a few
   // hundredths of a coarse pixel apart, and a denser coarse lattice than
   // that gains nothing at a price (0.1 against 0.15 at 1080p: 1.98 against
-  // 1.99 % filled, twice the coarse sweep; docs/dense.md, "The coarse planes'
-  // spacing").
+  // 1.99 % filled, twice the coarse sweep;
+  // docs/experiments/241-coarse-plane-spacing.md).
   int coarse_planes = 0;
   // Semi-global aggregation of the coarse cost volume (semi_global.h) before
   // its winners seed the full-resolution window: a pixel whose own curve is
@@ -81,8 +81,8 @@ struct DenseOptions {
   // most) from the seed costs seed_prior x d^2 grey levels more. The coarse
   // winner was regularized over its surroundings, the full-resolution curve
   // of a weakly textured or noisy pixel is shallow: there the seed decides,
-  // where texture is sharp the curve does. 0: off. docs/dense.md, "The seed
-  // as a prior in the fine window".
+  // where texture is sharp the curve does. 0: off.
+  // docs/experiments/222-seed-prior.md.
   double seed_prior = 0.1;
   // Aggregation window half-widths (pixels of the respective level).
   int coarse_window_radius = 2;
@@ -102,7 +102,7 @@ struct DenseOptions {
   // Gaussian pre-filter of every frame (captured pixels): evens out the blur
   // of bilinear resampling and the sensor/JPEG noise. 0: none. Wider filters
   // wash out the fine texture that low-contrast regions match on: 0.8 gave
-  // 2.5-3.1 % AbsRel at 640x480 where 0.5 gives 1.4-1.9 % (docs/dense.md).
+  // 2.5-3.1 % AbsRel at 640x480 where 0.5 gives 1.4-1.9 % (docs/dense.md, "Stages", step 1).
   double prefilter_sigma = 0.5;
   // Every frame is high-passed before anything else (high_pass.h): the
   // sweeps, the weak-texture mask and the guided filter's guide all see the
@@ -116,12 +116,12 @@ struct DenseOptions {
   // of that sigma; the coarse level keeps the whole sigma (its own frames,
   // made beside the full-resolution ones where the two differ). A narrower
   // blur mixes less of a nearer surface into a farther one's frames
-  // (docs/dense.md, "Why the ideal bursts lose with the high-pass"), and the
+  // (docs/experiments/219-high-pass-ideal-bursts.md), and the
   // window, 7x7 or 15x15, needs none of the low frequencies it takes out; the
   // coarse level's regularization and confidence, which also decide what is
   // measured at all, keep them. 0.6 against 1: TUM fr1/xyz medians 3.88 ->
   // 3.75 % (filled 6.00 -> 5.97 %), the phone preset's 640x480 defaults 3.24
-  // -> 3.05 % (docs/dense.md, "The full-resolution window's high-pass").
+  // -> 3.05 % (docs/experiments/242-fine-high-pass.md).
   double fine_high_pass_ratio = 0.6;
   // Frames of a sweep level with at most this many pixels are sampled on a
   // grid twice as fine, interpolated once with a cubic (frame_oversampling.h):
@@ -135,7 +135,7 @@ struct DenseOptions {
   // guided by the reference image. radius 0: off. 12 since the breaks among
   // the raw winners keep its halos off depth edges (8 before: every size of
   // the phone preset's defaults better, TUM's medians within 0.03 points;
-  // docs/dense.md, "The refinement's radius").
+  // docs/experiments/244-refinement-radius.md).
   int guided_radius = 12;
   double guided_eps = 1e-3;  // on a [0, 1] guide
   // The guided filter's linear models are fitted at 1/guided_subsample of the
@@ -153,7 +153,7 @@ struct DenseOptions {
   // raw_discontinuity_radius of which the raw winners (before it) span such a
   // break: there the refinement hands a pixel one side's depth, at a depth
   // edge the nearer surface's on the farther one's pixels, and the fill does
-  // better (docs/dense.md, "Breaks among the raw winners"). 0: off.
+  // better (docs/experiments/224-breaks-among-raw-winners.md). 0: off.
   int raw_discontinuity_radius = 4;
   double discontinuity_parallax = 0.6;
   // ... and more than this fraction of the larger inverse depth.

@@ -3,8 +3,8 @@
 // where the coarse level's high-pass differs, a second time at its sigma and
 // downsampled to it. They do not depend on the poses, so the pipeline has
 // them made while the sparse stage runs, on a core its focal-start probe
-// leaves idle, instead of after it (docs/dense.md, "The sweep's frames made
-// beside the sparse stage").
+// leaves idle, instead of after it
+// (docs/experiments/207-frames-beside-sparse.md).
 #pragma once
 
 #include <opencv2/core.hpp>

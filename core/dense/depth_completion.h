@@ -46,13 +46,13 @@ struct DepthCompletionOptions {
   // confident interior of a surface outweighs its fringe: the pixels that
   // border a hole carry the lowest confidence there and, at a depth edge,
   // often the nearer surface's depth (the window reaches across the edge).
-  // Measured in docs/dense.md, "The fill guided by colour".
+  // Measured in docs/experiments/223-fill-guided-by-colour.md.
   double confidence_power = 2.0;
   // The spread reads the guide after a median of this size (odd; 0 or 1:
   // none): a webcam's noisy, blocky chroma (4:2:0, JPEG) otherwise stops it
   // inside a surface, and a median, unlike a blur, leaves an edge a step
-  // instead of a ramp the spread crosses (docs/dense.md, "A median of the
-  // fill's guide").
+  // instead of a ramp the spread crosses
+  // (docs/experiments/225-median-of-fill-guide.md).
   int guide_median = 3;
 
   // Throws std::invalid_argument naming the option out of range.

@@ -3,7 +3,7 @@
 // textured object in front of a dull background), and the pixels along an
 // edge are mixed and half-occluded: their winners are unreliable whatever the
 // aggregation. On generated 640x480 bursts these few percent of the pixels
-// carried about 60 % of the depth error (docs/dense.md).
+// carried about 60 % of the depth error (docs/experiments/201-accuracy-true-geometry.md).
 #pragma once
 
 #include <opencv2/core.hpp>

@@ -30,11 +30,11 @@ struct GlobalSmootherOptions {
   // its channels: an edge between two colours of one brightness (an orange
   // wall behind a grey photo) stops the spread there too. Wider than sigma
   // because the largest of three channels' noise exceeds the grey's
-  // (docs/dense.md, "The fill guided by colour").
+  // (docs/experiments/223-fill-guided-by-colour.md).
   double color_sigma = 3.0;
   // Row-and-column passes. One scores as well as three on TUM and on
-  // generated bursts (docs/dense.md) but leaves streaks along the last
-  // pass; each further pass costs ~20 ms at 1080p.
+  // generated bursts (docs/experiments/221-filling-along-regions.md) but leaves
+  // streaks along the last pass; each further pass costs ~20 ms at 1080p.
   int iterations = 3;
 
   // Throws std::invalid_argument naming the option out of range.

@@ -8,8 +8,9 @@ namespace dfsm {
 double HighPassSigma(double sigma_px, int width, int height) {
   if (sigma_px < 0.0) return 0.0;
   if (sigma_px > 0.0) return sigma_px;
-  // Measured on TUM at 640x480 (docs/dense.md): 1/80 of the side beat 1/40
-  // and 1/20 (wider blurs leave more of the brightness change in).
+  // Measured on TUM at 640x480 (docs/experiments/218-high-passed-frames.md):
+  // 1/80 of the side beat 1/40 and 1/20 (wider blurs leave more of the
+  // brightness change in).
   return std::max(width, height) / 80.0;
 }
 

@@ -4,7 +4,7 @@
 // through the gray conversion, vignetting under motion. Those changes are
 // smooth across the image; texture, which the sweep matches on, is not. On TUM
 // fr1/xyz (a real webcam) the windows whose depth was worse than a constant
-// (AbsRel 49-62 %) came to 4-6 % with it (docs/dense.md, "High-passed frames").
+// (AbsRel 49-62 %) came to 4-6 % with it (docs/experiments/218-high-passed-frames.md).
 // The blur is approximate (taken at a lower resolution, see HighPass).
 #pragma once
 

@@ -62,7 +62,7 @@ RadialInverse::RadialInverse(const CameraModel& camera) {
   // rounding only. A wider one (10 % until 2026-11-29) reached toward the fold
   // of a wide lens just outside its image, where the inverse grows like a
   // square root that no polynomial of degree 10 follows, and refused cameras
-  // that fit their burst (docs/dense.md, "The radial inverse's range").
+  // that fit their burst (docs/experiments/229-radial-inverse-range.md).
   double max_r2 = 0.0;
   for (const double u : {-1.0, static_cast<double>(camera.width)})
     for (const double v : {-1.0, static_cast<double>(camera.height)})
@@ -82,9 +82,8 @@ RadialInverse::RadialInverse(const CameraModel& camera) {
   // degree if it moves no sample by more than kTolerancePx at the largest
   // radius (an error e of the ratio moves a sample by e * f * r_u pixels):
   // below the sweep's own approximation of a sample's path along a pixel's
-  // planes (0.01-0.02 px, docs/dense.md, "Interpolated samples"). Refusing
-  // them cost their depth its distortion (docs/dense.md, "The radial
-  // inverse's tolerance").
+  // planes (0.01-0.02 px, docs/experiments/204-streamed-volumes-interpolated-samples.md). Refusing
+  // them cost their depth its distortion (docs/experiments/227-radial-inverse-tolerance.md).
   constexpr double kTolerance = 1e-6;
   constexpr double kTolerancePx = 0.01;
   constexpr int kLawsonIterations = 40;

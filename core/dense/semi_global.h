@@ -25,8 +25,9 @@ struct SemiGlobalOptions {
   // depth edges follow image edges. Both far above the cost differences
   // between planes: the coarse level only has to find the right valley, and
   // the full-resolution window (+-3 or +-4 planes) places the depth within it. Swept
-  // from 0.1/1 to 16/128 on generated bursts and TUM fr1/xyz (docs/dense.md,
-  // "Regularized depth"): better on both up to 8/64, flat beyond.
+  // from 0.1/1 to 16/128 on generated bursts and TUM fr1/xyz
+  // (docs/experiments/212-regularized-depth.md): better on both up to 8/64, flat
+  // beyond.
   float small_step_penalty = 8.0f;
   float large_step_penalty = 64.0f;
   float edge_gradient = 8.0f;

@@ -3,8 +3,8 @@
 // that drops a frame (USB bandwidth, a busy board) leaves a gap of two
 // intervals between neighbours; taken as one, the rows' motion across it is
 // half what it was, and a 640x480 phone burst missing one frame came out with
-// f 16 % off and depth 8 % off instead of 1 % and 3 % (docs/sparse.md,
-// "Dropped frames").
+// f 16 % off and depth 8 % off instead of 1 % and 3 %
+// (docs/experiments/119-dropped-frames.md).
 #pragma once
 
 #include <vector>

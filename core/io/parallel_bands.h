@@ -24,7 +24,7 @@ struct RowBand {
 // the bands, as long as each keeps kMinSpreadRows: otherwise the thread left
 // with the last band works through it alone while the others wait (at 1080p
 // on 2 cores, nine 128-row sweep bands took ~8 % longer than ten of 108;
-// docs/dense.md, "As many sweep bands for every thread").
+// docs/experiments/208-sweep-bands-per-thread.md).
 class RowBandLayout {
  public:
   static constexpr int kMinSpreadRows = 16;

@@ -19,7 +19,7 @@ namespace dfsm {
 
 struct DepthCheckOptions {
   // Warn when the median |w_dense / w_track - 1| over the tracks exceeds this
-  // (docs/dense.md: 0.7-1.5 % on generated bursts, 0.1-2.3 % on TUM windows:
+  // (docs/experiments/210-tum-fr1-xyz.md: 0.7-1.5 % on generated bursts, 0.1-2.3 % on TUM windows:
   // the dense stage follows the sparse geometry, right or wrong) ...
   double max_median_disagreement = 0.10;
   // ... or when the map has depth at fewer than this share of the tracks or
@@ -27,20 +27,21 @@ struct DepthCheckOptions {
   double min_tracks_covered = 0.5;
   double min_valid_fraction = 0.5;
   // Warn when more than this share of the pixels are photo-consistency
-  // outliers (DenseDepth::outlier_fraction; docs/dense.md: at most 0.6 % on
+  // outliers (DenseDepth::outlier_fraction;
+  // docs/experiments/220-photo-consistency-outliers.md: at most 0.6 % on
   // generated bursts of a still scene, 0.1-0.5 % on TUM fr1/xyz, 3.5-6 % with a
   // moving object).
   double max_outlier_fraction = 0.02;
   // Warn when the camera's uncertainty leaves the relief more uncertain than
   // this (CalibrationUncertainty::relief_sigma, 1 sigma: the relative depth
   // error the tracks share, which agreeing with them cannot reveal).
-  // docs/sparse.md, "The relief's uncertainty": 2.9-4.9 % on generated 1080p
+  // docs/experiments/123-relief-uncertainty.md: 2.9-4.9 % on generated 1080p
   // and phone VGA bursts that score 2.0-3.2 % AbsRel, 6-24 % on those that
   // score 3.4-12 % (VGA with 2 deg tremor, webcams, 320x240), 0.5-4 % on TUM.
   double max_relief_sigma = 0.05;
   // Warn when the relief moves by more than this with the lens model
-  // (SparseReconstruction::lens_relief_shift; docs/sparse.md, "Does the
-  // relief depend on the lens model?": 0.02-2 % on generated bursts that
+  // (SparseReconstruction::lens_relief_shift;
+  // docs/experiments/124-lens-relief-shift.md: 0.02-2 % on generated bursts that
   // score 0.8-6.7 % AbsRel, 5 % on two webcam bursts at 5.4 and 8.8 %, 34 and
   // 46 % on two wide-angle phone bursts at 12 and 22 %; 0.05-4 % on TUM).
   double max_lens_relief_shift = 0.10;
@@ -49,7 +50,7 @@ struct DepthCheckOptions {
   // by DenseOptions::inverse_depth_margin, so a surface nearer (or farther)
   // than every inlier track is swept only to the range's end, and its pixels
   // take the end plane: a whole plane 60 % too far while the tracks agreed
-  // (docs/dense.md, "The depth sweep": 18 % of the pixels at the near end
+  // (docs/experiments/228-depth-sweep.md: 18 % of the pixels at the near end
   // there, 54 % at the far end of a burst 134 % off; at most 0.1 % near and
   // 0.33 % far on 75 other generated bursts, up to 1.6 % near on TUM fr1/xyz,
   // where the desk's nearest edge has no tracks). The dense stage extends the
@@ -84,7 +85,7 @@ struct DepthCheck {
   // The refit's relief is the one the burst's own lens model did not choose,
   // and how far it moved is not measured (lens_relief_shift is -1): on the
   // wide depth sweep, such maps came out 6-12 % off while agreeing with their
-  // tracks (docs/dense.md, "The radial inverse's range"). The sparse stage
+  // tracks (docs/experiments/229-radial-inverse-range.md). The sparse stage
   // already warns; the check only withholds `confirmed`.
   bool estimated_camera_used = true;
   std::vector<std::string> warnings;  // empty: nothing to say

@@ -30,8 +30,9 @@ struct DepthEvaluation {
   int evaluated_pixels = 0;
   // The relief's share of the error. In small motion a frame's rotation error
   // and an offset of every inverse depth give nearly the same flow, so a map
-  // can be right but for an offset b in inverse depth (docs/sparse.md, "The
-  // relief's uncertainty"). With w = 1 / d the map's inverse depth and w* the
+  // can be right but for an offset b in inverse depth
+  // (docs/experiments/123-relief-uncertainty.md). With w = 1 / d the map's
+  // inverse depth and w* the
   // truth's, w* = a w + b is fitted over the same pixels by least absolute
   // relative residuals, |(a w + b) / w* - 1| (robust to the few wild pixels
   // beside depth edges). `inverse_depth_offset` is

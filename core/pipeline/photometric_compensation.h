@@ -1,7 +1,7 @@
 // Per-frame gain and bias compensation: auto exposure and gain change a
 // frame's brightness from one frame to the next, which breaks the brightness
 // constancy that KLT tracking and the plane sweep's photo-consistency assume
-// (docs/sparse.md, "Real-camera effects": +-12 % exposure drift left 28-52 %
+// (docs/experiments/112-camera-effects.md: +-12 % exposure drift left 28-52 %
 // of the depth map). Each frame is scaled onto the reference's brightness by
 // the median ratio of the two, compared cell by cell at a scale the burst's
 // few pixels of motion cannot reach. (Matching means and spreads of the whole

@@ -5,7 +5,7 @@
 // pose of the frame it copies but stands at the next capture time, which the
 // rolling shutter's path between frames cannot fit: a 640x480 phone burst
 // with one frame repeated came out with f 30 % off and depth 12 % off
-// (docs/sparse.md, "Repeated frames"). The pipeline leaves them out and
+// (docs/experiments/120-repeated-frames.md). The pipeline leaves them out and
 // takes the gap at the capture times (io/frame_times.h).
 #pragma once
 

@@ -28,8 +28,8 @@ constexpr double kMinRectifiedReadout = 0.05;
 constexpr int kRectificationRounds = 3;
 // Readouts the adjustment also restarts from where it estimates the readout.
 // A readout and a top-to-bottom tilt of the scene trade against each other
-// when the camera moves up and down (docs/sparse.md, "The readout's sigma,
-// and TUM window 18-27"): the adjustment has two minima there, and which it
+// when the camera moves up and down (docs/experiments/114-readout-sigma-tum-18-27.md):
+// the adjustment has two minima there, and which it
 // reaches depends on the start. Starts nearer than kSameReadoutStart to one
 // already tried return to the same minimum and are skipped.
 constexpr double kReadoutStarts[] = {0.5, 1.0};
@@ -40,7 +40,7 @@ constexpr double kSameReadoutStart = 0.15;
 // 100-iteration cap (1080p: cost 2717 at the start, 36 after 30 iterations,
 // 26.3 after 100), while the restart from its readout reached 12.2 in 8.
 // Where it measures no readout it goes on to the full budget, since no
-// restart follows (docs/sparse.md, "The first adjustment's budget").
+// restart follows (docs/experiments/117-first-adjustment-budget.md).
 constexpr int kMeasuringIterations = 30;
 
 // Focal starts beyond these (fractions of max(width, height)) are no camera:
@@ -282,7 +282,7 @@ class StartedAdjustment {
     // f, k1, k2 and the readout stay the equal-weight solution's: with the
     // intrinsics free, the weights took the calibration's evidence away where
     // the lens departs most from the model (the corners' tracks fit worst),
-    // and its sigmas shrank as its errors grew (docs/sparse.md).
+    // and its sigmas shrank as its errors grew (docs/experiments/125-track-weights.md).
     BundleAdjustmentOptions held = adjust;
     held.fix_intrinsics = true;
     held.estimate_readout = false;

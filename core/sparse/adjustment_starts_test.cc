@@ -350,8 +350,8 @@ TEST(AdjustFromStarts, NoisierTracksWeighLessAndTheCameraIsHeld) {
     ASSERT_GT(noisy_used, 10) << "draw " << draw;
     EXPECT_LT(noisy_sum / noisy_used, 0.4) << "draw " << draw;
     EXPECT_GT(quiet_whole, quiet_used / 2) << "draw " << draw;
-    // The rounds refined the poses (the sweeps in docs/sparse.md measure
-    // what that does to the depth).
+    // The rounds refined the poses (the sweeps in
+    // docs/experiments/125-track-weights.md measure what that does to the depth).
     EXPECT_NE(a.state.inverse_depths, b.state.inverse_depths) << "draw " << draw;
   }
 }

@@ -6,8 +6,8 @@
 // biases f long and k1 down, growing as the square of the noise over the
 // flow's second-order signal, and about as much with 10 frames as with 30
 // (each frame brings six pose parameters of its own); the weak intrinsics
-// prior pulls the other way, towards max(w, h) (docs/sparse.md, "The
-// adjustment's bias from the tracks' noise", for the measurements).
+// prior pulls the other way, towards max(w, h) (docs/experiments/132-noise-bias.md,
+// for the measurements).
 //
 // The bootstrap measures the sum where the solution stands: replica tracks
 // that the solution explains exactly, plus Gaussian noise as large as its
@@ -21,7 +21,7 @@
 // there the bursts' noise averages out and their bias would not. A burst's
 // own depth keeps the camera that fits its tracks best: with the bias taken
 // off and the poses refitted under it, TUM fr1/xyz's self-calibrated depth
-// was worse (docs/sparse.md, "The adjustment's bias from the tracks' noise").
+// was worse (docs/experiments/132-noise-bias.md).
 #pragma once
 
 #include <cstdint>

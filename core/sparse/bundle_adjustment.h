@@ -28,7 +28,7 @@ struct BundleAdjustmentOptions {
   double log_f_prior_sigma = 0.5;
   double corner_shift_prior_sigma = 0.1;
   // A lens prior: k1 and k2 each zero-mean with this sigma (0: off). Measured
-  // on and off over the calibration sweep (docs/sparse.md, "Lens prior").
+  // on and off over the calibration sweep (docs/experiments/106-priors-sweep.md).
   double lens_k_prior_sigma = 0.0;
   // Holds f, k1, k2 at the state's values (a known calibration).
   bool fix_intrinsics = false;
@@ -50,7 +50,7 @@ struct BundleAdjustmentOptions {
   // errors of real tracks are not white (interpolation and JPEG biases,
   // corners on depth edges, local minima): the noise is taken as this many
   // times what the residuals show. Measured over the calibration sweep
-  // (docs/sparse.md, "Calibration uncertainty").
+  // (docs/experiments/104-calibration-sweep.md).
   double uncertainty_inflation = 2.8;
   // ... and for a wide lens (the estimated f below wide_angle_focal_ratio x
   // the longer image side) by a further (wide_angle_focal_ratio x side /
@@ -60,8 +60,8 @@ struct BundleAdjustmentOptions {
   // sweep's bursts instead of 90 %. The ratio sits above the normal sweep's
   // 0.8 because the biased estimate of a wide lens reads up to 10-30 % long.
   // Chosen on the wide sweep's seeds 1 and 2 (f 93 %, distortion 90 % within
-  // 2 sigma), checked on seed 3 (docs/sparse.md, "Wide lenses: the sigma
-  // inflated"). Only where f is estimated without a known prior: the bias is
+  // 2 sigma), checked on seed 3 (docs/experiments/108-wide-lens-sigma.md). Only
+  // where f is estimated without a known prior: the bias is
   // the estimate's. 0: no further inflation.
   double wide_angle_focal_ratio = 0.9;
   double wide_angle_inflation_exponent = 4.0;

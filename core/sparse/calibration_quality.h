@@ -18,7 +18,8 @@ namespace dfsm {
 enum class CalibrationQuality { kReliable, kUncertain, kDegenerate };
 const char* CalibrationQualityName(CalibrationQuality quality);  // "reliable" | ...
 
-// The thresholds, measured in docs/sparse.md ("Calibration verdict").
+// The thresholds (docs/sparse.md, "Calibration uncertainty and the verdict"), measured
+// over the calibration sweep (docs/experiments/104-calibration-sweep.md).
 struct CalibrationQualityOptions {
   // reliable needs all of these
   double max_reliable_sigma_f_percent = 0.5;  // so that 2 sigma stays within 1 %

@@ -11,8 +11,8 @@
 // per-frame compensation a patch's brightness changes with its position, and
 // KLT moves the match to where the brightness fits rather than where the
 // texture does. Neighbouring tracks share that shift, so the bundle
-// adjustment reads it as focal length and distortion (docs/sparse.md, "A gain
-// and a bias per track").
+// adjustment reads it as focal length and distortion
+// (docs/experiments/121-gain-bias.md).
 #pragma once
 
 #include <Eigen/Core>
@@ -28,7 +28,7 @@ struct GainBiasAlignmentOptions {
   // the gain trade against the shift of edges near its border: ideal bursts
   // lost up to 0.7 points of AbsRel and TUM's self-calibrated f wandered on
   // two windows; sigma 7 in a 21 px window kept both, 3.5 lost the phone
-  // bursts' gain (docs/sparse.md).
+  // bursts' gain (docs/experiments/121-gain-bias.md).
   double weight_sigma_px = 7.0;
   int max_iterations = 20;
   // Stop when a Gauss-Newton step moves the position by less than this (px).
@@ -40,7 +40,8 @@ struct GainBiasAlignmentOptions {
   // that travelled far is also rotated and sheared (tremor, rolling shutter),
   // and where a translation lands on it depends on the window's weights by an
   // amount that grows with the travel. At 1080p and 2 deg (~80 px) a fixed
-  // 0.5 px dropped 60 of 181 tracks and f went 58 % off (docs/sparse.md).
+  // 0.5 px dropped 60 of 181 tracks and f went 58 % off
+  // (docs/experiments/121-gain-bias.md).
   double max_shift_px = 0.5;
   double max_shift_fraction = 0.02;
   // A gain outside (1 / max_gain, max_gain) is a different surface, not the

@@ -1,6 +1,5 @@
 // How far a burst's relief depends on the lens model
-// (SparseReconstruction::lens_relief_shift, docs/sparse.md "Does the relief
-// depend on the lens model?").
+// (SparseReconstruction::lens_relief_shift, docs/experiments/124-lens-relief-shift.md).
 #pragma once
 
 #include <vector>

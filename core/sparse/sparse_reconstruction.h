@@ -72,8 +72,8 @@ struct SparseOptions {
   // as a focal start is kept. The rank-1 start can settle in a minimum whose
   // inverse depths share a wrong offset (a flattened relief that still fits
   // its tracks to a few tenths of a pixel): TUM fr1/xyz window 18-27 with
-  // the published calibration (docs/sparse.md, "The naive start as a
-  // probe"). Like a focal probe, the probe also stands in where the first
+  // the published calibration (docs/experiments/129-naive-probe.md). Like a
+  // focal probe, the probe also stands in where the first
   // start fails. False: the rank-1 starts alone.
   bool naive_probe = true;
   int min_tracks = 20;
@@ -81,8 +81,9 @@ struct SparseOptions {
   // After the adjustment, tracks whose reprojection error exceeds
   // max(this, 4 robust sigmas) are dropped and the adjustment is rerun, for at
   // most `outlier_rounds` rounds. 0.3 px, not ~1.5: measured on rendered
-  // bursts (docs/sparse.md), the tracks between 0.3 and 1.5 px are corners on
-  // depth edges, and keeping them costs 10-25 % of focal accuracy at VGA.
+  // bursts (docs/sparse.md, "Outlier tracks on depth edges"), the tracks
+  // between 0.3 and 1.5 px are corners on depth edges, and keeping them costs
+  // 10-25 % of focal accuracy at VGA.
   double outlier_px = 0.3;
   int outlier_rounds = 3;
   // Then the poses and inverse depths are refined with each track weighed by
@@ -94,7 +95,7 @@ struct SparseOptions {
   // few set much of the rotations' error, which the dense stage reads as an
   // inverse-depth offset. f, k1, k2 and the readout are held (with them
   // free the calibration lost its corners' evidence and its sigmas their
-  // honesty). docs/sparse.md, "Tracks weighted by their own noise". 0: off.
+  // honesty). docs/experiments/125-track-weights.md. 0: off.
   int reweight_rounds = 2;
   double min_track_weight = 0.1;
   // Where the burst calibrates itself, the bias its tracks' noise gives f,
@@ -114,7 +115,7 @@ struct SparseOptions {
   // in the tracks it left out and finishes with the whole budget. f shows only
   // in second-order terms of small motion, and a wide lens (0.55-0.8: 64-85
   // deg, phones' and webcams' main cameras) started at 1 can stop in another
-  // minimum, f tens of percent long (docs/sparse.md, "Focal starts"). A known
+  // minimum, f tens of percent long (docs/experiments/109-focal-starts.md). A known
   // calibration starts from its own camera only (so does the naive probe,
   // naive_probe, and options.init kNaive starts once).
   std::vector<double> focal_starts = {1.0, 0.6};
@@ -126,7 +127,7 @@ struct SparseOptions {
   // time again), and a warning says so when the known camera's reprojection
   // RMS, or the number of tracks the burst's own camera keeps, exceeds the
   // other's by more than this factor (SparseReconstruction::known_fit;
-  // docs/sparse.md, "Does the known calibration fit the burst?"). 0: no check.
+  // docs/experiments/122-known-calibration-fit.md). 0: no check.
   double max_known_fit_ratio = 1.2;
   // A known calibration that is not checked (check_fit off: the daemon's
   // fused calibration, EXIF's focal length) whose adjustment keeps fewer
@@ -137,8 +138,8 @@ struct SparseOptions {
   // rejects a third of the tracks, with the true camera given (phone
   // 320x240 seed 6: 120 of 199 kept, depth 28 % off, the calibration called
   // reliable; 1080p burst 5031 as a prior of 1 %: 163 of 254, 1563 %), where
-  // every other burst of the phone sweeps keeps 0.82-1 (docs/sparse.md, "The
-  // burst's own solution where the known camera is not checked"). Below it
+  // every other burst of the phone sweeps keeps 0.82-1
+  // (docs/experiments/136-unchecked-known.md). Below it
   // the sparse stage costs about three adjustments instead of one; 0: never.
   double min_known_inlier_share = 0.75;
   // The sensor's readout: global, known or estimated (rolling_shutter.h).
@@ -206,8 +207,8 @@ struct SparseReconstruction {
   // free, an offset is relief). A lens with more distortion than k1 and k2
   // describe (a wide angle's higher terms) lets the rotations take an
   // inverse-depth offset that no residual shows; the relief then moves by
-  // tens of percent with the model (docs/sparse.md, "Does the relief depend
-  // on the lens model?"). -1: not measured (intrinsics held or given as a
+  // tens of percent with the model (docs/experiments/124-lens-relief-shift.md).
+  // -1: not measured (intrinsics held or given as a
   // prior with its distortion, or a fallback camera).
   double lens_relief_shift = -1.0;
   // The camera the adjustment estimated, when a fallback replaced it.

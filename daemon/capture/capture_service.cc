@@ -9,7 +9,7 @@
 #include "daemon/capture/source_uri.h"
 #include "daemon/capture/streaming_service.h"
 #include "daemon/capture/v4l2_source.h"
-#include "daemon/service/capture_limits.h"
+#include "daemon/capture/capture_limits.h"
 #ifdef DFSM_HAVE_LIBCAMERA
 #include "daemon/capture/libcamera_source.h"
 #endif
@@ -33,9 +33,8 @@ void CheckConfig(const CaptureConfig& config) {
       fail(std::string(name) + " " + std::to_string(value) + " is outside " + std::to_string(min) +
            ".." + std::to_string(max));
   };
-  check_range("ring_frames", config.ring_frames, service::kMinRingFrames, service::kMaxRingFrames);
-  check_range("device_buffers", config.device_buffers, service::kMinDeviceBuffers,
-              service::kMaxDeviceBuffers);
+  check_range("ring_frames", config.ring_frames, kMinRingFrames, kMaxRingFrames);
+  check_range("device_buffers", config.device_buffers, kMinDeviceBuffers, kMaxDeviceBuffers);
   if (config.frame_timeout.count() <= 0) fail("frame_timeout must be positive");
   if (config.reconnect_backoff.count() < 0) fail("reconnect_backoff must not be negative");
   if (!std::isfinite(config.fps)) fail("fps must be a finite number");

@@ -6,7 +6,6 @@
 
 #include "core/dense/dense_depth.h"
 #include "core/sparse/grided_features.h"
-#include "daemon/service/capture_limits.h"
 #include "daemon/service/number_text.h"
 
 namespace dfsm::service {
@@ -14,6 +13,14 @@ namespace {
 
 constexpr int64_t kIntMax = std::numeric_limits<int>::max();
 constexpr int64_t kInt64Max = std::numeric_limits<int64_t>::max();
+
+// The capture layer's limits (daemon/capture/capture_limits.h), stated on
+// this side of the camera port so that --check-config accepts exactly what
+// start-up accepts (dfsmd/config_wiring_test.cc holds them together).
+constexpr int kMinRingFrames = 3;
+constexpr int kMaxRingFrames = 4096;
+constexpr int kMinDeviceBuffers = 4;
+constexpr int kMaxDeviceBuffers = 32;
 
 // `member` is a lambda returning a pointer to the key's member.
 template <typename Member>
