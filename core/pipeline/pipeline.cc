@@ -80,6 +80,15 @@ struct DistinctFrames {
   nlohmann::json left_out = nlohmann::json::array();  // {"frame", "repeats"} per repeat
 };
 
+// A per-stage-frame list as the caller's frames see it (a repeat shows its
+// original's value).
+nlohmann::json PerCallerFrame(const std::vector<int>& values, const std::vector<int>& stage_index) {
+  nlohmann::json list = nlohmann::json::array();
+  for (const int stage : stage_index)
+    list.push_back(stage >= 0 && stage < static_cast<int>(values.size()) ? values[stage] : -1);
+  return list;
+}
+
 }  // namespace
 
 PipelineOutput RunPipeline(const Burst& burst, const PipelineOptions& options,
@@ -231,6 +240,7 @@ PipelineOutput RunPipeline(const Burst& burst, const PipelineOptions& options,
     result.extra["sparse_detail"] = {
         {"cells", sparse.feature_stats.cells},
         {"tracked", sparse.feature_stats.tracks},
+        {"reached_per_frame", PerCallerFrame(sparse.feature_stats.reached, distinct.stage_index)},
         {"inliers", result.features},
         {"rank1_iterations", sparse.rank_one.iterations},
         {"rank1_rms_residual_px", sparse.rank_one.rms_residual_px},

@@ -208,6 +208,9 @@ FeatureTracks TrackGridedFeatures(const std::vector<cv::Mat>& frames, int refere
     stats->cells = ((ref.cols + cell - 1) / cell) * ((ref.rows + cell - 1) / cell);
     stats->corners = m;
     stats->tracks = static_cast<int>(kept.size());
+    stats->reached.clear();
+    for (int i = 0; i < n; ++i)
+      stats->reached.push_back(static_cast<int>(std::count(valid[i].begin(), valid[i].end(), 1)));
   }
   return tracks;
 }

@@ -26,7 +26,7 @@ struct GridedFeatureOptions {
   // (98 tracks where 0.003 keeps 230, generated 640x480 burst, seed 1): the
   // rotations were off by 0.065 deg and the whole pipeline's depth by 9.2 %
   // AbsRel; at 0.003 with the 0.2 px check below: 0.006 deg, 1.1 %
-  // (docs/sparse.md).
+  // (docs/experiments/103-weak-texture-corners.md).
   double min_quality = 0.003;
   int klt_window = 21;
   int klt_levels = 3;
@@ -40,7 +40,7 @@ struct GridedFeatureOptions {
   // sheared (the roll, and a rolling shutter, under a tremor of 1-2 deg), so
   // its forward and backward matches part by more the further it went: at
   // 1080p and 2 deg (50-77 px of travel) the 0.2 px bound alone left 26 of
-  // 336 tracks on one burst (docs/sparse.md, "Patches that turn and shear").
+  // 336 tracks on one burst (docs/experiments/134-patch-shape.md).
   // 0.008: 0.2 px up to 25 px of travel, 0.6 px at 75 px; the realignment
   // through the patch's shape (below) then decides.
   double max_forward_backward_fraction = 0.008;
@@ -49,7 +49,7 @@ struct GridedFeatureOptions {
   // klt_window, which overrides alignment.window and must be odd), and
   // dropped where that fails. Off, vignetting and
   // white-balance drift moved f by 8-23 % on the generator's phone and webcam
-  // bursts at 640x480 (docs/sparse.md, "A gain and a bias per track").
+  // bursts at 640x480 (docs/experiments/121-gain-bias.md).
   bool gain_bias = true;
   // The realignment samples each patch as the frame's motion turned and
   // sheared it: the Jacobian, at the corner, of the homography that fits the
@@ -79,6 +79,11 @@ struct GridedFeatureStats {
   int cells = 0;
   int corners = 0;  // cells with a corner strong enough to track
   int tracks = 0;   // corners tracked to every frame and passing the check
+  // Per frame: the corners KLT found there and kept through the
+  // forward-backward check (the reference: every corner), before a track
+  // needs all frames. A frame far below the others is the one that loses
+  // the tracks (blur, a jolt).
+  std::vector<int> reached;
 };
 
 // Detects one corner per cell of `frames[reference]` and tracks it to every

@@ -74,6 +74,14 @@ TEST(GridedFeatures, TracksSubpixelShiftsInEveryFrame) {
   GridedFeatureStats stats;
   const FeatureTracks tracks = TrackGridedFeatures(frames, 0, {}, &stats);
   EXPECT_GT(stats.tracks, 0.9 * stats.corners);
+  // Every frame is reached by at least the tracks kept through all of them;
+  // the reference by every corner.
+  ASSERT_EQ(stats.reached.size(), 6u);
+  EXPECT_EQ(stats.reached[0], stats.corners);
+  for (int i = 1; i < 6; ++i) {
+    EXPECT_GE(stats.reached[i], stats.tracks) << "frame " << i;
+    EXPECT_LE(stats.reached[i], stats.corners) << "frame " << i;
+  }
   EXPECT_EQ(tracks.num_frames(), 6);
   EXPECT_EQ(tracks.num_tracks(), stats.tracks);
   for (int i = 1; i < 6; ++i) {

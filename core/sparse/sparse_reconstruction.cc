@@ -50,9 +50,13 @@ ReconstructionError TooFewTracks(const cv::Mat& reference, const SparseReconstru
         "too few tracks: too little texture: " + std::to_string(stats.corners) + " of " +
         std::to_string(stats.cells) + " cells hold a corner, " + std::to_string(stats.tracks) +
         " tracked" + need + measured);
+  std::string reached;
+  for (size_t i = 0; i < stats.reached.size(); ++i)
+    reached += (i ? ", " : "") + std::to_string(stats.reached[i]);
   return ReconstructionError("too few tracks: " + std::to_string(stats.tracks) + " of " +
                              std::to_string(stats.corners) + " corners survived tracking" + need +
-                             ": motion too large or blur" + measured);
+                             ": motion too large or blur" + measured +
+                             "; corners that reached each frame: " + reached);
 }
 
 }  // namespace
@@ -409,8 +413,7 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
   // the known camera: the starts made under it (rank-1, naive) can all end
   // in a minimum that rejects a third of the tracks, where the burst's own
   // solution, its camera replaced by the known one, converges to one that
-  // fits them all (docs/sparse.md, "The burst's own solution as a start
-  // under a known calibration").
+  // fits them all (docs/experiments/135-given-start-known.md).
   const auto check_start = std::chrono::steady_clock::now();
   const std::optional<SparseReconstruction> free =
       CalibrateAlone(tracked, width, height, options, beside);
