@@ -381,6 +381,7 @@ void AdjustmentAttempt::Adjust(const FeatureTracks& tracks,
 }
 
 void CheckAdjustmentOptions(const SparseOptions& options) {
+  options.bundle_adjustment.Check();
   options.bootstrap.Check();
   if (options.focal_starts.empty())
     throw std::invalid_argument(

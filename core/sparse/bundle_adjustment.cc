@@ -6,6 +6,8 @@
 #include <array>
 #include <cmath>
 #include <memory>
+#include <stdexcept>
+#include <string>
 
 #include "core/camera/rolling_shutter.h"
 #include "core/sparse/intrinsics_prior.h"
@@ -169,6 +171,7 @@ BundleAdjustmentSummary RunBundleAdjustment(const FeatureTracks& tracks,
                                             const std::vector<bool>& use, SparseState* state,
                                             const BundleAdjustmentOptions& options,
                                             CalibrationUncertainty* uncertainty) {
+  options.Check();
   const int n = tracks.num_frames();
   const int m = tracks.num_tracks();
   double intrinsics[3] = {state->camera.f, state->camera.k1, state->camera.k2};
@@ -404,6 +407,24 @@ std::vector<double> TrackReprojectionErrorsAtBestDepth(const FeatureTracks& trac
     if (best_inverse_depths) (*best_inverse_depths)[j] = w;
   }
   return errors;
+}
+
+void BundleAdjustmentOptions::Check() const {
+  const auto refuse = [](const std::string& what) { throw std::invalid_argument(what); };
+  if (max_iterations < 0) refuse("max_iterations must be >= 0 (0: evaluate the state only)");
+  if (!(huber_px > 0.0)) refuse("huber_px must be > 0");
+  if (!(function_tolerance > 0.0)) refuse("function_tolerance must be > 0");
+  if (num_threads < 1) refuse("num_threads must be >= 1");
+  if (distortion_terms < 0 || distortion_terms > 2)
+    refuse("distortion_terms must be 0, 1 or 2 (k1, k2), got " + std::to_string(distortion_terms));
+  if (!(log_f_prior_sigma >= 0.0)) refuse("log_f_prior_sigma must be >= 0 (0: off)");
+  if (!(corner_shift_prior_sigma >= 0.0)) refuse("corner_shift_prior_sigma must be >= 0 (0: off)");
+  if (!(lens_k_prior_sigma >= 0.0)) refuse("lens_k_prior_sigma must be >= 0 (0: off)");
+  if (!(known_f_sigma_percent >= 0.0)) refuse("known_f_sigma_percent must be >= 0 (0: no prior)");
+  if (!(known_distortion_sigma_px >= 0.0)) refuse("known_distortion_sigma_px must be >= 0");
+  if (!(uncertainty_inflation >= 1.0)) refuse("uncertainty_inflation must be >= 1");
+  if (!(wide_angle_focal_ratio >= 0.0)) refuse("wide_angle_focal_ratio must be >= 0 (0: off)");
+  if (!(wide_angle_inflation_exponent >= 0.0)) refuse("wide_angle_inflation_exponent must be >= 0");
 }
 
 double WideAngleFactor(const BundleAdjustmentOptions& options, const CameraModel& camera) {

@@ -65,6 +65,9 @@ struct BundleAdjustmentOptions {
   // the estimate's. 0: no further inflation.
   double wide_angle_focal_ratio = 0.9;
   double wide_angle_inflation_exponent = 4.0;
+
+  // Throws std::invalid_argument naming the option out of range.
+  void Check() const;
 };
 
 // The wide-angle factor above for `camera` (1 where it does not apply), and

@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
+#include <string>
 #include <cstdio>
 #include <memory>
 #include <random>
@@ -266,6 +268,34 @@ TEST(BundleAdjustment, NaiveStartNeedsFarMoreIterations) {
   EXPECT_TRUE(rank1_summary.converged);
   EXPECT_TRUE(!naive_summary.converged || naive_summary.iterations > rank1_summary.iterations)
       << "naive " << naive_summary.iterations << " rank1 " << rank1_summary.iterations;
+}
+
+// distortion_terms = 3 used to free every term silently: every option out of
+// range is refused with its name.
+TEST(BundleAdjustment, OptionsOutOfRangeAreNamed) {
+  const auto message = [](const BundleAdjustmentOptions& options) {
+    try {
+      options.Check();
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_EQ(message(BundleAdjustmentOptions{}), "no error");
+  BundleAdjustmentOptions options;
+  options.distortion_terms = 3;
+  EXPECT_NE(message(options).find("distortion_terms"), std::string::npos);
+  options = {};
+  options.huber_px = std::nan("");
+  EXPECT_NE(message(options).find("huber_px"), std::string::npos);
+  options = {};
+  options.uncertainty_inflation = 0.5;
+  EXPECT_NE(message(options).find("uncertainty_inflation"), std::string::npos);
+  options = {};
+  options.max_iterations = -1;
+  EXPECT_NE(message(options).find("max_iterations"), std::string::npos);
+  options.max_iterations = 0;  // evaluates the state only
+  EXPECT_EQ(message(options), "no error");
 }
 
 }  // namespace
