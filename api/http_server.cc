@@ -40,9 +40,7 @@ std::string PeerAddress(int socket) {
 // a GET or HEAD travels on as kGateRangeField, anything else is dropped and
 // the resource is served whole. Without a validator (dfsmd sends no ETag or
 // Last-Modified) an If-Range cannot match, so it, too, means the whole.
-void GateRange(ReadyRequest& request) {
-  RequestHead& head = request.head;
-  if (!head.Field("Range") && !head.Field(kGateRangeField)) return;
+void GateRange(RequestHead& head) {
   std::optional<ByteRange> range;
   if (const std::string* value = head.Field("Range");
       value && (head.method == "GET" || head.method == "HEAD") && !head.Field("If-Range"))
@@ -50,9 +48,17 @@ void GateRange(ReadyRequest& request) {
   if (head.RemoveFields("Range") != 1) range.reset();
   head.RemoveFields(kGateRangeField);
   if (range) head.fields.emplace_back(kGateRangeField, FormatRangeSpec(*range));
-  const std::string rewritten = head.Serialize();
-  request.bytes = rewritten + request.bytes.substr(request.head_size);
-  request.head_size = rewritten.size();
+}
+
+// httplib parses the head again, by rules of its own: a line ended by a bare
+// LF is no line end to it, so after a head that the gate saw end in "\n\n"
+// it went on reading the body as header fields (a Range among them, which the
+// gate never saw). It is handed the head the gate judged, written anew with
+// CR LF line ends, and the bytes after it unchanged.
+void HandOn(ReadyRequest& request) {
+  const std::string head = request.head.Serialize();
+  request.bytes = head + request.bytes.substr(request.head_size);
+  request.head_size = head.size();
 }
 
 // Requests served on one connection before it is closed (httplib's default).
@@ -152,7 +158,8 @@ HeadVerdict HttpServer::Dispatch(ReadyRequest& request) {
                           " from " + PeerAddress(request.socket) + ": " + status_line);
     return {false, std::move(*refusal)};
   }
-  GateRange(request);
+  GateRange(request.head);
+  HandOn(request);
   httplib::ThreadPool* pool = lane == Lane::kControl ? control_.get() : bulk_.get();
   // std::function needs a copyable callable: the request travels by pointer.
   auto owned = std::make_shared<ReadyRequest>(std::move(request));

@@ -11,6 +11,10 @@
 // of one self-calibration must not reset a good fusion); a second failing
 // burst in a row that agrees with the first says the camera itself changed
 // (zoom, refocus, lens swap), and the fusion restarts from those two.
+//
+// It lives in core, not beside the daemon, because `dfsm calibrate`
+// (tools/dfsm/calibrate_command.cc) fuses bursts without a daemon; dfsmd's
+// CalibrationKeeper (daemon/service) keeps one per camera and image size.
 #pragma once
 
 #include <Eigen/Core>
