@@ -40,6 +40,15 @@ class DfsmdCalibrationTest : public ::testing::Test {
       truth_ = burst.truth.camera;
       WriteSynthBurst(root_ / ("burst" + std::to_string(i)), burst);
     }
+    // The same camera at another capture size (a config change, a 320x240
+    // upload of the same device): it must not claim the camera's fusion.
+    SynthOptions small;
+    small.width = 320;
+    small.height = 240;
+    small.frames = 10;
+    small.rotation_deg = 2.0;
+    small.seed = 31;
+    WriteSynthBurst(root_ / "small", SynthesizeBurst(small));
     WriteTestBurst(root_ / "replay");
   }
   static void TearDownTestSuite() { fs::remove_all(root_); }
@@ -81,6 +90,13 @@ TEST_F(DfsmdCalibrationTest, FusesTheBurstsOfOneCameraAndKeepsItAcrossARestart) 
     const json fused = json::parse(client.Get("/api/v1/calibration")->body)["fused"];
     EXPECT_TRUE(fused.value("empty", false)) << fused.dump(2);
   }
+  {
+    // One image size fused first used to lock every other size out.
+    const std::string tar = service::WriteTar(service::CollectFiles(root_ / "small"));
+    const std::string location = AcceptedLocation(client.Post(
+        "/api/v1/jobs?dense=false&keep_burst=false&camera=capture", tar, "application/x-tar"));
+    ASSERT_EQ(AwaitFinished(client, location)["status"], "succeeded");
+  }
   std::vector<double> sigmas;
   for (int i = 0; i < kBursts; ++i) {
     const std::string tar =
@@ -107,6 +123,10 @@ TEST_F(DfsmdCalibrationTest, FusesTheBurstsOfOneCameraAndKeepsItAcrossARestart) 
   EXPECT_LE(error_percent, 2.0 * fused["sigma_f_percent"].get<double>());
   EXPECT_LE(error_percent, 1.0);
   EXPECT_EQ(fused["history"].size(), static_cast<size_t>(kBursts));
+  // The 320x240 burst went to a fusion of its own.
+  EXPECT_NE(fused.value("key", "").find("640x480"), std::string::npos) << fused.dump(2);
+  ASSERT_EQ(fused["other_sizes"].size(), 1u) << fused.dump(2);
+  EXPECT_NE(fused["other_sizes"][0].value("key", "").find("320x240"), std::string::npos);
 
   // The fusion is stored: a restart keeps it.
   EXPECT_EQ(daemon->Stop(SIGTERM), 0) << daemon->Log();
