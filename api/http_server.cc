@@ -50,16 +50,19 @@ void GateRange(RequestHead& head) {
   if (range) head.fields.emplace_back(kGateRangeField, FormatRangeSpec(*range));
 }
 
+}  // namespace
+
 // httplib parses the head again, by rules of its own: a line ended by a bare
 // LF is no line end to it, so after a head that the gate saw end in "\n\n"
 // it went on reading the body as header fields (a Range among them, which the
 // gate never saw). It is handed the head the gate judged, written anew with
-// CR LF line ends, and the bytes after it unchanged.
-void HandOn(ReadyRequest& request) {
-  const std::string head = request.head.Serialize();
-  request.bytes = head + request.bytes.substr(request.head_size);
-  request.head_size = head.size();
+// CR LF line ends; the bytes after it pass unchanged.
+std::string HandedOnHead(RequestHead head) {
+  GateRange(head);
+  return head.Serialize();
 }
+
+namespace {
 
 // Requests served on one connection before it is closed (httplib's default).
 constexpr int kKeepAliveMaxCount = 100;
@@ -158,8 +161,9 @@ HeadVerdict HttpServer::Dispatch(ReadyRequest& request) {
                           " from " + PeerAddress(request.socket) + ": " + status_line);
     return {false, std::move(*refusal)};
   }
-  GateRange(request.head);
-  HandOn(request);
+  const std::string head = HandedOnHead(request.head);
+  request.bytes = head + request.bytes.substr(request.head_size);
+  request.head_size = head.size();
   httplib::ThreadPool* pool = lane == Lane::kControl ? control_.get() : bulk_.get();
   // std::function needs a copyable callable: the request travels by pointer.
   auto owned = std::make_shared<ReadyRequest>(std::move(request));

@@ -81,6 +81,12 @@ class HttpServer {
   int port_ = 0;
 };
 
+// The head as the gate hands it to httplib once judged: Range applied as
+// api/byte_range.h says (one byte range as kGateRangeField, anything else
+// dropped) and written anew with CR LF line ends, so that httplib parses
+// exactly the head the gate judged. For the fuzzers, too.
+std::string HandedOnHead(RequestHead head);
+
 // A complete HTTP/1.1 response carrying a problem+json body, that closes the
 // connection: what the gate answers without a worker.
 std::string ProblemResponse(int status, const std::string& slug, const std::string& detail,

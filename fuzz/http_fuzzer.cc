@@ -81,14 +81,15 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   daemon.Restore();
   const std::string input = dfsm::fuzz::SubstituteFixtures(
       std::string_view(reinterpret_cast<const char*>(data), size), daemon);
-  BufferStream stream(input);
+  std::string pending = input;  // what is left of the connection's bytes
   httplib::Server* server = daemon.server();
   // Up to 4 requests on one keep-alive connection, as a client may pipeline
   // them; each passes what the connection gate does with a real socket
   // (api/connection_gate.h) before httplib sees it: the head's end within
-  // server.max_head_bytes, the strict head parser, and the request guard.
-  for (int request = 0; request < 4 && !stream.exhausted(); ++request) {
-    const std::string_view rest = stream.remaining();
+  // server.max_head_bytes, the strict head parser, the request guard, and the
+  // head handed on as the gate hands it (api/http_server.h, HandedOnHead).
+  for (int request = 0; request < 4 && !pending.empty(); ++request) {
+    const std::string_view rest = pending;
     const size_t end = dfsm::api::FindHeadEnd(rest.substr(0, daemon.max_head_bytes() + 1));
     if (end == std::string_view::npos || end > daemon.max_head_bytes()) break;  // 431 or 408
     dfsm::api::RequestHead head;
@@ -105,6 +106,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       dfsm::fuzz::CheckResponse(*refusal);
       break;
     }
+    pending = dfsm::api::HandedOnHead(head) + pending.substr(end);
+    BufferStream stream(pending);
     bool connection_closed = false;
     const bool ok = (server->*ServerAccess::kProcessRequest)(
         stream, /*close_connection=*/false, connection_closed,
@@ -115,6 +118,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     if (trace) std::fprintf(stderr, "-> %s\n", response.substr(0, response.find('\r')).c_str());
     dfsm::fuzz::CheckResponse(response);
     if (!ok || connection_closed) break;
+    pending = std::string(stream.remaining());
   }
   return 0;
 }
