@@ -55,16 +55,15 @@ GateStream::GateStream(int socket, std::string replay, size_t replay_from,
       pace_(pace) {}
 
 std::chrono::milliseconds GateStream::PaceLeft() const {
-  const auto earned = std::chrono::milliseconds(
-      pace_.min_bytes_per_s == 0
-          ? read_timeout_.count()
-          : static_cast<int64_t>(bytes_read_ * 1000 / pace_.min_bytes_per_s));
+  const auto earned =
+      std::chrono::milliseconds(static_cast<int64_t>(bytes_read_ * 1000 / pace_.min_bytes_per_s));
   const auto deadline = started_ + pace_.grace + earned;
   return std::chrono::duration_cast<std::chrono::milliseconds>(deadline -
                                                                std::chrono::steady_clock::now());
 }
 
 bool GateStream::WaitReadable() const {
+  if (pace_.min_bytes_per_s == 0) return WaitFor(socket_, POLLIN, read_timeout_);
   const std::chrono::milliseconds left = PaceLeft();
   if (left.count() <= 0) return false;
   return WaitFor(socket_, POLLIN, std::min(read_timeout_, left));

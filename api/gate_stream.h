@@ -27,7 +27,7 @@ void SocketAddress(int socket, bool peer, std::string& ip, int& port);
 // reserved for as long as the trickle lasts.
 struct ReadPace {
   std::chrono::milliseconds grace{20000};
-  uint64_t min_bytes_per_s = 500;
+  uint64_t min_bytes_per_s = 500;  // 0: no pace, only the read timeout
 };
 
 class GateStream final : public httplib::Stream {
@@ -51,7 +51,8 @@ class GateStream final : public httplib::Stream {
 
  private:
   bool WaitReadable() const;
-  // Time left before the read pace is missed (zero or less: missed).
+  // Time left before the read pace is missed (zero or less: missed); the
+  // pace must be on.
   std::chrono::milliseconds PaceLeft() const;
 
   const int socket_;

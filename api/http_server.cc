@@ -36,6 +36,9 @@ std::string PeerAddress(int socket) {
   return ip.empty() ? "?" : ip;
 }
 
+// Requests served on one connection before it is closed (httplib's default).
+constexpr int kKeepAliveMaxCount = 100;
+
 // Range never reaches httplib (api/byte_range.h says why): one byte range of
 // a GET or HEAD travels on as kGateRangeField, anything else is dropped and
 // the resource is served whole. Without a validator (dfsmd sends no ETag or
@@ -61,13 +64,6 @@ std::string HandedOnHead(RequestHead head) {
   GateRange(head);
   return head.Serialize();
 }
-
-namespace {
-
-// Requests served on one connection before it is closed (httplib's default).
-constexpr int kKeepAliveMaxCount = 100;
-
-}  // namespace
 
 // httplib's server with its per-connection processing replaced: the socket
 // goes to the gate; requests come back through ServeOne.

@@ -2,6 +2,8 @@
 
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <string>
+#include <vector>
 
 #include "core/camera/rolling_shutter_options.h"
 #include "core/io/bounded_json.h"
@@ -29,23 +31,12 @@ constexpr Field kFields[] = {
     {"dense", "pipeline.dense"},   {"keep_burst", "jobs.keep_burst"},
     {"calibration", nullptr},      {"camera", nullptr}};
 
-// "auto": the configured or the fused calibration; "self": this burst alone.
-ConfigKey CalibrationChoice() {
+// A job field of choices that no daemon key stands behind.
+ConfigKey ChoiceKey(const char* name, std::vector<std::string> choices) {
   ConfigKey key;
-  key.name = "calibration";
+  key.name = name;
   key.type = KeyType::kString;
-  key.choices = {"auto", "self"};
-  return key;
-}
-
-// An upload's "camera": "capture" says the burst comes from the daemon's
-// capture camera, whose calibration it may then use and feed; "other" (the
-// default) keeps it apart. A capture's camera is the capture camera.
-ConfigKey CameraChoice() {
-  ConfigKey key;
-  key.name = "camera";
-  key.type = KeyType::kString;
-  key.choices = {"other", "capture"};
+  key.choices = std::move(choices);
   return key;
 }
 
@@ -60,7 +51,12 @@ const Field* FindField(const std::string& name, bool upload) {
 
 ConfigKey KeyOf(const Field& field) {
   if (field.key) return ConfigKeyNamed(field.key);
-  return std::string(field.name) == "camera" ? CameraChoice() : CalibrationChoice();
+  // An upload's "camera": "capture" says the burst comes from the daemon's
+  // capture camera, whose calibration it may then use and feed; "other" (the
+  // default) keeps it apart. A capture's camera is the capture camera.
+  if (std::string(field.name) == "camera") return ChoiceKey("camera", {"other", "capture"});
+  // "auto": the configured or the fused calibration; "self": this burst alone.
+  return ChoiceKey("calibration", {"auto", "self"});
 }
 
 int64_t ParseIntegerText(const std::string& field, const std::string& text) {

@@ -56,7 +56,6 @@ class BufferStream final : public httplib::Stream {
   }
   socket_t socket() const override { return INVALID_SOCKET; }
 
-  bool exhausted() const { return position_ >= input_.size(); }
   std::string_view remaining() const { return input_.substr(position_); }
   std::string TakeOutput() { return std::move(output_); }
 

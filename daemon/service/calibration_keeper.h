@@ -75,9 +75,9 @@ class CalibrationKeeper {
   void Reset();
 
  private:
-  std::string Key(int width, int height) const;  // under mutex_ or const
-  void Load();                                   // constructor only
-  void Persist() const;                          // under mutex_
+  std::string Key(int width, int height) const;
+  void Load();           // constructor only
+  void Persist() const;  // under mutex_
 
   const CalibrationSection config_;
   const std::string camera_;

@@ -68,6 +68,30 @@ class DfsmdTest : public ::testing::Test {
     return result->get_header_value("Location");
   }
 
+  // Triggers a capture and waits until a worker has taken it; its Location.
+  static std::string CaptureTakenByAWorker(httplib::Client& client) {
+    const std::string location = Accepted(
+        client.Post("/api/v1/captures", R"({"frames":10,"when":"next"})", "application/json"));
+    while (json::parse(client.Get(location.c_str())->body)["status"] == "queued") {
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    return location;
+  }
+
+  // `signal` while a job runs: dfsmd finishes and records the job, leaves no
+  // staging behind and exits 0.
+  void ExpectStopFinishesTheRunningJob(int signal, const std::string& name) {
+    auto daemon = Start();
+    httplib::Client client = daemon->Client();
+    const std::string location = CaptureTakenByAWorker(client);
+    EXPECT_EQ(daemon->Stop(signal), 0) << daemon->Log();
+    const std::string id = location.substr(location.rfind('/') + 1);
+    const json record = json::parse(ReadFileToString(dir_ / "state" / "jobs" / id / "job.json"));
+    EXPECT_EQ(record["status"], "succeeded");
+    EXPECT_NE(daemon->Log().find(name + ", shutting down"), std::string::npos);
+    EXPECT_TRUE(fs::is_empty(dir_ / "state" / "tmp"));
+  }
+
   static void ExpectProblem(const httplib::Result& result, int status) {
     ASSERT_TRUE(result);
     EXPECT_EQ(result->status, status) << result->body;
@@ -328,36 +352,13 @@ TEST_F(DfsmdTest, KillDuringAJobThenRestartCompletesIt) {
 }
 
 TEST_F(DfsmdTest, SigtermFinishesTheRunningJobAndExitsCleanly) {
-  auto daemon = Start();
-  httplib::Client client = daemon->Client();
-  const std::string location = Accepted(
-      client.Post("/api/v1/captures", R"({"frames":10,"when":"next"})", "application/json"));
-  while (json::parse(client.Get(location.c_str())->body)["status"] == "queued") {
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
-  }
-  EXPECT_EQ(daemon->Stop(SIGTERM), 0);
-  const std::string id = location.substr(location.rfind('/') + 1);
-  const json record = json::parse(ReadFileToString(dir_ / "state" / "jobs" / id / "job.json"));
-  EXPECT_EQ(record["status"], "succeeded");
-  EXPECT_NE(daemon->Log().find("SIGTERM, shutting down"), std::string::npos);
-  EXPECT_TRUE(fs::is_empty(dir_ / "state" / "tmp"));
+  ExpectStopFinishesTheRunningJob(SIGTERM, "SIGTERM");
 }
 
 // SIGHUP ended dfsmd at once (exit 129) with the running job cut off; it is a
 // stop like SIGTERM (dfsmd reads its configuration once).
 TEST_F(DfsmdTest, SighupStopsCleanlyLikeSigterm) {
-  auto daemon = Start();
-  httplib::Client client = daemon->Client();
-  const std::string location = Accepted(
-      client.Post("/api/v1/captures", R"({"frames":10,"when":"next"})", "application/json"));
-  while (json::parse(client.Get(location.c_str())->body)["status"] == "queued") {
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
-  }
-  EXPECT_EQ(daemon->Stop(SIGHUP), 0) << daemon->Log();
-  const std::string id = location.substr(location.rfind('/') + 1);
-  const json record = json::parse(ReadFileToString(dir_ / "state" / "jobs" / id / "job.json"));
-  EXPECT_EQ(record["status"], "succeeded");
-  EXPECT_NE(daemon->Log().find("SIGHUP, shutting down"), std::string::npos);
+  ExpectStopFinishesTheRunningJob(SIGHUP, "SIGHUP");
 }
 
 // A second dfsmd on the same state directory re-queued the first one's running
@@ -366,11 +367,7 @@ TEST_F(DfsmdTest, SighupStopsCleanlyLikeSigterm) {
 TEST_F(DfsmdTest, ASecondDaemonOnTheSameStateDirectoryIsRefused) {
   auto daemon = Start({"--pipeline.planes", "256"});
   httplib::Client client = daemon->Client();
-  const std::string location = Accepted(
-      client.Post("/api/v1/captures", R"({"frames":10,"when":"next"})", "application/json"));
-  while (json::parse(client.Get(location.c_str())->body)["status"] == "queued") {
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
-  }
+  const std::string location = CaptureTakenByAWorker(client);
   EXPECT_EQ(RunDfsmd(DFSMD_BINARY, Args({"--server.port", "0"}), dir_ / "second.log"), 1);
   const std::string second = ReadFileToString(dir_ / "second.log");
   EXPECT_NE(second.find("another dfsmd (pid " + std::to_string(daemon->pid()) + ")"),
