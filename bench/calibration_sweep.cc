@@ -5,20 +5,22 @@
 //                     [--field-of-view normal|wide] (f 0.8-1.5 or 0.55-0.8 x
 //                     the longer side) [--only I] (burst I of the sweep alone)
 //                     [--focal-starts F1,F2,...] (SparseOptions::focal_starts)
+//                     [--without LAYER,...] (sparse layers off: core/sparse/sparse_layers.h)
 #include "core/pipeline/calibration_sweep.h"
 
 #include <algorithm>
 #include <cmath>
-#include <utility>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "bench/report_options.h"
+#include "core/sparse/sparse_layers.h"
 
 int main(int argc, char** argv) {
   using namespace dfsm;
@@ -61,6 +63,8 @@ int main(int argc, char** argv) {
           if (comma == std::string::npos) break;
           rest = rest.substr(comma + 1);
         }
+      } else if (!std::strcmp(argv[i], "--without") && i + 1 < argc) {
+        options = WithoutLayers(options, argv[++i]);
       } else {
         std::fprintf(stderr,
                      "usage: calibration_sweep [--bursts N] [--seed S] [--no-weak-prior]\n"
@@ -68,7 +72,7 @@ int main(int argc, char** argv) {
                      "[--cell-scale S]\n"
                      "                         [--camera ideal|webcam|phone]\n"
                      "                         [--field-of-view normal|wide] [--only I]\n"
-                     "                         [--focal-starts F1,F2,...]\n");
+                     "                         [--focal-starts F1,F2,...] [--without LAYER,...]\n");
         return 2;
       }
     }

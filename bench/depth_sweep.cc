@@ -19,6 +19,8 @@
 //               as dfsmd gives its fused calibration (a prior at the fusion's
 //               least widths, no fit check, the burst also calibrated alone:
 //               daemon/service/calibration_keeper.cc).
+//   --without LAYER,...: sparse layers switched off by name
+//               (core/sparse/sparse_layers.h).
 //   --exif: each burst carries its true focal length as EXIF's 35 mm
 //               equivalent, in whole mm as cameras write it (a prior on f).
 #include <algorithm>
@@ -40,6 +42,7 @@
 #include "core/pipeline/evaluation.h"
 #include "core/pipeline/pipeline.h"
 #include "core/sparse/calibration_fusion.h"
+#include "core/sparse/sparse_layers.h"
 #include "core/synth/burst_synthesizer.h"
 
 namespace dfsm {
@@ -258,12 +261,15 @@ int main(int argc, char** argv) {
       } else if (!std::strcmp(argv[i], "--reweight-rounds") && i + 1 < argc) {
         // 0: every track weighs the same
         pipeline.sparse.reweight_rounds = WholeNumber("--reweight-rounds", argv[++i], 0);
+      } else if (!std::strcmp(argv[i], "--without") && i + 1 < argc) {
+        pipeline.sparse = WithoutLayers(pipeline.sparse, argv[++i]);
       } else {
         std::fprintf(
             stderr,
             "usage: depth_sweep [--bursts N] [--seed S] [--camera ideal|webcam|phone]\n"
             "                   [--field-of-view normal|wide] [--only I [--keep DIR]]\n"
             "                   [--reweight-rounds N] [--known prior|fixed|fused] [--exif]\n"
+            "                   [--without LAYER,...]\n"
             "       depth_sweep --defaults N [--camera ...] [--only I [--keep DIR]]\n"
             "                   [--known prior|fixed|fused] [--exif]\n");
         return 2;

@@ -8,7 +8,8 @@
 // self-calibrated below) as DIR/window-FIRST-LAST.jpg.
 //   tum_benchmark [--dataset DIR] [--frames N] [--step S] [--start K] [--calibration FILE]
 //                 [--rolling-shutter global|estimate|R] [--pictures DIR]
-//                 [--semi-global off|P1:P2] [--downscale N]
+//                 [--semi-global off|P1:P2] [--downscale N] [--without LAYER,...]
+// --without: sparse layers switched off by name (core/sparse/sparse_layers.h).
 // --downscale 2 runs the same windows at 320x240 (frames area-averaged, the
 // Kinect depth and the calibration scaled to match; TumSequence).
 // --start K: the first window's first frame. ../shared/data/tum_fr1_rpy holds
@@ -31,6 +32,7 @@
 #include "bench/tum_sequence.h"
 #include "core/pipeline/evaluation.h"
 #include "core/pipeline/pipeline.h"
+#include "core/sparse/sparse_layers.h"
 
 namespace dfsm {
 namespace {
@@ -69,6 +71,7 @@ int main(int argc, char** argv) {
   RollingShutterOptions rolling_shutter;
   DenseOptions dense;
   std::optional<TumSequence> opened;  // once the options are read
+  SparseOptions sparse;               // all but the known calibration
   try {
     for (int i = 1; i < argc; i += 2) {
       const std::string option = argv[i];
@@ -92,6 +95,8 @@ int main(int argc, char** argv) {
         ParseSemiGlobal(value, &dense);
       else if (option == "--downscale")
         downscale = WholeNumber("--downscale", value, 1);
+      else if (option == "--without")
+        sparse = WithoutLayers(sparse, value);
       else
         throw std::invalid_argument("unknown option " + option +
                                     " (see the comment at the top of bench/tum_benchmark.cc)");
@@ -132,6 +137,7 @@ int main(int argc, char** argv) {
     std::vector<cv::Mat> picture_rows;
     for (const std::string mode : {"known", "self"}) {
       PipelineOptions options;
+      options.sparse = sparse;
       options.sparse.rolling_shutter = rolling_shutter;
       options.dense = dense;
       if (mode == "known") {

@@ -178,6 +178,18 @@ TEST(Pipeline, WritesACompleteResultDirectory) {
   EXPECT_EQ(result["depth"]["planes"], 128);
   for (const char* stage : {"features", "rotation", "rank1", "bundle_adjustment", "dense", "total"})
     EXPECT_TRUE(result["timings_ms"].contains(stage)) << stage;
+  // The starts decided on: one record each, exactly one of the first three
+  // (two focal starts and the naive probe) chosen, its kind and start named.
+  const nlohmann::json& starts = result["sparse_detail"]["starts"];
+  ASSERT_GE(starts.size(), 3u);
+  int chosen = 0;
+  for (size_t n = 0; n < 3; ++n) {
+    chosen += starts[n]["outcome"] == "chosen";
+    EXPECT_TRUE(starts[n]["kind"] == "focal" || starts[n]["kind"] == "naive") << starts[n];
+    EXPECT_GT(starts[n]["start_f_px"].get<double>(), 0.0) << starts[n];
+    EXPECT_TRUE(starts[n]["cost"].is_number()) << starts[n];
+  }
+  EXPECT_EQ(chosen, 1) << starts;
   for (const char* file : {"depth.tiff", "depth.png", "confidence.png", "preview.png", "points.ply",
                            "sparse_points.ply", "calibration.json", "calibration.yaml"})
     EXPECT_TRUE(std::filesystem::is_regular_file(dir / file)) << file;
@@ -409,6 +421,10 @@ TEST(Pipeline, UnderAKnownCalibrationTheBurstsOwnSolutionIsAStart) {
   EXPECT_TRUE(std::any_of(laps.begin(), laps.end(),
                           [](const auto& lap) { return lap.first == "known_first_try"; }));
   EXPECT_TRUE(unchecked.result.bundle_adjustment.from_self_calibration);
+  const std::vector<StartRecord>& starts = unchecked.sparse->starts;
+  ASSERT_FALSE(starts.empty());
+  EXPECT_EQ(starts.back().kind, StartKind::kGiven);
+  EXPECT_EQ(starts.back().outcome, StartOutcome::kChosen);
   const int unchecked_tracks = static_cast<int>(
       std::count(unchecked.sparse->inliers.begin(), unchecked.sparse->inliers.end(), true));
   RecordProperty("unchecked_tracks", std::to_string(unchecked_tracks));

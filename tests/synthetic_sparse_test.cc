@@ -204,7 +204,7 @@ TEST(SyntheticSparseCalibration, ARefusedCameraFallsBackToK1AloneWhenThatIsUsabl
   const SparseReconstruction sparse = ReconstructSparse(burst.gray, burst.reference(), options);
   ASSERT_TRUE(sparse.rejected_camera.has_value());
   EXPECT_NE(sparse.rejected_camera->k2, 0.0);
-  EXPECT_EQ(sparse.calibration_used, "fallback-k1");
+  EXPECT_EQ(sparse.calibration_used, CalibrationSource::kFallbackK1);
   EXPECT_EQ(sparse.state.camera.k2, 0.0);
   // The generated lens is k1 -0.06, k2 0.015: k1 alone stays barrel.
   EXPECT_LT(sparse.state.camera.k1, 0.0);
@@ -231,7 +231,7 @@ TEST(SyntheticSparseCalibration, ARefusedCameraFallsBackToNoDistortionAndSaysSo)
   EXPECT_NE(sparse.rejected_camera->k1, 0.0);
   EXPECT_EQ(sparse.state.camera.k1, 0.0);
   EXPECT_EQ(sparse.state.camera.k2, 0.0);
-  EXPECT_EQ(sparse.calibration_used, "fallback-k0");
+  EXPECT_EQ(sparse.calibration_used, CalibrationSource::kFallbackK0);
   ASSERT_FALSE(sparse.warnings.empty());
   EXPECT_NE(sparse.warnings[0].find("is refused by this test; refitted with k1 = k2 = 0"),
             std::string::npos)
@@ -254,7 +254,7 @@ TEST(SyntheticSparseCalibration, AKnownCalibrationIsHeldOrUsedAsAPrior) {
   EXPECT_EQ(fixed.state.camera.f, known.camera.f);
   EXPECT_EQ(fixed.state.camera.k1, known.camera.k1);
   EXPECT_EQ(fixed.state.camera.cx, known.camera.cx);
-  EXPECT_EQ(fixed.calibration_used, "known-fixed");
+  EXPECT_EQ(fixed.calibration_used, CalibrationSource::kKnownFixed);
   EXPECT_FALSE(fixed.uncertainty.available);
 
   known.camera = generated.truth.camera;
@@ -266,7 +266,7 @@ TEST(SyntheticSparseCalibration, AKnownCalibrationIsHeldOrUsedAsAPrior) {
   EXPECT_LE(std::abs(prior.state.camera.f - truth_f),
             std::abs(self.state.camera.f - truth_f) + 1e-9);
   EXPECT_LT(prior.uncertainty.sigma_f_px(), self.uncertainty.sigma_f_px());
-  EXPECT_EQ(prior.calibration_used, "known-prior");
+  EXPECT_EQ(prior.calibration_used, CalibrationSource::kKnownPrior);
   EXPECT_FALSE(prior.self_estimate.has_value());
 
   // What a fusion may add: the burst's own estimate beside the prior's result,

@@ -80,20 +80,23 @@ TEST(DepthCheck, AReliefThatDependsOnTheLensModelWarns) {
 // JSON and withholds `confirmed`; the sparse stage's warning says why.
 TEST(DepthCheck, AFallbackCameraIsNotConfirmed) {
   AgreeingBurst burst;
-  for (const char* used : {"self", "known-fixed", "known-prior", "fallback-known"}) {
+  for (const CalibrationSource used :
+       {CalibrationSource::kSelf, CalibrationSource::kKnownFixed, CalibrationSource::kKnownPrior,
+        CalibrationSource::kFallbackKnown}) {
     burst.sparse.calibration_used = used;
     const DepthCheck check = CheckDepthAgainstTracks(burst.sparse, burst.dense);
-    EXPECT_TRUE(check.estimated_camera_used) << used;
-    EXPECT_TRUE(check.Confirmed()) << used;
+    EXPECT_TRUE(check.estimated_camera_used) << CalibrationSourceName(used);
+    EXPECT_TRUE(check.Confirmed()) << CalibrationSourceName(used);
   }
-  for (const char* used : {"fallback-k1", "fallback-k0"}) {
+  for (const CalibrationSource used :
+       {CalibrationSource::kFallbackK1, CalibrationSource::kFallbackK0}) {
     burst.sparse.calibration_used = used;
     const DepthCheck check = CheckDepthAgainstTracks(burst.sparse, burst.dense);
-    EXPECT_TRUE(check.warnings.empty()) << used;
-    EXPECT_FALSE(check.estimated_camera_used) << used;
+    EXPECT_TRUE(check.warnings.empty()) << CalibrationSourceName(used);
+    EXPECT_FALSE(check.estimated_camera_used) << CalibrationSourceName(used);
     const nlohmann::json json = ToJson(check);
-    EXPECT_FALSE(json.at("estimated_camera_used").get<bool>()) << used;
-    EXPECT_FALSE(json.at("confirmed").get<bool>()) << used;
+    EXPECT_FALSE(json.at("estimated_camera_used").get<bool>()) << CalibrationSourceName(used);
+    EXPECT_FALSE(json.at("confirmed").get<bool>()) << CalibrationSourceName(used);
   }
 }
 

@@ -1,6 +1,7 @@
 #include "core/pipeline/pipeline.h"
 
 #include <chrono>
+#include <cmath>
 #include <functional>
 #include <optional>
 
@@ -21,6 +22,24 @@
 
 namespace dfsm {
 namespace {
+
+// The starts the adjustment decided on (SparseReconstruction::starts); a
+// cost of a start that failed is null.
+nlohmann::json StartsJson(const std::vector<StartRecord>& starts) {
+  nlohmann::json list = nlohmann::json::array();
+  for (const StartRecord& start : starts) {
+    nlohmann::json entry = {{"kind", StartKindName(start.kind)},
+                            {"start_f_px", start.start_f},
+                            {"tracks", start.tracks},
+                            {"iterations", start.iterations},
+                            {"outcome", StartOutcomeName(start.outcome)}};
+    if (start.kind == StartKind::kReadout) entry["start_readout"] = start.start_readout;
+    entry["cost"] = std::isfinite(start.cost) ? nlohmann::json(start.cost) : nlohmann::json();
+    if (!start.error.empty()) entry["error"] = start.error;
+    list.push_back(entry);
+  }
+  return list;
+}
 
 std::vector<ColoredPoint> SparsePointCloud(const SparseReconstruction& sparse,
                                            const cv::Mat& reference_color) {
@@ -176,7 +195,7 @@ PipelineOutput RunPipeline(const Burst& burst, const PipelineOptions& options,
     result.calibration_detail = {{"uncertainty", ToJson(sparse.uncertainty, sparse.state.camera.f)},
                                  {"quality", CalibrationQualityName(sparse.verdict.quality)},
                                  {"quality_reasons", sparse.verdict.reasons},
-                                 {"source", sparse.calibration_used}};
+                                 {"source", CalibrationSourceName(sparse.calibration_used)}};
     if (sparse.rejected_camera)
       result.calibration_detail["rejected"] = ToJson(*sparse.rejected_camera);
     if (sparse_options.known) result.calibration_detail["known"] = sparse_options.known->source;
@@ -244,7 +263,8 @@ PipelineOutput RunPipeline(const Burst& burst, const PipelineOptions& options,
         {"inliers", result.features},
         {"rank1_iterations", sparse.rank_one.iterations},
         {"rank1_rms_residual_px", sparse.rank_one.rms_residual_px},
-        {"median_track_motion_px", sparse.tracks.MedianMaxDisplacement()}};
+        {"median_track_motion_px", sparse.tracks.MedianMaxDisplacement()},
+        {"starts", StartsJson(sparse.starts)}};
     if (options.run_dense) {
       if (on_stage) on_stage("dense");
       const auto dense_start = std::chrono::steady_clock::now();

@@ -143,6 +143,25 @@ double MedianTrackError(const FeatureTracks& tracks, const SparseState& state) {
   return errors[errors.size() / 2];
 }
 
+int TotalIterations(const std::vector<BundleAdjustmentRun>& runs) {
+  int iterations = 0;
+  for (const BundleAdjustmentRun& run : runs) iterations += run.iterations;
+  return iterations;
+}
+
+// The record of a start that reached a solution compared by `cost`.
+StartRecord Record(StartKind kind, const AdjustmentAttempt& attempt, double cost,
+                   StartOutcome outcome) {
+  StartRecord record;
+  record.kind = kind;
+  record.start_f = attempt.start_f;
+  record.tracks = attempt.runs.empty() ? 0 : attempt.runs.front().tracks;
+  record.iterations = TotalIterations(attempt.runs);
+  record.cost = cost;
+  record.outcome = outcome;
+  return record;
+}
+
 // Laps `timer` where there is one: only the first start is timed.
 void LapIfTimed(StageTimer* timer, const char* stage, double carried_ms = 0.0) {
   if (timer) timer->Lap(stage, carried_ms);
@@ -207,7 +226,7 @@ class StartedAdjustment {
   // Whether Settle() restarts from several readouts: the adjustment so far
   // measured one.
   bool Restarts(const BundleAdjustmentOptions& adjust, const AdjustmentAttempt& attempt) const {
-    return rank_one_ && adjust.estimate_readout &&
+    return rank_one_ && options_.readout_restarts && adjust.estimate_readout &&
            std::abs(attempt.state.readout) >= kMinRectifiedReadout;
   }
 
@@ -342,18 +361,36 @@ class StartedAdjustment {
       });
     RunInParallel(tasks);
     double best_error = MedianTrackError(tracks_, attempt->state);
+    std::vector<StartRecord> records;
+    std::optional<size_t> chosen;
     for (size_t k = 0; k < starts.size(); ++k) {
       AdjustmentAttempt& restart = restarts[k];
-      if (restart.runs.empty()) continue;  // no rectified start
+      restart.start_f = measured.camera.f;
+      if (restart.runs.empty()) {
+        StartRecord failed;
+        failed.kind = StartKind::kReadout;
+        failed.start_f = measured.camera.f;
+        failed.start_readout = starts[k];
+        failed.cost = std::numeric_limits<double>::quiet_NaN();
+        failed.outcome = StartOutcome::kFailed;
+        failed.error = "no rectified rank-1 start with enough consistent tracks";
+        records.push_back(failed);
+        continue;
+      }
+      records.push_back(Record(StartKind::kReadout, restart, errors[k], StartOutcome::kBeaten));
+      records.back().start_readout = starts[k];
       attempt->runs.insert(attempt->runs.end(), restart.runs.begin(), restart.runs.end());
       if (errors[k] < best_error) {
         best_error = errors[k];
+        chosen = records.size() - 1;
         attempt->state = std::move(restart.state);
         attempt->use = std::move(restart.use);
         attempt->summary = std::move(restart.summary);
         attempt->rank_one = std::move(restart.rank_one);
       }
     }
+    if (chosen) records[*chosen].outcome = StartOutcome::kChosen;
+    attempt->starts.insert(attempt->starts.end(), records.begin(), records.end());
   }
 
   const FeatureTracks& tracks_;
@@ -525,13 +562,29 @@ AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraMode
   // clearly better; a start that found no solution is passed over.
   std::optional<size_t> best;
   double best_cost = std::numeric_limits<double>::infinity();
+  std::vector<double> costs(starts, std::numeric_limits<double>::quiet_NaN());
   for (size_t n = 0; n < starts; ++n) {
     if (errors[n]) continue;
-    const double cost = TruncatedTrackCost(tracks, attempts[n].state, options.outlier_px);
-    if (!best || cost < (1.0 - kLaterStartGain) * best_cost) best = n, best_cost = cost;
+    costs[n] = TruncatedTrackCost(tracks, attempts[n].state, options.outlier_px);
+    if (!best || costs[n] < (1.0 - kLaterStartGain) * best_cost) best = n, best_cost = costs[n];
   }
   if (!best) throw *errors[0];
+  // One record per start, in the starts' order, then the chosen one's
+  // readout restarts.
+  std::vector<StartRecord> records;
+  for (size_t n = 0; n < starts; ++n) {
+    const StartKind kind = n == given_index                                  ? StartKind::kGiven
+                           : n < focal && options.init == InitMode::kRankOne ? StartKind::kFocal
+                                                                             : StartKind::kNaive;
+    const StartOutcome outcome = errors[n]    ? StartOutcome::kFailed
+                                 : n == *best ? StartOutcome::kChosen
+                                              : StartOutcome::kBeaten;
+    records.push_back(Record(kind, attempts[n], costs[n], outcome));
+    if (errors[n]) records.back().error = errors[n]->what();
+  }
   AdjustmentAttempt solved = std::move(attempts[*best]);
+  records.insert(records.end(), solved.starts.begin(), solved.starts.end());
+  solved.starts = std::move(records);
   // A probed start that won goes on from there with the whole budget.
   if (*best > 0) steps_for(solved).Finish(adjust, measured_iterations[*best], &solved);
   if (starts > 1) LapIfTimed(timer, "later_starts");

@@ -46,6 +46,9 @@ struct AdjustmentAttempt {
   // adjustment_starts.cc): the ones it would have adjusted, `use` before the
   // thinning; empty where it adjusted them all.
   std::vector<bool> thinned_from;
+  // The starts decided on the way to it: AdjustFromStarts's, then its own
+  // readout restarts.
+  std::vector<StartRecord> starts;
   // The bias of its intrinsics from its tracks' noise (SparseOptions::
   // bootstrap), measured on the winner; empty where none was measured.
   std::optional<IntrinsicsBias> bias;

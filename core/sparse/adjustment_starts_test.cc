@@ -13,6 +13,7 @@
 #include <utility>
 #include <vector>
 
+#include "core/sparse/sparse_layers.h"
 #include "core/sparse/track_simulator.h"
 
 namespace dfsm {
@@ -106,6 +107,47 @@ TEST(AdjustFromStarts, GivesTheSameResultOnOneCoreAsOnTwo) {
   EXPECT_EQ(one.rank_one.inverse_depths, two.rank_one.inverse_depths);
   EXPECT_EQ(one.rank_one.iterations, two.rank_one.iterations);
   EXPECT_NEAR(one.state.camera.f, sim.camera.f, 0.05 * sim.camera.f);
+}
+
+// Every start has a record, in the order they were decided: the two focal
+// starts and the naive probe, one of them chosen, then the chosen one's
+// readout restarts, one of which is chosen where it beat the solution it
+// restarted from. Without the layers that make them (sparse_layers.h), only
+// the first start is left.
+TEST(AdjustFromStarts, RecordsEveryStartAndWhatBecameOfIt) {
+  const TrackSimulation sim = PhoneTracks();
+  const SparseOptions options = EstimatedReadout();
+  const AdjustmentAttempt solved = AdjustOn(2, sim, options).attempt;
+  ASSERT_GE(solved.starts.size(), 5u);  // 2 focal, 1 naive, >= 2 readout
+  EXPECT_EQ(solved.starts[0].kind, StartKind::kFocal);
+  EXPECT_EQ(solved.starts[1].kind, StartKind::kFocal);
+  EXPECT_EQ(solved.starts[2].kind, StartKind::kNaive);
+  EXPECT_DOUBLE_EQ(solved.starts[0].start_f, options.focal_starts[0] * 640);
+  EXPECT_DOUBLE_EQ(solved.starts[1].start_f, options.focal_starts[1] * 640);
+  int chosen = 0;
+  for (size_t n = 0; n < 3; ++n) {
+    chosen += solved.starts[n].outcome == StartOutcome::kChosen;
+    EXPECT_TRUE(std::isfinite(solved.starts[n].cost)) << n;
+    EXPECT_GT(solved.starts[n].iterations, 0) << n;
+    EXPECT_GE(solved.starts[n].tracks, options.min_tracks) << n;
+  }
+  EXPECT_EQ(chosen, 1);
+  int readout_chosen = 0;
+  for (size_t n = 3; n < solved.starts.size(); ++n) {
+    EXPECT_EQ(solved.starts[n].kind, StartKind::kReadout) << n;
+    readout_chosen += solved.starts[n].outcome == StartOutcome::kChosen;
+  }
+  EXPECT_LE(readout_chosen, 1);
+
+  SparseOptions bare = options;
+  for (const SparseLayer layer :
+       {SparseLayer::kFocalStarts, SparseLayer::kNaiveProbe, SparseLayer::kReadoutRestarts})
+    bare = WithoutLayer(bare, layer);
+  const AdjustmentAttempt alone = AdjustOn(2, sim, bare).attempt;
+  ASSERT_EQ(alone.starts.size(), 1u);
+  EXPECT_EQ(alone.starts[0].kind, StartKind::kFocal);
+  EXPECT_EQ(alone.starts[0].outcome, StartOutcome::kChosen);
+  EXPECT_NEAR(alone.state.camera.f, sim.camera.f, 0.05 * sim.camera.f);
 }
 
 // The laps are the first start's stages, then what the later starts added,

@@ -184,9 +184,9 @@ TEST(SparseReconstruction, DebiasedCameraIsOfTheBurstsOwnCalibration) {
   sparse.intrinsics_bias = bias;
   ASSERT_TRUE(sparse.DebiasedCamera().has_value());
   EXPECT_DOUBLE_EQ(sparse.DebiasedCamera()->f, 310.0);
-  sparse.calibration_used = SparseReconstruction::kFallbackK1;
+  sparse.calibration_used = CalibrationSource::kFallbackK1;
   EXPECT_FALSE(sparse.DebiasedCamera().has_value());
-  sparse.calibration_used = "known-prior";
+  sparse.calibration_used = CalibrationSource::kKnownPrior;
   EXPECT_FALSE(sparse.DebiasedCamera().has_value());
   SparseReconstruction::SelfEstimate self;
   self.camera = CameraModel::Initial(320, 240);

@@ -80,6 +80,50 @@ const char* KnownCalibrationModeName(KnownCalibrationMode mode) {
   return mode == KnownCalibrationMode::kFixed ? "fixed" : "prior";
 }
 
+const char* CalibrationSourceName(CalibrationSource source) {
+  switch (source) {
+    case CalibrationSource::kSelf:
+      return "self";
+    case CalibrationSource::kKnownFixed:
+      return "known-fixed";
+    case CalibrationSource::kKnownPrior:
+      return "known-prior";
+    case CalibrationSource::kFallbackKnown:
+      return "fallback-known";
+    case CalibrationSource::kFallbackK1:
+      return "fallback-k1";
+    case CalibrationSource::kFallbackK0:
+      return "fallback-k0";
+  }
+  return "?";
+}
+
+const char* StartKindName(StartKind kind) {
+  switch (kind) {
+    case StartKind::kFocal:
+      return "focal";
+    case StartKind::kNaive:
+      return "naive";
+    case StartKind::kGiven:
+      return "given";
+    case StartKind::kReadout:
+      return "readout";
+  }
+  return "?";
+}
+
+const char* StartOutcomeName(StartOutcome outcome) {
+  switch (outcome) {
+    case StartOutcome::kChosen:
+      return "chosen";
+    case StartOutcome::kBeaten:
+      return "beaten";
+    case StartOutcome::kFailed:
+      return "failed";
+  }
+  return "?";
+}
+
 std::vector<double> SparseReconstruction::InlierInverseDepths() const {
   std::vector<double> inverse_depths;
   for (size_t j = 0; j < inliers.size(); ++j)
@@ -89,12 +133,14 @@ std::vector<double> SparseReconstruction::InlierInverseDepths() const {
 
 std::optional<CameraModel> SparseReconstruction::DebiasedCamera() const {
   if (self_estimate) return Debiased(self_estimate->camera, OwnCalibrationBias());
-  if (calibration_used == "self") return Debiased(state.camera, OwnCalibrationBias());
+  if (calibration_used == CalibrationSource::kSelf)
+    return Debiased(state.camera, OwnCalibrationBias());
   return std::nullopt;
 }
 
 bool SparseReconstruction::DroppedLensTerms() const {
-  return calibration_used == kFallbackK1 || calibration_used == kFallbackK0;
+  return calibration_used == CalibrationSource::kFallbackK1 ||
+         calibration_used == CalibrationSource::kFallbackK0;
 }
 
 namespace {
@@ -128,8 +174,9 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
       ba_options.known_f_sigma_percent = options.known->f_sigma_percent;
       ba_options.known_distortion_sigma_px = options.known->distortion_sigma_px;
     }
-    sparse.calibration_used =
-        options.known->mode == KnownCalibrationMode::kFixed ? "known-fixed" : "known-prior";
+    sparse.calibration_used = options.known->mode == KnownCalibrationMode::kFixed
+                                  ? CalibrationSource::kKnownFixed
+                                  : CalibrationSource::kKnownPrior;
   }
   options.rolling_shutter.Check();
   if (options.rolling_shutter.mode == RollingShutterOptions::Mode::kEstimate)
@@ -202,7 +249,8 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
   else if (options.camera_usable && !options.camera_usable(state.camera, &unusable))
     unusable = unusable.empty() ? "is refused by the dense stage" : unusable;
   // The lens check where the burst calibrated its own lens and keeps it.
-  const bool check_lens = measure_lens_relief && !ba_options.fix_intrinsics &&
+  const bool check_lens = measure_lens_relief && options.measure_lens_relief &&
+                          !ba_options.fix_intrinsics &&
                           ba_options.known_distortion_sigma_px == 0.0 &&
                           ba_options.distortion_terms == 2 && unusable.empty();
   // The covariance and the lens check read the solution and nothing of each
@@ -243,12 +291,12 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
     struct Fallback {
       CameraModel camera;
       BundleAdjustmentOptions options;
-      const char* name;
+      CalibrationSource source;
       const char* what;
     };
     std::vector<Fallback> fallbacks;
     if (options.known) {
-      fallbacks.push_back({options.known->camera, ba_options, "fallback-known",
+      fallbacks.push_back({options.known->camera, ba_options, CalibrationSource::kFallbackKnown,
                            "the known calibration was used instead"});
       fallbacks.back().options.fix_intrinsics = true;
     } else {
@@ -258,10 +306,10 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
       CameraModel k1_only = start;
       if (std::isfinite(estimated.camera.k1)) k1_only.k1 = estimated.camera.k1;
       fallbacks.push_back(
-          {k1_only, ba_options, SparseReconstruction::kFallbackK1, "refitted with k2 = 0 instead"});
+          {k1_only, ba_options, CalibrationSource::kFallbackK1, "refitted with k2 = 0 instead"});
       fallbacks.back().options.distortion_terms = std::min(1, ba_options.distortion_terms);
-      fallbacks.push_back({start, ba_options, SparseReconstruction::kFallbackK0,
-                           "refitted with k1 = k2 = 0 instead"});
+      fallbacks.push_back(
+          {start, ba_options, CalibrationSource::kFallbackK0, "refitted with k1 = k2 = 0 instead"});
       fallbacks.back().options.distortion_terms = 0;
     }
     for (size_t n = 0; n < fallbacks.size(); ++n) {
@@ -276,7 +324,7 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
       if (!last && (!RadialModelIsMonotone(state.camera, &fold_px) ||
                     (options.camera_usable && !options.camera_usable(state.camera, &refused))))
         continue;
-      sparse.calibration_used = fallback.name;
+      sparse.calibration_used = fallback.source;
       sparse.warnings.push_back("the estimated calibration (f " + FixedText(estimated.camera.f, 1) +
                                 " px, k1 " + FixedText(estimated.camera.k1, 4) + ", k2 " +
                                 FixedText(estimated.camera.k2, 4) + ") " + unusable + "; " +
@@ -305,9 +353,10 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
   sparse.bundle_adjustment = std::move(solved.summary);
   sparse.rank_one = std::move(solved.rank_one);
   sparse.runs = std::move(solved.runs);
+  sparse.starts = std::move(solved.starts);
   // The bias of the camera the burst calibrated, where it kept it (a
   // fallback's camera is another).
-  if (sparse.calibration_used == "self") sparse.intrinsics_bias = solved.bias;
+  if (sparse.calibration_used == CalibrationSource::kSelf) sparse.intrinsics_bias = solved.bias;
 
   // A global scale is free: report depths with median inverse depth 1.
   SparseState& result = sparse.state;

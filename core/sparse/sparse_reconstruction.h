@@ -37,6 +37,19 @@ enum class KnownCalibrationMode { kFixed, kPrior };
 KnownCalibrationMode ParseKnownCalibrationMode(const std::string& name);  // "fixed" | "prior"
 const char* KnownCalibrationModeName(KnownCalibrationMode mode);
 
+// Which camera the later stages got (result.json calibration.source).
+enum class CalibrationSource {
+  kSelf,           // the burst calibrated itself
+  kKnownFixed,     // a known calibration, held
+  kKnownPrior,     // a known calibration as a prior the burst moved within
+  kFallbackKnown,  // the estimate was unusable: the known calibration instead
+  kFallbackK1,     // the estimate was unusable: refitted with k2 = 0
+  kFallbackK0,     // the estimate was unusable: refitted with k1 = k2 = 0
+};
+// "self", "known-fixed", "known-prior", "fallback-known", "fallback-k1",
+// "fallback-k0".
+const char* CalibrationSourceName(CalibrationSource source);
+
 struct KnownCalibration {
   CameraModel camera;  // principal point included: it replaces the image centre
   KnownCalibrationMode mode = KnownCalibrationMode::kPrior;
@@ -119,6 +132,17 @@ struct SparseOptions {
   // calibration starts from its own camera only (so does the naive probe,
   // naive_probe, and options.init kNaive starts once).
   std::vector<double> focal_starts = {1.0, 0.6};
+  // Where the readout is estimated and the first adjustment measured one, the
+  // adjustment restarts from it and from other readouts, each from a rank-1
+  // initialization rectified with it (adjustment_starts.cc, kReadoutStarts):
+  // a readout and a tilt of the scene trade against each other, and which
+  // minimum the adjustment reaches depends on its start
+  // (docs/experiments/114-readout-sigma-tum-18-27.md). False: one adjustment
+  // with the whole budget.
+  bool readout_restarts = true;
+  // Measure SparseReconstruction::lens_relief_shift (one adjustment more)
+  // where the burst calibrates its own lens; the depth check reads it.
+  bool measure_lens_relief = true;
   // A known calibration; without one the burst calibrates the camera alone.
   std::optional<KnownCalibration> known;
   // A known calibration (with check_fit, held fixed or as a prior) is
@@ -154,6 +178,29 @@ struct SparseOptions {
   // model); a camera it refuses is replaced as a folding one is. Null: only
   // the fold check. Returns false and says why.
   std::function<bool(const CameraModel&, std::string* why)> camera_usable;
+};
+
+// How a start of the self-calibrating adjustment was made (SparseOptions::
+// focal_starts, naive_probe, readout_restarts; GivenStart).
+enum class StartKind { kFocal, kNaive, kGiven, kReadout };
+const char* StartKindName(StartKind kind);  // "focal", "naive", "given", "readout"
+// What became of a start: chosen, beaten by another, or no solution.
+enum class StartOutcome { kChosen, kBeaten, kFailed };
+const char* StartOutcomeName(StartOutcome outcome);  // "chosen", "beaten", "failed"
+
+// One start the adjustment tried, and the decision on it: the starts are
+// compared by their truncated cost over every track (the focal, naive and
+// given starts) or by their median track error (the readout restarts, among
+// themselves and the solution they restart from).
+struct StartRecord {
+  StartKind kind = StartKind::kFocal;
+  double start_f = 0.0;        // pixels
+  double start_readout = 0.0;  // frame intervals (a readout restart's)
+  int tracks = 0;              // the tracks its first adjustment adjusted
+  int iterations = 0;          // over all its adjustments
+  double cost = 0.0;           // what it was compared by (NaN where it failed)
+  StartOutcome outcome = StartOutcome::kChosen;
+  std::string error;  // kFailed: why
 };
 
 struct SparseReconstruction {
@@ -213,9 +260,7 @@ struct SparseReconstruction {
   double lens_relief_shift = -1.0;
   // The camera the adjustment estimated, when a fallback replaced it.
   std::optional<CameraModel> rejected_camera;
-  // "self" | "known-fixed" | "known-prior" | "fallback-known" |
-  // "fallback-k1" (kFallbackK1) | "fallback-k0" (kFallbackK0)
-  std::string calibration_used = "self";
+  CalibrationSource calibration_used = CalibrationSource::kSelf;
   std::vector<std::string> warnings;
   // The bias of f, k1, k2 and the readout that the tracks' noise gave the
   // self-calibrating adjustment, measured by the bootstrap (SparseOptions::
@@ -223,6 +268,9 @@ struct SparseReconstruction {
   // sigma_f too small for the bias to matter).
   std::optional<IntrinsicsBias> intrinsics_bias;
   RankOneResult rank_one;  // diagnostics of the initialization (rank1 mode)
+  // Every start tried, in the order they were decided: the starts, then the
+  // chosen one's readout restarts (result.json sparse_detail.starts).
+  std::vector<StartRecord> starts;
   std::vector<std::pair<std::string, double>>
       timings_ms;  // features, rotation, rank1, bundle_adjustment
 
@@ -230,7 +278,7 @@ struct SparseReconstruction {
   std::vector<double> InlierInverseDepths() const;
   // The bias measured for the burst's own calibration: the self-calibration
   // beside a known prior where there is one (self_estimate), else the camera
-  // of `state` (intrinsics_bias, empty unless calibration_used is "self").
+  // of `state` (intrinsics_bias, empty unless calibration_used is kSelf).
   const std::optional<IntrinsicsBias>& OwnCalibrationBias() const {
     return self_estimate ? self_estimate->bias : intrinsics_bias;
   }
@@ -242,11 +290,6 @@ struct SparseReconstruction {
   // adjustment estimated (calibration_used kFallbackK1 or kFallbackK0): the
   // relief is then one the burst's own lens model did not choose.
   bool DroppedLensTerms() const;
-
-  // calibration_used where the dense stage could not use the estimate and
-  // the tracks were refitted with k2 = 0, or with k1 = k2 = 0.
-  static constexpr const char* kFallbackK1 = "fallback-k1";
-  static constexpr const char* kFallbackK0 = "fallback-k0";
 };
 
 // Throws ReconstructionError for bursts that cannot be reconstructed.

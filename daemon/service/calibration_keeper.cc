@@ -106,7 +106,9 @@ std::string CalibrationKeeper::Record(const std::string& job, const JobOptions& 
   // (core/sparse/bootstrap_bias.h). The burst's own calibration: beside a
   // known prior where there is one, else where the burst kept it.
   const std::optional<CameraModel> debiased = sparse.DebiasedCamera();
-  if (!debiased) return "not estimated from the burst (" + sparse.calibration_used + ")";
+  if (!debiased)
+    return std::string("not estimated from the burst (") +
+           CalibrationSourceName(sparse.calibration_used) + ")";
   const CalibrationUncertainty& uncertainty =
       sparse.self_estimate ? sparse.self_estimate->uncertainty : sparse.uncertainty;
   if (!uncertainty.available) return "no uncertainty";

@@ -18,7 +18,7 @@ namespace fs = std::filesystem;
 // reliable.
 SparseReconstruction Estimate(int width, int height, double f) {
   SparseReconstruction sparse;
-  sparse.calibration_used = "self";
+  sparse.calibration_used = CalibrationSource::kSelf;
   sparse.state.camera = CameraModel::Initial(width, height);
   sparse.state.camera.f = f;
   sparse.state.camera.k1 = -0.05;

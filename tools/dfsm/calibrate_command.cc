@@ -56,8 +56,8 @@ int RunCalibrateCommand(const Args& args) {
                   camera.f,
                   sparse.uncertainty.available ? sparse.uncertainty.sigma_f_percent(camera.f) : 0.0,
                   camera.k1, camera.k2, CalibrationQualityName(sparse.verdict.quality));
-      if (sparse.calibration_used != "self") {
-        outcome = "not fused: " + sparse.calibration_used;
+      if (sparse.calibration_used != CalibrationSource::kSelf) {
+        outcome = std::string("not fused: ") + CalibrationSourceName(sparse.calibration_used);
       } else if (!sparse.uncertainty.available) {
         outcome = "not fused: " + sparse.uncertainty.unavailable_reason;
       } else if (sparse.verdict.quality == CalibrationQuality::kDegenerate) {
