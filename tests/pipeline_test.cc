@@ -201,6 +201,23 @@ TEST(Pipeline, WritesACompleteResultDirectory) {
   std::filesystem::remove_all(dir);
 }
 
+// Every part's options are checked before any work: a bad one (of the
+// dense stage here, which runs last) fails the burst at once, by name, as
+// the caller's mistake rather than an internal error.
+TEST(Pipeline, ABadOptionFailsBeforeAnyWorkAndIsNamed) {
+  const Burst burst = ToBurst(SmallBurst());
+  PipelineOptions options;
+  options.dense.guided_eps = 0.0;
+  const PipelineOutput output = RunPipeline(burst, options);
+  EXPECT_FALSE(output.result.ok);
+  EXPECT_EQ(output.result.error.rfind("invalid options: dense: guided_eps", 0), 0u)
+      << output.result.error;
+  EXPECT_FALSE(output.sparse.has_value());
+  options = PipelineOptions();
+  options.sparse.features.klt_window = 4;
+  EXPECT_NE(RunPipeline(burst, options).result.error.find("klt_window"), std::string::npos);
+}
+
 TEST(Pipeline, AStillBurstFailsWithAReasonAndAResultFile) {
   const SynthBurst generated = SmallBurst();
   Burst burst = ToBurst(generated);

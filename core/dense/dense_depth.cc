@@ -78,36 +78,11 @@ void ValidateInputs(const Burst& burst, const CameraModel& camera, const std::ve
   const cv::Mat& color = burst.reference_color;
   Require(color.empty() || (color.cols == burst.width() && color.rows == burst.height()),
           "reference_color is not of the burst's size");
-  Require(options.coarse_scale >= 0, "coarse_scale must be >= 0 (0: from the image width)");
-  Require(options.coarse_planes == 0 || options.coarse_planes >= 2,
-          "coarse_planes must be 0 (all planes) or >= 2");
+  options.Check();
   const int scale = CoarseScale(burst.width(), options);
   Require(burst.width() / scale >= 8 && burst.height() / scale >= 8,
           "image " + std::to_string(burst.width()) + "x" + std::to_string(burst.height()) +
               " too small for coarse_scale " + std::to_string(scale));
-  if (options.regularize) options.semi_global.Check();
-  Require(options.refine_radius >= 0, "refine_radius must be >= 0 (0: from the coarse level)");
-  Require(options.range_extension_share >= 0.0 && options.range_extension_share <= 1.0,
-          "range_extension_share must be between 0 (never) and 1");
-  Require(options.seed_prior >= 0.0, "seed_prior must be >= 0 (0: off)");
-  Require(options.oversample_max_pixels >= 0, "oversample_max_pixels must be >= 0 (0: never)");
-  Require(options.edge_guard_parallax >= 0.0 && options.discontinuity_parallax >= 0.0 &&
-              options.discontinuity_relative >= 0.0 && options.discontinuity_radius >= 0 &&
-              options.raw_discontinuity_radius >= 0,
-          "edge_guard_parallax, discontinuity_parallax, discontinuity_relative, "
-          "discontinuity_radius and raw_discontinuity_radius must be >= 0");
-  Require(options.refine_stride >= 0, "refine_stride must be >= 0 (0: chosen from the parallax)");
-  Require(options.coarse_window_radius >= 0 && options.fine_window_radius >= 0 &&
-              options.coarse_shiftable_radius >= 0 && options.fine_shiftable_radius >= 0 &&
-              options.weak_texture_window_radius >= 0 && options.weak_texture_gradient >= 0.0,
-          "window and shiftable radii and weak_texture_gradient must be >= 0");
-  Require(
-      options.prefilter_sigma >= 0.0 && options.truncation > 0.0f &&
-          options.min_confidence >= 0.0 && options.guided_radius >= 0 && options.guided_eps > 0.0 &&
-          options.max_cost_ratio >= 0.0,
-      "prefilter_sigma, min_confidence, guided_radius, max_cost_ratio must be >= 0; truncation, "
-      "guided_eps > 0");
-  Require(options.fine_high_pass_ratio > 0.0, "fine_high_pass_ratio must be > 0");
 }
 
 // Coarse planes are spaced this far apart in coarse pixels of parallax, fine
@@ -161,6 +136,39 @@ double MaxParallaxPerInverseDepth(const CameraModel& camera, const std::vector<P
 }
 
 }  // namespace
+
+void DenseOptions::Check() const {
+  Require(planes >= kMinPlanes && planes <= kMaxPlanes,
+          "planes must be " + std::to_string(kMinPlanes) + " to " + std::to_string(kMaxPlanes));
+  Require(coarse_scale >= 0, "coarse_scale must be >= 0 (0: from the image width)");
+  Require(coarse_planes == 0 || coarse_planes >= 2, "coarse_planes must be 0 (all planes) or >= 2");
+  if (regularize) semi_global.Check();
+  Require(refine_radius >= 0, "refine_radius must be >= 0 (0: from the coarse level)");
+  Require(range_extension_share >= 0.0 && range_extension_share <= 1.0,
+          "range_extension_share must be between 0 (never) and 1");
+  Require(seed_prior >= 0.0, "seed_prior must be >= 0 (0: off)");
+  Require(oversample_max_pixels >= 0, "oversample_max_pixels must be >= 0 (0: never)");
+  Require(edge_guard_parallax >= 0.0, "edge_guard_parallax must be >= 0");
+  Require(discontinuity_parallax >= 0.0, "discontinuity_parallax must be >= 0");
+  Require(discontinuity_relative >= 0.0, "discontinuity_relative must be >= 0");
+  Require(discontinuity_radius >= 0, "discontinuity_radius must be >= 0");
+  Require(raw_discontinuity_radius >= 0, "raw_discontinuity_radius must be >= 0");
+  Require(refine_stride >= 0, "refine_stride must be >= 0 (0: chosen from the parallax)");
+  Require(coarse_window_radius >= 0, "coarse_window_radius must be >= 0");
+  Require(fine_window_radius >= 0, "fine_window_radius must be >= 0");
+  Require(coarse_shiftable_radius >= 0, "coarse_shiftable_radius must be >= 0");
+  Require(fine_shiftable_radius >= 0, "fine_shiftable_radius must be >= 0");
+  Require(weak_texture_window_radius >= 0, "weak_texture_window_radius must be >= 0");
+  Require(weak_texture_gradient >= 0.0, "weak_texture_gradient must be >= 0");
+  Require(prefilter_sigma >= 0.0, "prefilter_sigma must be >= 0");
+  Require(truncation > 0.0f, "truncation must be > 0");
+  Require(min_confidence >= 0.0, "min_confidence must be >= 0");
+  Require(guided_radius >= 0, "guided_radius must be >= 0");
+  Require(guided_eps > 0.0, "guided_eps must be > 0");
+  Require(max_cost_ratio >= 0.0, "max_cost_ratio must be >= 0");
+  Require(fine_high_pass_ratio > 0.0, "fine_high_pass_ratio must be > 0");
+  if (fill_holes) completion.Check();
+}
 
 int CoarseScale(int width, const DenseOptions& options) {
   if (options.coarse_scale > 0) return options.coarse_scale;

@@ -162,6 +162,10 @@ struct DenseOptions {
   // measured surroundings (depth_completion.h). false: not computed.
   bool fill_holes = true;
   DepthCompletionOptions completion;
+
+  // Throws std::invalid_argument ("dense: ...") naming the option out of its
+  // range.
+  void Check() const;
 };
 
 struct DenseDepth {

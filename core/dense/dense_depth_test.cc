@@ -379,7 +379,8 @@ TEST_F(DenseDepthInputTest, RejectsInconsistentInputsWithANamedReason) {
                  options);
   options = {};
   options.coarse_shiftable_radius = -1;
-  ExpectRejected(s.burst, s.camera, s.poses, s.sparse_inverse_depths, "shiftable radii", options);
+  ExpectRejected(s.burst, s.camera, s.poses, s.sparse_inverse_depths, "coarse_shiftable_radius",
+                 options);
   options = {};
   options.weak_texture_gradient = -1.0;
   ExpectRejected(s.burst, s.camera, s.poses, s.sparse_inverse_depths, "weak_texture_gradient",

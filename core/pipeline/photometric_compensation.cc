@@ -3,8 +3,16 @@
 #include <algorithm>
 #include <cmath>
 #include <opencv2/imgproc.hpp>
+#include <stdexcept>
 
 namespace dfsm {
+
+void PhotometricCompensationOptions::Check() const {
+  if (!(min_gain_change >= 0.0))
+    throw std::invalid_argument("photometric min_gain_change must be >= 0");
+  if (!(central_fraction > 0.0 && central_fraction <= 1.0))
+    throw std::invalid_argument("photometric central_fraction must be in (0, 1]");
+}
 namespace {
 
 // A frame reduced to its brightness at a scale the burst's motion cannot

@@ -22,6 +22,9 @@ struct PhotometricCompensationOptions {
   // the border holds content that moves in and out of view.
   double central_fraction = 0.8;
   bool enabled = true;
+
+  // Throws std::invalid_argument naming the option out of its range.
+  void Check() const;
 };
 
 struct FrameCompensation {

@@ -23,6 +23,12 @@
 namespace dfsm {
 namespace {
 
+// An option out of its range, found before any work (PipelineOptions::Check):
+// the caller's mistake, not an internal error.
+struct InvalidOptions : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
 // The starts the adjustment decided on (SparseReconstruction::starts); a
 // cost of a start that failed is null.
 nlohmann::json StartsJson(const std::vector<StartRecord>& starts) {
@@ -110,6 +116,15 @@ nlohmann::json PerCallerFrame(const std::vector<int>& values, const std::vector<
 
 }  // namespace
 
+void PipelineOptions::Check() const {
+  sparse.Check();
+  if (run_dense) dense.Check();
+  if (!(exif_focal_sigma_percent >= 0.0))
+    throw std::invalid_argument("exif_focal_sigma_percent must be >= 0 (0: EXIF ignored)");
+  photometric.Check();
+  repeated_frames.Check();
+}
+
 PipelineOutput RunPipeline(const Burst& burst, const PipelineOptions& options,
                            const StageCallback& on_stage) {
   PipelineOutput output;
@@ -117,6 +132,11 @@ PipelineOutput RunPipeline(const Burst& burst, const PipelineOptions& options,
   result.bundle_adjustment.init = InitModeName(options.sparse.init);
   const auto start = std::chrono::steady_clock::now();
   try {
+    try {
+      options.Check();
+    } catch (const std::invalid_argument& e) {
+      throw InvalidOptions(std::string("invalid options: ") + e.what());
+    }
     if (on_stage) on_stage("sparse");
     SparseOptions sparse_options = options.sparse;
     if (options.run_dense && !sparse_options.camera_usable)
@@ -307,6 +327,9 @@ PipelineOutput RunPipeline(const Burst& burst, const PipelineOptions& options,
     }
     result.ok = true;
   } catch (const ReconstructionError& e) {
+    result.ok = false;
+    result.error = e.what();
+  } catch (const InvalidOptions& e) {
     result.ok = false;
     result.error = e.what();
   } catch (const std::exception& e) {

@@ -27,6 +27,10 @@ struct PipelineOptions {
   PhotometricCompensationOptions photometric;
   // Frames that repeat the one before them are left out (repeated_frames.h).
   RepeatedFramesOptions repeated_frames;
+
+  // Each part's Check() (the dense stage's where it runs): RunPipeline calls
+  // it before any work, so that a bad option costs no seconds of it.
+  void Check() const;
 };
 
 struct PipelineOutput {

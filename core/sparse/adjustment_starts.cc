@@ -43,9 +43,6 @@ constexpr double kSameReadoutStart = 0.15;
 // restart follows (docs/experiments/117-first-adjustment-budget.md).
 constexpr int kMeasuringIterations = 30;
 
-// Focal starts beyond these (fractions of max(width, height)) are no camera:
-// 0.2 is a 136 deg view across the longer side, 5 a 11 deg one.
-constexpr double kFocalStartRange[] = {0.2, 5.0};
 // A later start (focal, or the naive probe) replaces the solution so far
 // where its truncated cost is lower by more than this fraction. Two starts that reach the same
 // minimum differ by far less, and the earlier one (the paper's guess first) stands.
@@ -417,29 +414,6 @@ void AdjustmentAttempt::Adjust(const FeatureTracks& tracks,
   runs.push_back(run);
 }
 
-void CheckAdjustmentOptions(const SparseOptions& options) {
-  options.bundle_adjustment.Check();
-  options.bootstrap.Check();
-  if (options.focal_starts.empty())
-    throw std::invalid_argument(
-        "focal_starts: at least one start is needed (1: the paper's guess)");
-  for (const double start : options.focal_starts)
-    if (!(start >= kFocalStartRange[0] && start <= kFocalStartRange[1]))
-      throw std::invalid_argument("focal_starts: " + FixedText(start) + " is outside [" +
-                                  FixedText(kFocalStartRange[0]) + ", " +
-                                  FixedText(kFocalStartRange[1]) + "] of max(width, height)");
-  if (options.reweight_rounds < 0)
-    throw std::invalid_argument(
-        "reweight_rounds must be >= 0 (0: every track weighs the same), got " +
-        std::to_string(options.reweight_rounds));
-  if (!(options.min_known_inlier_share >= 0.0 && options.min_known_inlier_share <= 1.0))
-    throw std::invalid_argument("min_known_inlier_share must be in [0, 1] (0: never), got " +
-                                FixedText(options.min_known_inlier_share));
-  if (!(options.min_track_weight > 0.0 && options.min_track_weight <= 1.0))
-    throw std::invalid_argument("min_track_weight must be in (0, 1], got " +
-                                FixedText(options.min_track_weight));
-}
-
 namespace {
 
 // The bias the tracks' noise gives the solution's intrinsics
@@ -460,7 +434,6 @@ AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraMode
                                    const SparseOptions& options,
                                    const BundleAdjustmentOptions& adjust, StageTimer* timer,
                                    SharedWork* beside, const GivenStart* given) {
-  CheckAdjustmentOptions(options);
   const StartedAdjustment steps(tracks, options);
   SparseOptions naive_options = options;
   naive_options.init = InitMode::kNaive;

@@ -67,11 +67,6 @@ struct GivenStart {
   InitMode init = InitMode::kRankOne;  // how the given solution itself started
 };
 
-// Throws std::invalid_argument naming the option of `options` that
-// AdjustFromStarts cannot run with: no focal start, or one outside the range
-// a camera can have; reweight_rounds below 0; min_track_weight outside (0, 1].
-void CheckAdjustmentOptions(const SparseOptions& options);
-
 // Adjusts `tracks` from `initial` (a known camera, or CameraModel::Initial),
 // with `adjust` (options.bundle_adjustment as the known calibration and the
 // readout mode set it). A known calibration starts from itself; a burst that
@@ -86,7 +81,7 @@ void CheckAdjustmentOptions(const SparseOptions& options);
 // AdjustmentAttempt::bias), and "reweight": its reweighting rounds
 // (SparseOptions::reweight_rounds; AdjustmentAttempt::weights). Throws
 // ReconstructionError, with the first start's reason, where no start reaches
-// a solution; std::invalid_argument for options CheckAdjustmentOptions refuses.
+// a solution; std::invalid_argument for options SparseOptions::Check refuses.
 //
 // `beside` (may be null): pieces of the caller's work that do not depend on
 // this one (ReconstructSparse's). With more than one start and more than one

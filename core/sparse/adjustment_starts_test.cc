@@ -398,43 +398,5 @@ TEST(AdjustFromStarts, NoisierTracksWeighLessAndTheCameraIsHeld) {
   }
 }
 
-TEST(AdjustFromStarts, RefusesFocalStartsNoCameraHas) {
-  const TrackSimulation sim = PhoneTracks();
-  SparseOptions options = EstimatedReadout();
-  options.focal_starts = {};
-  EXPECT_THROW(AdjustFromStarts(sim.tracks, CameraModel::Initial(640, 480), options,
-                                options.bundle_adjustment, nullptr),
-               std::invalid_argument);
-}
-
-// The reweighting's options (and the known calibration's retry share) are
-// refused by AdjustFromStarts itself, not only by ReconstructSparse, and
-// before any work: the message names the option.
-TEST(AdjustFromStarts, RefusesReweightingOptionsOutOfRange) {
-  const TrackSimulation sim = PhoneTracks();
-  const auto message = [&](const SparseOptions& options) {
-    try {
-      AdjustFromStarts(sim.tracks, CameraModel::Initial(640, 480), options,
-                       options.bundle_adjustment, nullptr);
-    } catch (const std::invalid_argument& e) {
-      return std::string(e.what());
-    }
-    return std::string("no error");
-  };
-  SparseOptions rounds = EstimatedReadout();
-  rounds.reweight_rounds = -1;
-  EXPECT_NE(message(rounds).find("reweight_rounds"), std::string::npos) << message(rounds);
-  for (const double weight : {0.0, -0.5, 1.5, std::nan("")}) {
-    SparseOptions floor = EstimatedReadout();
-    floor.min_track_weight = weight;
-    EXPECT_NE(message(floor).find("min_track_weight"), std::string::npos) << weight;
-  }
-  for (const double share : {-0.1, 1.5, std::nan("")}) {
-    SparseOptions retry = EstimatedReadout();
-    retry.min_known_inlier_share = share;
-    EXPECT_NE(message(retry).find("min_known_inlier_share"), std::string::npos) << share;
-  }
-}
-
 }  // namespace
 }  // namespace dfsm

@@ -4,11 +4,11 @@
 
 #include <algorithm>
 #include <cmath>
-#include <stdexcept>
-#include <string>
 #include <cstdio>
 #include <memory>
 #include <random>
+#include <stdexcept>
+#include <string>
 
 #include "core/sparse/intrinsics_prior.h"
 #include "core/sparse/rank_one_init.h"

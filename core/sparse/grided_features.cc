@@ -7,10 +7,31 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
 #include <optional>
+#include <stdexcept>
 
 #include "core/io/parallel_bands.h"
 
 namespace dfsm {
+
+void GridedFeatureOptions::Check() const {
+  if (!(cell_px >= 0 && cell_px <= kMaxCellPx))
+    throw std::invalid_argument("cell_px must be 0 (automatic) to " + std::to_string(kMaxCellPx) +
+                                ", got " + std::to_string(cell_px));
+  if (!(min_quality > 0.0 && min_quality < 1.0))
+    throw std::invalid_argument("min_quality must be in (0, 1), got " +
+                                std::to_string(min_quality));
+  if (!(klt_window >= 3 && klt_window % 2 == 1))
+    throw std::invalid_argument("klt_window must be odd and >= 3, got " +
+                                std::to_string(klt_window));
+  if (!(klt_levels >= 0 && klt_levels <= 8))
+    throw std::invalid_argument("klt_levels must be 0 to 8, got " + std::to_string(klt_levels));
+  if (!(max_forward_backward_px > 0.0))
+    throw std::invalid_argument("max_forward_backward_px must be > 0");
+  if (!(max_forward_backward_fraction >= 0.0))
+    throw std::invalid_argument("max_forward_backward_fraction must be >= 0");
+  if (!(min_shape_px >= 0.0)) throw std::invalid_argument("min_shape_px must be >= 0");
+  alignment.Check();
+}
 
 int MinGridCellSize(int width, int height) {
   const double area = static_cast<double>(width) * static_cast<double>(height);

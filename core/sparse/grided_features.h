@@ -60,6 +60,9 @@ struct GridedFeatureOptions {
   // against a translation (a roll of 0.5 deg moves them 0.09 px).
   double min_shape_px = 0.1;
   GainBiasAlignmentOptions alignment;
+
+  // Throws std::invalid_argument naming the option out of its range.
+  void Check() const;
 };
 
 // At most this many grid cells: the tracks, the adjustment's size and its

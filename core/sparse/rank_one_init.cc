@@ -4,10 +4,23 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
+#include <string>
 
 #include "core/sparse/robust_sigma.h"
 
 namespace dfsm {
+
+void RankOneOptions::Check() const {
+  if (max_iterations < 1)
+    throw std::invalid_argument("rank-1 max_iterations must be >= 1, got " +
+                                std::to_string(max_iterations));
+  if (!(outlier_sigmas > 0.0)) throw std::invalid_argument("rank-1 outlier_sigmas must be > 0");
+  if (!(min_outlier_px > 0.0)) throw std::invalid_argument("rank-1 min_outlier_px must be > 0");
+  if (rejection_rounds < 0)
+    throw std::invalid_argument("rank-1 rejection_rounds must be >= 0, got " +
+                                std::to_string(rejection_rounds));
+}
 namespace {
 
 // De-rotated observations: p[j] for the reference, q[i][j] for frame i (z = 1).

@@ -43,6 +43,9 @@ struct RankOneOptions {
   double outlier_sigmas = 4.0;
   double min_outlier_px = 0.5;
   int rejection_rounds = 4;  // the first refits on the better half of the tracks
+
+  // Throws std::invalid_argument naming the option out of its range.
+  void Check() const;
 };
 
 struct RankOneResult {

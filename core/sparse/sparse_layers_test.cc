@@ -6,8 +6,6 @@
 #include <stdexcept>
 #include <string>
 
-#include "core/sparse/adjustment_starts.h"
-
 namespace dfsm {
 namespace {
 
@@ -25,7 +23,7 @@ TEST(SparseLayers, EachNameSwitchesItsOwnLayerOff) {
     for (const SparseLayerInfo& other : SparseLayers())
       EXPECT_EQ(UsesLayer(without, other.layer), other.layer != info.layer)
           << "without " << info.name << ", " << other.name;
-    EXPECT_NO_THROW(CheckAdjustmentOptions(without)) << info.name;
+    EXPECT_NO_THROW(without.Check()) << info.name;
   }
 }
 

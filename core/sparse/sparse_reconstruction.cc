@@ -124,6 +124,47 @@ const char* StartOutcomeName(StartOutcome outcome) {
   return "?";
 }
 
+// Focal starts beyond these (fractions of max(width, height)) are no camera:
+// 0.2 is a 136 deg view across the longer side, 5 a 11 deg one.
+constexpr double kFocalStartRange[] = {0.2, 5.0};
+
+void SparseOptions::Check() const {
+  features.Check();
+  rank_one.Check();
+  bundle_adjustment.Check();
+  bootstrap.Check();
+  rolling_shutter.Check();
+  quality.Check();
+  if (focal_starts.empty())
+    throw std::invalid_argument(
+        "focal_starts: at least one start is needed (1: the paper's guess)");
+  for (const double start : focal_starts)
+    if (!(start >= kFocalStartRange[0] && start <= kFocalStartRange[1]))
+      throw std::invalid_argument("focal_starts: " + FixedText(start) + " is outside [" +
+                                  FixedText(kFocalStartRange[0]) + ", " +
+                                  FixedText(kFocalStartRange[1]) + "] of max(width, height)");
+  if (min_tracks < 3)
+    throw std::invalid_argument("min_tracks must be >= 3, got " + std::to_string(min_tracks));
+  if (!(min_parallax_px >= 0.0)) throw std::invalid_argument("min_parallax_px must be >= 0");
+  if (!(outlier_px > 0.0)) throw std::invalid_argument("outlier_px must be > 0");
+  if (outlier_rounds < 0)
+    throw std::invalid_argument("outlier_rounds must be >= 0 (0: none), got " +
+                                std::to_string(outlier_rounds));
+  if (reweight_rounds < 0)
+    throw std::invalid_argument(
+        "reweight_rounds must be >= 0 (0: every track weighs the same), got " +
+        std::to_string(reweight_rounds));
+  if (!(min_track_weight > 0.0 && min_track_weight <= 1.0))
+    throw std::invalid_argument("min_track_weight must be in (0, 1], got " +
+                                FixedText(min_track_weight));
+  if (!(max_known_fit_ratio == 0.0 || max_known_fit_ratio >= 1.0))
+    throw std::invalid_argument("max_known_fit_ratio must be 0 (no check) or >= 1, got " +
+                                FixedText(max_known_fit_ratio));
+  if (!(min_known_inlier_share >= 0.0 && min_known_inlier_share <= 1.0))
+    throw std::invalid_argument("min_known_inlier_share must be in [0, 1] (0: never), got " +
+                                FixedText(min_known_inlier_share));
+}
+
 std::vector<double> SparseReconstruction::InlierInverseDepths() const {
   std::vector<double> inverse_depths;
   for (size_t j = 0; j < inliers.size(); ++j)
@@ -178,7 +219,6 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
                                   ? CalibrationSource::kKnownFixed
                                   : CalibrationSource::kKnownPrior;
   }
-  options.rolling_shutter.Check();
   if (options.rolling_shutter.mode == RollingShutterOptions::Mode::kEstimate)
     ba_options.estimate_readout = true;
   // The solution from the starts; the rest below (a fallback refit) goes on
@@ -424,34 +464,10 @@ SparseReconstruction AdjustUncheckedKnown(SparseReconstruction tracked, int widt
   }
 }
 
-}  // namespace
-
-SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int reference,
-                                       const SparseOptions& options, SharedWork* beside) {
-  if (frames.size() < 3)
-    throw ReconstructionError("a burst needs at least 3 frames, got " +
-                              std::to_string(frames.size()));
-  CheckFrameTimes(options.frame_times, static_cast<int>(frames.size()));
-  // Before the tracking, so that a bad option costs no seconds of work;
-  // AdjustFromStarts checks them again for its other callers.
-  CheckAdjustmentOptions(options);
-  SparseReconstruction tracked;
-  StageTimer timer(&tracked.timings_ms);
-  tracked.tracks = TrackGridedFeatures(frames, reference, options.features, &tracked.feature_stats);
-  timer.Lap("features");
-  if (tracked.tracks.num_tracks() < options.min_tracks)
-    throw TooFewTracks(frames[reference], tracked, options);
-  const double parallax = tracked.tracks.MedianMaxDisplacement();
-  if (parallax < options.min_parallax_px)
-    throw ReconstructionError("insufficient parallax: median track motion " + FixedText(parallax) +
-                              " px (need >= " + FixedText(options.min_parallax_px) + " px)");
-  const int width = frames[reference].cols, height = frames[reference].rows;
-  const bool check_known =
-      options.known && options.known->check_fit && options.max_known_fit_ratio > 0.0;
-  if (!options.known)
-    return AdjustTracks(std::move(tracked), width, height, options,
-                        /*measure_lens_relief=*/true, beside);
-  if (!check_known) return AdjustUncheckedKnown(std::move(tracked), width, height, options, beside);
+// A known calibration with the fit check (SparseOptions::
+// max_known_fit_ratio, KnownCalibration::check_fit).
+SparseReconstruction AdjustCheckedKnown(SparseReconstruction tracked, int width, int height,
+                                        const SparseOptions& options, SharedWork* beside) {
   // The same tracks calibrated by the burst alone, first: a camera that fits
   // them much better than the known one (more tracks, or a smaller error)
   // says the known calibration, or the motion model under it, does not hold
@@ -500,6 +516,54 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
   }
   sparse.timings_ms.emplace_back("known_fit", check_ms);
   return sparse;
+}
+
+// Everything after the tracking: the parallax check, then the adjustment
+// as the known calibration (or none) asks.
+SparseReconstruction AdjustTracked(SparseReconstruction tracked, int width, int height,
+                                   const SparseOptions& options, SharedWork* beside) {
+  const double parallax = tracked.tracks.MedianMaxDisplacement();
+  if (parallax < options.min_parallax_px)
+    throw ReconstructionError("insufficient parallax: median track motion " + FixedText(parallax) +
+                              " px (need >= " + FixedText(options.min_parallax_px) + " px)");
+  if (!options.known)
+    return AdjustTracks(std::move(tracked), width, height, options,
+                        /*measure_lens_relief=*/true, beside);
+  if (options.known->check_fit && options.max_known_fit_ratio > 0.0)
+    return AdjustCheckedKnown(std::move(tracked), width, height, options, beside);
+  return AdjustUncheckedKnown(std::move(tracked), width, height, options, beside);
+}
+
+}  // namespace
+
+SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int reference,
+                                       const SparseOptions& options, SharedWork* beside) {
+  if (frames.size() < 3)
+    throw ReconstructionError("a burst needs at least 3 frames, got " +
+                              std::to_string(frames.size()));
+  CheckFrameTimes(options.frame_times, static_cast<int>(frames.size()));
+  // Before the tracking, so that a bad option costs no seconds of work.
+  options.Check();
+  SparseReconstruction tracked;
+  StageTimer timer(&tracked.timings_ms);
+  tracked.tracks = TrackGridedFeatures(frames, reference, options.features, &tracked.feature_stats);
+  timer.Lap("features");
+  if (tracked.tracks.num_tracks() < options.min_tracks)
+    throw TooFewTracks(frames[reference], tracked, options);
+  const int width = frames[reference].cols, height = frames[reference].rows;
+  return AdjustTracked(std::move(tracked), width, height, options, beside);
+}
+
+SparseReconstruction ReconstructFromTracks(FeatureTracks tracks, int width, int height,
+                                           const SparseOptions& options) {
+  options.Check();
+  CheckFrameTimes(options.frame_times, tracks.num_frames());
+  if (tracks.num_tracks() < options.min_tracks)
+    throw ReconstructionError("too few tracks: " + std::to_string(tracks.num_tracks()) +
+                              " (need >= " + std::to_string(options.min_tracks) + ")");
+  SparseReconstruction tracked;
+  tracked.tracks = std::move(tracks);
+  return AdjustTracked(std::move(tracked), width, height, options, nullptr);
 }
 
 }  // namespace dfsm

@@ -178,6 +178,10 @@ struct SparseOptions {
   // model); a camera it refuses is replaced as a folding one is. Null: only
   // the fold check. Returns false and says why.
   std::function<bool(const CameraModel&, std::string* why)> camera_usable;
+
+  // Throws std::invalid_argument naming the option out of its range, its
+  // parts' options included (features, rank_one, bundle_adjustment, ...).
+  void Check() const;
 };
 
 // How a start of the self-calibrating adjustment was made (SparseOptions::
@@ -301,5 +305,11 @@ struct SparseReconstruction {
 SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& gray_frames, int reference,
                                        const SparseOptions& options = {},
                                        SharedWork* beside = nullptr);
+
+// The same from tracks already made (tracked by another tracker, or
+// simulated: track_simulator.h) in a width x height image: every step after
+// the tracking. Throws as ReconstructSparse does.
+SparseReconstruction ReconstructFromTracks(FeatureTracks tracks, int width, int height,
+                                           const SparseOptions& options = {});
 
 }  // namespace dfsm

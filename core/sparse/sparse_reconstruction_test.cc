@@ -1,0 +1,152 @@
+#include "core/sparse/sparse_reconstruction.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "core/sparse/track_simulator.h"
+
+namespace dfsm {
+namespace {
+
+// A 640x480 camera with a rolling shutter whose readout the adjustment
+// estimates, under a degree of tremor and 0.05 px of tracking noise.
+TrackSimulatorOptions RollingShutterCamera() {
+  TrackSimulatorOptions options;
+  options.width = 640;
+  options.height = 480;
+  options.f = 520.0;
+  options.k1 = -0.05;
+  options.k2 = 0.01;
+  options.rotation_deg = 1.0;
+  options.noise_px = 0.05;
+  options.readout = 0.6;
+  options.seed = 3;
+  return options;
+}
+
+SparseOptions ReadoutEstimated() {
+  SparseOptions options;
+  options.rolling_shutter.mode = RollingShutterOptions::Mode::kEstimate;
+  return options;
+}
+
+// The message of the std::invalid_argument that ReconstructFromTracks throws
+// for `options`, or "no error".
+std::string Refusal(const TrackSimulation& sim, const SparseOptions& options) {
+  try {
+    ReconstructFromTracks(sim.tracks, 640, 480, options);
+  } catch (const std::invalid_argument& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
+// Every option out of its range is refused before any work, by the option's
+// name: the sparse stage's own and those of its parts.
+TEST(SparseOptions, AnOptionOutOfItsRangeIsRefusedByName) {
+  const TrackSimulation sim = SimulateTracks(RollingShutterCamera());
+  const std::vector<std::pair<std::string, std::function<void(SparseOptions*)>>> cases = {
+      {"focal_starts", [](SparseOptions* o) { o->focal_starts = {}; }},
+      {"focal_starts",
+       [](SparseOptions* o) {
+         o->focal_starts = {1.0, 9.0};
+       }},
+      {"reweight_rounds", [](SparseOptions* o) { o->reweight_rounds = -1; }},
+      {"min_track_weight", [](SparseOptions* o) { o->min_track_weight = 0.0; }},
+      {"min_track_weight", [](SparseOptions* o) { o->min_track_weight = std::nan(""); }},
+      {"min_known_inlier_share", [](SparseOptions* o) { o->min_known_inlier_share = 1.5; }},
+      {"max_known_fit_ratio", [](SparseOptions* o) { o->max_known_fit_ratio = 0.5; }},
+      {"outlier_rounds", [](SparseOptions* o) { o->outlier_rounds = -2; }},
+      {"outlier_px", [](SparseOptions* o) { o->outlier_px = 0.0; }},
+      {"min_tracks", [](SparseOptions* o) { o->min_tracks = 2; }},
+      {"klt_window", [](SparseOptions* o) { o->features.klt_window = 20; }},
+      {"min_quality", [](SparseOptions* o) { o->features.min_quality = 0.0; }},
+      {"rank-1 max_iterations", [](SparseOptions* o) { o->rank_one.max_iterations = 0; }},
+      {"bootstrap replicas", [](SparseOptions* o) { o->bootstrap.replicas = -1; }},
+  };
+  for (const auto& [name, spoil] : cases) {
+    SparseOptions options = ReadoutEstimated();
+    spoil(&options);
+    EXPECT_NE(Refusal(sim, options).find(name), std::string::npos)
+        << name << ": " << Refusal(sim, options);
+  }
+  EXPECT_EQ(Refusal(sim, ReadoutEstimated()), "no error");
+}
+
+// The whole stage on simulated tracks: the camera, the readout and the
+// relief come back, the burst's own calibration is the source, every start
+// is recorded with one chosen, and the depths are scaled to a median inverse
+// depth of 1.
+TEST(ReconstructFromTracks, CalibratesARollingShutterCameraFromItsTracks) {
+  const TrackSimulation sim = SimulateTracks(RollingShutterCamera());
+  const SparseReconstruction sparse =
+      ReconstructFromTracks(sim.tracks, 640, 480, ReadoutEstimated());
+  EXPECT_EQ(sparse.calibration_used, CalibrationSource::kSelf);
+  EXPECT_NEAR(sparse.state.camera.f, sim.camera.f, 0.03 * sim.camera.f);
+  EXPECT_NEAR(sparse.state.readout, 0.6, 0.1);
+  EXPECT_GE(std::count(sparse.inliers.begin(), sparse.inliers.end(), true),
+            0.9 * sim.tracks.num_tracks());
+  std::vector<double> inverse_depths = sparse.InlierInverseDepths();
+  std::nth_element(inverse_depths.begin(), inverse_depths.begin() + inverse_depths.size() / 2,
+                   inverse_depths.end());
+  EXPECT_NEAR(inverse_depths[inverse_depths.size() / 2], 1.0, 1e-9);
+  ASSERT_GE(sparse.starts.size(), 3u);
+  EXPECT_EQ(std::count_if(sparse.starts.begin(), sparse.starts.begin() + 3,
+                          [](const StartRecord& s) { return s.outcome == StartOutcome::kChosen; }),
+            1);
+  // The relief up to scale: the inverse depths against the truth's.
+  double worst = 0.0;
+  const double scale = sim.inverse_depths[0] / sparse.state.inverse_depths[0];
+  for (int j = 0; j < sim.tracks.num_tracks(); ++j)
+    if (sparse.inliers[j])
+      worst = std::max(
+          worst, std::abs(scale * sparse.state.inverse_depths[j] / sim.inverse_depths[j] - 1.0));
+  EXPECT_LT(worst, 0.25);
+}
+
+// A known camera 15 % off fits the tracks worse than the burst's own: the
+// check says so in the verdict and a warning, and never calls it reliable.
+TEST(ReconstructFromTracks, AKnownCameraThatDoesNotFitIsSaidSo) {
+  const TrackSimulation sim = SimulateTracks(RollingShutterCamera());
+  SparseOptions options = ReadoutEstimated();
+  options.known.emplace();
+  options.known->camera = sim.camera;
+  options.known->camera.f *= 1.15;
+  options.known->mode = KnownCalibrationMode::kFixed;
+  const SparseReconstruction sparse = ReconstructFromTracks(sim.tracks, 640, 480, options);
+  EXPECT_EQ(sparse.calibration_used, CalibrationSource::kKnownFixed);
+  ASSERT_TRUE(sparse.known_fit.has_value());
+  EXPECT_FALSE(sparse.known_fit->fits)
+      << sparse.known_fit->known_rms_px << " px against " << sparse.known_fit->free_rms_px;
+  EXPECT_NE(sparse.verdict.quality, CalibrationQuality::kReliable);
+  EXPECT_TRUE(std::any_of(sparse.warnings.begin(), sparse.warnings.end(), [](const std::string& w) {
+    return w.find("does not fit") != std::string::npos;
+  }));
+
+  options.known->camera = sim.camera;
+  const SparseReconstruction right = ReconstructFromTracks(sim.tracks, 640, 480, options);
+  ASSERT_TRUE(right.known_fit.has_value());
+  EXPECT_TRUE(right.known_fit->fits)
+      << right.known_fit->known_rms_px << " px against " << right.known_fit->free_rms_px;
+}
+
+TEST(ReconstructFromTracks, TooFewTracksAreCounted) {
+  TrackSimulatorOptions camera = RollingShutterCamera();
+  camera.tracks = 12;
+  try {
+    ReconstructFromTracks(SimulateTracks(camera).tracks, 640, 480, ReadoutEstimated());
+    FAIL() << "12 tracks were adjusted";
+  } catch (const ReconstructionError& e) {
+    EXPECT_NE(std::string(e.what()).find("too few tracks: 12 (need >= 20)"), std::string::npos)
+        << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace dfsm
