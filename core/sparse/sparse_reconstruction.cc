@@ -186,6 +186,186 @@ bool SparseReconstruction::DroppedLensTerms() const {
 
 namespace {
 
+// The adjustment's options under `known` (may be null: the burst calibrates
+// itself): the known calibration held, or given as a prior of its widths;
+// the readout estimated where the rolling shutter asks for it.
+BundleAdjustmentOptions AdjustmentOptionsFor(const SparseOptions& options,
+                                             const KnownCalibration* known) {
+  BundleAdjustmentOptions adjust = options.bundle_adjustment;
+  if (known && known->mode == KnownCalibrationMode::kFixed) adjust.fix_intrinsics = true;
+  if (known && known->mode == KnownCalibrationMode::kPrior) {
+    adjust.known_f_sigma_percent = known->f_sigma_percent;
+    adjust.known_distortion_sigma_px = known->distortion_sigma_px;
+  }
+  if (options.rolling_shutter.mode == RollingShutterOptions::Mode::kEstimate)
+    adjust.estimate_readout = true;
+  return adjust;
+}
+
+// The burst's own calibration beside a known prior (KnownCalibration::
+// also_self_calibrate): the solution adjusted once more without the prior.
+SparseReconstruction::SelfEstimate EstimateAlone(const FeatureTracks& tracks,
+                                                 const std::vector<bool>& use, SparseState state,
+                                                 const SparseOptions& options) {
+  SparseReconstruction::SelfEstimate estimate;
+  const BundleAdjustmentOptions alone = AdjustmentOptionsFor(options, nullptr);
+  const BundleAdjustmentSummary summary =
+      RunBundleAdjustment(tracks, use, &state, alone, &estimate.uncertainty);
+  CalibrationEvidence evidence;
+  evidence.tracks = CountUsed(use);
+  evidence.rms_reprojection_px = summary.rms_reprojection_px;
+  evidence.median_track_motion_px = tracks.MedianMaxDisplacement();
+  estimate.camera = state.camera;
+  estimate.bias = MeasureBiasIfItMatters(tracks, use, state, alone, options.bootstrap);
+  estimate.verdict =
+      JudgeCalibration(state.camera, estimate.uncertainty, evidence, options.quality);
+  return estimate;
+}
+
+// The residual depends on w_j T_i only, so (w, T) -> (-w, -T) is an exact
+// symmetry the adjustment may cross (a fallback refit too): the sign that
+// puts most tracks in front of the camera is chosen. A track still behind it
+// is no point of the scene, whatever its reprojection error.
+void SettleSign(SparseState* state, std::vector<bool>* use) {
+  int behind = 0, used = 0;
+  for (size_t j = 0; j < use->size(); ++j)
+    if ((*use)[j]) ++used, behind += state->inverse_depths[j] < 0.0;
+  if (2 * behind > used) {
+    for (double& w : state->inverse_depths) w = -w;
+    for (Pose& pose : state->poses) pose.T = -pose.T;
+  }
+  for (size_t j = 0; j < use->size(); ++j)
+    if ((*use)[j] && !(state->inverse_depths[j] > 0.0)) (*use)[j] = false;
+}
+
+// The covariance at `state`: an adjustment of no iterations only evaluates
+// (computing it in every outlier round cost 60 % of a run each, sparse_bench
+// BM_BundleAdjustment/uncertainty).
+CalibrationUncertainty UncertaintyAt(const FeatureTracks& tracks, const std::vector<bool>& use,
+                                     SparseState state, BundleAdjustmentOptions adjust) {
+  adjust.max_iterations = 0;
+  CalibrationUncertainty uncertainty;
+  RunBundleAdjustment(tracks, use, &state, adjust, &uncertainty);
+  return uncertainty;
+}
+
+// Why the later stages cannot use `camera` (a folding lens model, or one the
+// dense stage cannot invert); empty where they can.
+std::string UnusableCamera(const CameraModel& camera, const SparseOptions& options) {
+  double fold_px = 0.0;
+  if (!RadialModelIsMonotone(camera, &fold_px))
+    return "folds the image over itself " + FixedText(fold_px, 0) + " px from the centre";
+  std::string why;
+  if (options.camera_usable && !options.camera_usable(camera, &why))
+    return why.empty() ? "is refused by the dense stage" : why;
+  return "";
+}
+
+// The covariance at the solution and, where `check_lens`, the lens relief
+// check: they read the solution and nothing of each other, so they run side
+// by side (each single-threaded); the lens check's wall time beyond the
+// covariance's goes to the "uncertainty" lap.
+void MeasureSolution(const AdjustmentAttempt& solved, const BundleAdjustmentOptions& adjust,
+                     bool check_lens, StageTimer* timer, SparseReconstruction* sparse) {
+  double uncertainty_ms = 0.0;
+  std::vector<std::function<void()>> checks{[&] {
+    const auto start = std::chrono::steady_clock::now();
+    sparse->uncertainty = UncertaintyAt(sparse->tracks, solved.use, solved.state, adjust);
+    uncertainty_ms = MillisecondsBetween(start);
+  }};
+  if (check_lens)
+    checks.push_back([&] {
+      sparse->lens_relief_shift = LensReliefShift(sparse->tracks, solved.use, solved.state, adjust);
+    });
+  const auto checks_start = std::chrono::steady_clock::now();
+  RunInParallel(checks);
+  timer->Lap("uncertainty", MillisecondsBetween(checks_start) - uncertainty_ms);
+}
+
+// A camera the tracks are refitted under where the estimate is unusable.
+struct Fallback {
+  CameraModel camera;
+  BundleAdjustmentOptions options;
+  CalibrationSource source;
+  const char* what;
+};
+
+// The fallbacks in order: the known calibration where there is one; else k1
+// alone (k2 = 0: most of a wide lens's distortion, whose k2 went negative to
+// stand in for higher terms the model lacks), then none.
+std::vector<Fallback> FallbacksFor(const CameraModel& estimated, const SparseOptions& options,
+                                   const BundleAdjustmentOptions& adjust, int width, int height) {
+  std::vector<Fallback> fallbacks;
+  if (options.known) {
+    fallbacks.push_back({options.known->camera, adjust, CalibrationSource::kFallbackKnown,
+                         "the known calibration was used instead"});
+    fallbacks.back().options.fix_intrinsics = true;
+    return fallbacks;
+  }
+  CameraModel start = CameraModel::Initial(width, height);
+  if (estimated.f > 0.0 && std::isfinite(estimated.f)) start.f = estimated.f;
+  CameraModel k1_only = start;
+  if (std::isfinite(estimated.k1)) k1_only.k1 = estimated.k1;
+  fallbacks.push_back(
+      {k1_only, adjust, CalibrationSource::kFallbackK1, "refitted with k2 = 0 instead"});
+  fallbacks.back().options.distortion_terms = std::min(1, adjust.distortion_terms);
+  fallbacks.push_back(
+      {start, adjust, CalibrationSource::kFallbackK0, "refitted with k1 = k2 = 0 instead"});
+  fallbacks.back().options.distortion_terms = 0;
+  return fallbacks;
+}
+
+// The estimated camera is `unusable`: the tracks are refitted from the
+// estimate under each fallback in turn, and the first the later stages can
+// use (the last one whatever it is) is kept, with a warning that says so.
+// Depth then never fails because of an absurd calibration.
+void RefitUnderFallback(const std::string& unusable, const SparseOptions& options,
+                        const BundleAdjustmentOptions& adjust, int width, int height,
+                        AdjustmentAttempt* solved, SparseReconstruction* sparse) {
+  sparse->rejected_camera = solved->state.camera;
+  const SparseState estimated = solved->state;
+  const std::vector<bool> estimated_use = solved->use;
+  const std::vector<Fallback> fallbacks =
+      FallbacksFor(estimated.camera, options, adjust, width, height);
+  for (size_t n = 0; n < fallbacks.size(); ++n) {
+    const Fallback& fallback = fallbacks[n];
+    solved->state = estimated;
+    solved->use = estimated_use;
+    solved->state.camera = fallback.camera;
+    solved->Adjust(sparse->tracks, fallback.options);
+    SettleSign(&solved->state, &solved->use);
+    if (n + 1 < fallbacks.size() && !UnusableCamera(solved->state.camera, options).empty())
+      continue;
+    sparse->calibration_used = fallback.source;
+    sparse->warnings.push_back("the estimated calibration (f " + FixedText(estimated.camera.f, 1) +
+                               " px, k1 " + FixedText(estimated.camera.k1, 4) + ", k2 " +
+                               FixedText(estimated.camera.k2, 4) + ") " + unusable + "; " +
+                               fallback.what + ", and depth was computed with that camera");
+    sparse->inliers = solved->use;
+    sparse->uncertainty =
+        UncertaintyAt(sparse->tracks, solved->use, solved->state, fallback.options);
+    break;
+  }
+  if (CountUsed(solved->use) < options.min_tracks)
+    throw ReconstructionError(
+        "too few consistent tracks after refitting without the rejected calibration: " +
+        std::to_string(CountUsed(solved->use)));
+}
+
+// A global scale is free: the depths are reported with median inverse depth 1.
+void ScaleToUnitMedianInverseDepth(SparseReconstruction* sparse) {
+  SparseState& result = sparse->state;
+  std::vector<double> inverse_depths = sparse->InlierInverseDepths();
+  std::nth_element(inverse_depths.begin(), inverse_depths.begin() + inverse_depths.size() / 2,
+                   inverse_depths.end());
+  const double median = inverse_depths[inverse_depths.size() / 2];
+  if (!(median > 0.0) || !std::isfinite(result.camera.f) || result.camera.f <= 0.0)
+    throw ReconstructionError("bundle adjustment diverged (median inverse depth " +
+                              FixedText(median, 6) + ", f " + FixedText(result.camera.f) + ")");
+  for (double& w : result.inverse_depths) w /= median;
+  for (Pose& pose : result.poses) pose.T *= median;
+}
+
 // Everything after the tracking (`sparse` holds the tracks): the
 // initialization, the adjustment and its outlier rounds, the verdict and any
 // fallback, for a burst of width x height; `measure_lens_relief`: also
@@ -195,9 +375,7 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
                                   const SparseOptions& options, bool measure_lens_relief,
                                   SharedWork* beside, const GivenStart* given = nullptr) {
   StageTimer timer(&sparse.timings_ms);
-  const int tracked = sparse.tracks.num_tracks();
   const double parallax = sparse.tracks.MedianMaxDisplacement();
-
   // A known calibration starts (and, fixed, stays) where the file puts it; it
   // also makes the rotations of the initialization exact instead of assuming
   // f = max(w, h) and no distortion.
@@ -207,183 +385,47 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
     throw ReconstructionError("the known calibration is for " + std::to_string(initial.width) +
                               "x" + std::to_string(initial.height) + ", the burst is " +
                               std::to_string(width) + "x" + std::to_string(height));
-  BundleAdjustmentOptions ba_options = options.bundle_adjustment;
-  if (options.known) {
-    if (options.known->mode == KnownCalibrationMode::kFixed) {
-      ba_options.fix_intrinsics = true;
-    } else {
-      ba_options.known_f_sigma_percent = options.known->f_sigma_percent;
-      ba_options.known_distortion_sigma_px = options.known->distortion_sigma_px;
-    }
+  if (options.known)
     sparse.calibration_used = options.known->mode == KnownCalibrationMode::kFixed
                                   ? CalibrationSource::kKnownFixed
                                   : CalibrationSource::kKnownPrior;
-  }
-  if (options.rolling_shutter.mode == RollingShutterOptions::Mode::kEstimate)
-    ba_options.estimate_readout = true;
-  // The solution from the starts; the rest below (a fallback refit) goes on
-  // adjusting it.
+  const BundleAdjustmentOptions adjust =
+      AdjustmentOptionsFor(options, options.known ? &*options.known : nullptr);
   AdjustmentAttempt solved =
-      AdjustFromStarts(sparse.tracks, initial, options, ba_options, &timer, beside, given);
-  SparseState& state = solved.state;
-  std::vector<bool>& use = solved.use;
+      AdjustFromStarts(sparse.tracks, initial, options, adjust, &timer, beside, given);
   if (options.known && options.known->mode == KnownCalibrationMode::kPrior &&
-      options.known->also_self_calibrate) {
-    SparseState self = state;
-    SparseReconstruction::SelfEstimate estimate;
-    BundleAdjustmentOptions self_options = options.bundle_adjustment;
-    self_options.estimate_readout = ba_options.estimate_readout;
-    const BundleAdjustmentSummary summary =
-        RunBundleAdjustment(sparse.tracks, use, &self, self_options, &estimate.uncertainty);
-    CalibrationEvidence self_evidence;
-    self_evidence.tracks = CountUsed(use);
-    self_evidence.rms_reprojection_px = summary.rms_reprojection_px;
-    self_evidence.median_track_motion_px = parallax;
-    estimate.camera = self.camera;
-    estimate.bias =
-        MeasureBiasIfItMatters(sparse.tracks, use, self, self_options, options.bootstrap);
-    estimate.verdict =
-        JudgeCalibration(self.camera, estimate.uncertainty, self_evidence, options.quality);
-    sparse.self_estimate = estimate;
-  }
-  // The residual depends on w_j T_i only, so (w, T) -> (-w, -T) is an exact
-  // symmetry the adjustment may cross: choose the sign that puts most tracks
-  // in front of the camera. A track still behind it is no point of the scene,
-  // whatever its reprojection error.
-  // Also after a fallback refit, which can cross the same symmetry.
-  const auto settle_sign = [&]() {
-    int behind = 0, used = 0;
-    for (int j = 0; j < tracked; ++j)
-      if (use[j]) ++used, behind += state.inverse_depths[j] < 0.0;
-    if (2 * behind > used) {
-      for (double& w : state.inverse_depths) w = -w;
-      for (Pose& pose : state.poses) pose.T = -pose.T;
-    }
-    for (int j = 0; j < tracked; ++j)
-      if (use[j] && !(state.inverse_depths[j] > 0.0)) use[j] = false;
-  };
-  settle_sign();
-  if (CountUsed(use) < options.min_tracks)
-    throw ReconstructionError(
-        "too few consistent tracks after bundle adjustment: " + std::to_string(CountUsed(use)) +
-        " in front of the camera, need >= " + std::to_string(options.min_tracks) +
-        " (median track motion " + FixedText(parallax) +
-        " px: too little baseline to separate depths)");
-  sparse.inliers = use;
-  // The covariance once, at the final state and tracks: an adjustment of no
-  // iterations only evaluates (computing it in every outlier round cost 60 %
-  // of a run each, sparse_bench BM_BundleAdjustment/uncertainty).
-  const auto estimate_uncertainty = [&](const BundleAdjustmentOptions& ba) {
-    BundleAdjustmentOptions evaluate_only = ba;
-    evaluate_only.max_iterations = 0;
-    SparseState at = state;
-    RunBundleAdjustment(sparse.tracks, use, &at, evaluate_only, &sparse.uncertainty);
-  };
-  // The camera the later stages get: a folding lens model, or one the dense
-  // stage cannot invert, is replaced below. (Judged on the camera alone; its
-  // time, a millisecond or so, goes to the "uncertainty" lap.)
-  std::string unusable;
-  double fold_px = 0.0;
-  if (!RadialModelIsMonotone(state.camera, &fold_px))
-    unusable = "folds the image over itself " + FixedText(fold_px, 0) + " px from the centre";
-  else if (options.camera_usable && !options.camera_usable(state.camera, &unusable))
-    unusable = unusable.empty() ? "is refused by the dense stage" : unusable;
-  // The lens check where the burst calibrated its own lens and keeps it.
+      options.known->also_self_calibrate)
+    sparse.self_estimate = EstimateAlone(sparse.tracks, solved.use, solved.state, options);
+  SettleSign(&solved.state, &solved.use);
+  if (CountUsed(solved.use) < options.min_tracks)
+    throw ReconstructionError("too few consistent tracks after bundle adjustment: " +
+                              std::to_string(CountUsed(solved.use)) +
+                              " in front of the camera, need >= " +
+                              std::to_string(options.min_tracks) + " (median track motion " +
+                              FixedText(parallax) + " px: too little baseline to separate depths)");
+  sparse.inliers = solved.use;
+  // The camera is judged before the covariance; its time, a millisecond or
+  // so, goes to the "uncertainty" lap. The lens check runs where the burst
+  // calibrated its own lens and keeps it.
+  const std::string unusable = UnusableCamera(solved.state.camera, options);
   const bool check_lens = measure_lens_relief && options.measure_lens_relief &&
-                          !ba_options.fix_intrinsics &&
-                          ba_options.known_distortion_sigma_px == 0.0 &&
-                          ba_options.distortion_terms == 2 && unusable.empty();
-  // The covariance and the lens check read the solution and nothing of each
-  // other, so they run side by side (each single-threaded); the lens check's
-  // wall time beyond the covariance's goes to its own lap.
-  double uncertainty_ms = 0.0;
-  std::vector<std::function<void()>> checks{[&] {
-    const auto start = std::chrono::steady_clock::now();
-    estimate_uncertainty(ba_options);
-    uncertainty_ms = MillisecondsBetween(start);
-  }};
-  if (check_lens)
-    checks.push_back(
-        [&] { sparse.lens_relief_shift = LensReliefShift(sparse.tracks, use, state, ba_options); });
-  const auto checks_start = std::chrono::steady_clock::now();
-  RunInParallel(checks);
-  timer.Lap("uncertainty", MillisecondsBetween(checks_start) - uncertainty_ms);
-
-  // The verdict on the estimated calibration, then an unusable camera is
-  // replaced (the known calibration where there is one, else no distortion)
-  // and the poses are refitted under it, so that depth never fails because of
-  // an absurd calibration, and the result says so.
+                          !adjust.fix_intrinsics && adjust.known_distortion_sigma_px == 0.0 &&
+                          adjust.distortion_terms == 2 && unusable.empty();
+  MeasureSolution(solved, adjust, check_lens, &timer, &sparse);
+  // The verdict on the estimated calibration, then an unusable one replaced.
   CalibrationEvidence evidence;
-  evidence.tracks = CountUsed(use);
+  evidence.tracks = CountUsed(solved.use);
   evidence.rms_reprojection_px = solved.summary.rms_reprojection_px;
   evidence.median_track_motion_px = parallax;
-  evidence.intrinsics_estimated = !ba_options.fix_intrinsics;
-  sparse.verdict = JudgeCalibration(state.camera, sparse.uncertainty, evidence, options.quality);
-  if (!unusable.empty()) {
-    sparse.rejected_camera = state.camera;
-    const SparseState estimated = state;
-    const std::vector<bool> estimated_use = use;
-    // The fallbacks in order: the known calibration where there is one; else
-    // k1 alone (k2 = 0: most of a wide lens's distortion, whose k2 went
-    // negative to stand in for higher terms the model lacks), then none.
-    // Each is refitted from the estimate, and the first the dense stage can
-    // use is kept.
-    struct Fallback {
-      CameraModel camera;
-      BundleAdjustmentOptions options;
-      CalibrationSource source;
-      const char* what;
-    };
-    std::vector<Fallback> fallbacks;
-    if (options.known) {
-      fallbacks.push_back({options.known->camera, ba_options, CalibrationSource::kFallbackKnown,
-                           "the known calibration was used instead"});
-      fallbacks.back().options.fix_intrinsics = true;
-    } else {
-      CameraModel start = CameraModel::Initial(width, height);
-      if (estimated.camera.f > 0.0 && std::isfinite(estimated.camera.f))
-        start.f = estimated.camera.f;
-      CameraModel k1_only = start;
-      if (std::isfinite(estimated.camera.k1)) k1_only.k1 = estimated.camera.k1;
-      fallbacks.push_back(
-          {k1_only, ba_options, CalibrationSource::kFallbackK1, "refitted with k2 = 0 instead"});
-      fallbacks.back().options.distortion_terms = std::min(1, ba_options.distortion_terms);
-      fallbacks.push_back(
-          {start, ba_options, CalibrationSource::kFallbackK0, "refitted with k1 = k2 = 0 instead"});
-      fallbacks.back().options.distortion_terms = 0;
-    }
-    for (size_t n = 0; n < fallbacks.size(); ++n) {
-      const Fallback& fallback = fallbacks[n];
-      state = estimated;
-      use = estimated_use;
-      state.camera = fallback.camera;
-      solved.Adjust(sparse.tracks, fallback.options);
-      settle_sign();
-      std::string refused;
-      const bool last = n + 1 == fallbacks.size();
-      if (!last && (!RadialModelIsMonotone(state.camera, &fold_px) ||
-                    (options.camera_usable && !options.camera_usable(state.camera, &refused))))
-        continue;
-      sparse.calibration_used = fallback.source;
-      sparse.warnings.push_back("the estimated calibration (f " + FixedText(estimated.camera.f, 1) +
-                                " px, k1 " + FixedText(estimated.camera.k1, 4) + ", k2 " +
-                                FixedText(estimated.camera.k2, 4) + ") " + unusable + "; " +
-                                fallback.what + ", and depth was computed with that camera");
-      sparse.inliers = use;
-      estimate_uncertainty(fallback.options);
-      break;
-    }
-    if (CountUsed(use) < options.min_tracks)
-      throw ReconstructionError(
-          "too few consistent tracks after refitting without the "
-          "rejected calibration: " +
-          std::to_string(CountUsed(use)));
-  }
+  evidence.intrinsics_estimated = !adjust.fix_intrinsics;
+  sparse.verdict =
+      JudgeCalibration(solved.state.camera, sparse.uncertainty, evidence, options.quality);
+  if (!unusable.empty())
+    RefitUnderFallback(unusable, options, adjust, width, height, &solved, &sparse);
   if (sparse.verdict.quality != CalibrationQuality::kReliable && evidence.intrinsics_estimated)
     sparse.warnings.push_back(std::string("calibration ") +
                               CalibrationQualityName(sparse.verdict.quality) + ": " +
                               sparse.verdict.reasons.front());
-
   timer.Lap("lens_check");
   // Where the solution started, also where a fallback refitted from it.
   solved.summary.start_f = solved.start_f;
@@ -397,18 +439,7 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
   // The bias of the camera the burst calibrated, where it kept it (a
   // fallback's camera is another).
   if (sparse.calibration_used == CalibrationSource::kSelf) sparse.intrinsics_bias = solved.bias;
-
-  // A global scale is free: report depths with median inverse depth 1.
-  SparseState& result = sparse.state;
-  std::vector<double> inverse_depths = sparse.InlierInverseDepths();
-  std::nth_element(inverse_depths.begin(), inverse_depths.begin() + inverse_depths.size() / 2,
-                   inverse_depths.end());
-  const double median = inverse_depths[inverse_depths.size() / 2];
-  if (!(median > 0.0) || !std::isfinite(result.camera.f) || result.camera.f <= 0.0)
-    throw ReconstructionError("bundle adjustment diverged (median inverse depth " +
-                              FixedText(median, 6) + ", f " + FixedText(result.camera.f) + ")");
-  for (double& w : result.inverse_depths) w /= median;
-  for (Pose& pose : result.poses) pose.T *= median;
+  ScaleToUnitMedianInverseDepth(&sparse);
   return sparse;
 }
 
