@@ -114,6 +114,228 @@ nlohmann::json PerCallerFrame(const std::vector<int>& values, const std::vector<
   return list;
 }
 
+// The sparse stage's options for this burst: where the dense stage runs, a
+// camera it cannot invert is refused (SparseOptions::camera_usable), and
+// without a known calibration the burst's EXIF focal length is a prior on f.
+SparseOptions SparseOptionsForBurst(const Burst& burst, const PipelineOptions& options) {
+  SparseOptions sparse_options = options.sparse;
+  if (options.run_dense && !sparse_options.camera_usable)
+    sparse_options.camera_usable = [](const CameraModel& camera, std::string* why) {
+      try {
+        RadialInverse inverse(camera);
+        return true;
+      } catch (const std::invalid_argument& e) {
+        *why = std::string("cannot be inverted for the dense stage (") + e.what() + ")";
+        return false;
+      }
+    };
+  if (!sparse_options.known && burst.exif_focal_35mm && options.exif_focal_sigma_percent > 0.0) {
+    KnownCalibration exif;
+    exif.camera = CameraModel::Initial(burst.width(), burst.height());
+    exif.camera.f = FocalPixelsFrom35mm(*burst.exif_focal_35mm, burst.width(), burst.height());
+    exif.mode = KnownCalibrationMode::kPrior;
+    exif.f_sigma_percent = options.exif_focal_sigma_percent;
+    exif.distortion_sigma_px = 0.0;  // EXIF says nothing of the distortion
+    exif.also_self_calibrate = true;
+    exif.check_fit = false;  // a guess the burst may move: its own estimate says it
+    exif.source = "exif: " + std::to_string(static_cast<int>(*burst.exif_focal_35mm)) +
+                  " mm (35 mm equivalent)";
+    sparse_options.known = exif;
+  }
+  return sparse_options;
+}
+
+// Too few distinct frames is the burst's failure, named; the frames left out
+// as repeats are listed and warned of in result.json.
+void RecordRepeatedFrames(const DistinctFrames& distinct, Result* result) {
+  if (distinct.burst.size() < 3)
+    throw ReconstructionError("only " + std::to_string(distinct.burst.size()) +
+                              " distinct frames: the others repeat them (a still or stalled "
+                              "camera); a burst needs at least 3");
+  if (!distinct.left_out.empty()) {
+    result->extra["repeated_frames"] = distinct.left_out;
+    result->warnings.push_back(
+        std::to_string(distinct.left_out.size()) + " frame" +
+        (distinct.left_out.size() > 1 ? "s repeat" : " repeats") +
+        " the frame before (a clip's frame-rate conversion or a stalled driver): left out, "
+        "with the pose of the frame repeated");
+  }
+}
+
+// Both stages see the frames on the reference's brightness; the Mats of
+// frames left as they are stay shared with the caller's burst. `compensated`
+// starts as the distinct frames; each caller's frame reports its gain.
+void CompensateBurstExposure(const Burst& burst, const DistinctFrames& distinct,
+                             const PipelineOptions& options, Burst* compensated,
+                             SparseOptions* sparse_options, Result* result) {
+  const std::vector<FrameCompensation> photometric =
+      CompensateExposure(&compensated->gray, compensated->reference(), options.photometric);
+  nlohmann::json gains = nlohmann::json::array();
+  for (int i = 0; i < burst.size(); ++i) {
+    const FrameCompensation& c = photometric[distinct.stage_index[i]];
+    gains.push_back({{"gain", c.gain}, {"applied", c.applied}});
+  }
+  result->extra["photometric_compensation"] = gains;
+  // A camera that dropped frames, or frames left out as repeats: the
+  // rolling shutter's path between neighbours spans the gap
+  // (io/frame_times.h).
+  sparse_options->frame_times = distinct.times;
+}
+
+// The dense stage's frames depend on the frames alone: each is a piece
+// the sparse stage takes up on a core its probes leave idle;
+// the dense stage makes the rest. A piece's error is the dense stage's
+// (SharedWork keeps it until then). The pieces point into `frames_maker`,
+// which outlives `frames_work`.
+void StartDenseFrames(const Burst& compensated, const DenseOptions& dense,
+                      std::optional<DenseFramesMaker>* frames_maker,
+                      std::optional<SharedWork>* frames_work) {
+  frames_maker->emplace(compensated,
+                        DenseFramesSettingsFor(dense, compensated.width(), compensated.height()));
+  std::vector<std::function<void()>> pieces;
+  for (int i = 0; i < (*frames_maker)->frames(); ++i)
+    pieces.push_back([frames_maker, i] { (*frames_maker)->MakeFrame(i); });
+  frames_work->emplace(std::move(pieces));
+}
+
+// result.json's "calibration": the camera the sparse stage settled on, and
+// how far to trust it (uncertainty, quality, source, a known calibration's
+// fit, the noise's bias, the rolling shutter).
+void RecordCalibrationDetail(const SparseReconstruction& sparse,
+                             const SparseOptions& sparse_options, Result* result) {
+  result->calibration = sparse.state.camera;
+  nlohmann::json& calibration_detail = result->calibration_detail;
+  calibration_detail = {{"uncertainty", ToJson(sparse.uncertainty, sparse.state.camera.f)},
+                        {"quality", CalibrationQualityName(sparse.verdict.quality)},
+                        {"quality_reasons", sparse.verdict.reasons},
+                        {"source", CalibrationSourceName(sparse.calibration_used)}};
+  if (sparse.rejected_camera) calibration_detail["rejected"] = ToJson(*sparse.rejected_camera);
+  if (sparse_options.known) calibration_detail["known"] = sparse_options.known->source;
+  if (sparse.known_fit)
+    calibration_detail["known_fit"] = {
+        {"known_tracks", sparse.known_fit->known_tracks},
+        {"known_rms_px", sparse.known_fit->known_rms_px},
+        {"free_tracks", sparse.known_fit->free_tracks},
+        {"free_rms_px", sparse.known_fit->free_rms_px},
+        {"free_camera", ToJson(sparse.known_fit->free_camera)},
+        {"free_quality", CalibrationQualityName(sparse.known_fit->free_quality)},
+        {"fits", sparse.known_fit->fits}};
+  // What the tracks' noise did to the camera the burst calibrated
+  // (bootstrap_bias.h): of the self-calibration beside a known prior where
+  // there is one, which is what a fusion takes, else of the camera above;
+  // the depth keeps the camera above, a fusion takes `debiased`.
+  if (const std::optional<IntrinsicsBias>& bias = sparse.OwnCalibrationBias()) {
+    nlohmann::json& detail = calibration_detail["noise_bias"];
+    detail = {{"of", sparse.self_estimate ? "self_estimate" : "calibration"},
+              {"f_px", bias->f},
+              {"k1", bias->k1},
+              {"k2", bias->k2},
+              {"readout", bias->readout},
+              {"replica_noise_px", bias->noise_px},
+              {"replicas", bias->replicas},
+              {"sigma_f_noise_px", bias->sigma_f_noise_px},
+              {"usable", bias->usable}};
+    if (const std::optional<CameraModel> debiased = sparse.DebiasedCamera();
+        debiased && bias->usable)
+      detail["debiased"] = ToJson(*debiased);
+  }
+  calibration_detail["rolling_shutter"] = {
+      {"mode", RollingShutterName(sparse_options.rolling_shutter)},
+      {"readout", sparse.state.readout}};
+  if (sparse.uncertainty.sigma_readout >= 0.0)
+    calibration_detail["rolling_shutter"]["sigma_readout"] = sparse.uncertainty.sigma_readout;
+}
+
+// What the sparse stage cannot vouch for: its own warnings, frames the
+// burst misses, a feature grid finer than the image allows.
+void RecordSparseWarnings(const Burst& burst, const SparseReconstruction& sparse,
+                          const SparseOptions& sparse_options, Result* result) {
+  std::vector<std::string>& warnings = result->warnings;
+  warnings.insert(warnings.end(), sparse.warnings.begin(), sparse.warnings.end());
+  if (const int missing = MissingFrames(CaptureTimes(burst.manifest)); missing > 0)
+    warnings.push_back(
+        "the burst misses " + std::to_string(missing) + " frame" + (missing > 1 ? "s" : "") +
+        " between its first and last (gaps in the manifest's sequence numbers or timestamps); "
+        "the motion across each gap is taken at the capture times");
+  const int requested_cell = sparse_options.features.cell_px;
+  const int least_cell = MinGridCellSize(burst.width(), burst.height());
+  if (requested_cell > 0 && requested_cell < least_cell) {
+    warnings.push_back("grid " + std::to_string(requested_cell) + " px raised to " +
+                       std::to_string(least_cell) + " px, the least for " +
+                       std::to_string(burst.width()) + "x" + std::to_string(burst.height()) +
+                       " (at most " + std::to_string(kMaxGridCells) + " cells)");
+  }
+}
+
+// The sparse stage's poses (one per caller's frame: a repeat takes its
+// original's), adjustment, tracks and timings, and its sparse_detail.
+void RecordSparseDetail(const Burst& burst, const SparseReconstruction& sparse,
+                        const DistinctFrames& distinct, Result* result) {
+  for (int i = 0; i < burst.size(); ++i)
+    result->poses.push_back(sparse.state.poses[distinct.stage_index[i]]);
+  result->bundle_adjustment = sparse.bundle_adjustment;
+  result->bundle_adjustment.runs = sparse.runs;
+  result->features =
+      static_cast<int>(std::count(sparse.inliers.begin(), sparse.inliers.end(), true));
+  result->features_detected = sparse.feature_stats.corners;
+  result->timings_ms = sparse.timings_ms;
+  result->extra["sparse_detail"] = {
+      {"cells", sparse.feature_stats.cells},
+      {"tracked", sparse.feature_stats.tracks},
+      {"reached_per_frame", PerCallerFrame(sparse.feature_stats.reached, distinct.stage_index)},
+      {"inliers", result->features},
+      {"rank1_iterations", sparse.rank_one.iterations},
+      {"rank1_rms_residual_px", sparse.rank_one.rms_residual_px},
+      {"median_track_motion_px", sparse.tracks.MedianMaxDisplacement()},
+      {"starts", StartsJson(sparse.starts)}};
+}
+
+// The dense stage over the sparse stage's camera, poses and readout: the
+// depth, its timings (the frames made beside the sparse stage apart) and
+// its check against the tracks.
+void RunDenseStage(const Burst& compensated, const SparseReconstruction& sparse,
+                   const DenseOptions& dense, DenseFramesMaker* frames_maker,
+                   SharedWork* frames_work, PipelineOutput* output) {
+  Result& result = output->result;
+  const auto dense_start = std::chrono::steady_clock::now();
+  // The frames made beside the sparse stage were made in the order of
+  // the pieces; the rest are made here, in the dense stage's wall time.
+  // Where a piece failed the dense stage makes them itself, after
+  // checking its inputs, so that bad data gets the error that names it.
+  const int frames_beside = frames_work->taken();
+  frames_work->Finish();
+  std::optional<DenseFrames> dense_frames;
+  if (!frames_work->FirstError()) dense_frames = frames_maker->Take();
+  const double frames_ms = MillisecondsBetween(dense_start);
+  double frames_beside_ms = 0.0;
+  for (int i = 0; dense_frames && i < frames_beside; ++i)
+    frames_beside_ms += dense_frames->frame_ms[i];
+  DenseOptions dense_options = dense;
+  dense_options.readout = sparse.state.readout;
+  dense_options.frame_times = sparse.state.frame_times;
+  output->dense =
+      ComputeDenseDepth(compensated, sparse.state.camera, sparse.state.poses,
+                        sparse.InlierInverseDepths(), dense_options, std::move(dense_frames));
+  result.timings_ms.emplace_back("dense", MillisecondsBetween(dense_start));
+  DepthSummary depth;
+  depth.valid_fraction = output->dense->valid_fraction;
+  depth.planes = output->dense->planes;
+  depth.min_inverse_depth = output->dense->min_inverse_depth;
+  depth.max_inverse_depth = output->dense->max_inverse_depth;
+  result.depth = depth;
+  nlohmann::json dense_timings = nlohmann::json::object();
+  // The frames made here are the first lap of the dense stage's wall
+  // time; those made beside the sparse stage (their time summed over
+  // the threads) none.
+  if (frames_beside > 0) dense_timings["frames_beside_sparse"] = frames_beside_ms;
+  dense_timings["frames"] = frames_ms;
+  for (const auto& [stage, ms] : output->dense->timings_ms) dense_timings[stage] = ms;
+  result.extra["dense_timings_ms"] = dense_timings;
+  const DepthCheck check = CheckDepthAgainstTracks(sparse, *output->dense);
+  result.extra["depth_check"] = ToJson(check);
+  result.warnings.insert(result.warnings.end(), check.warnings.begin(), check.warnings.end());
+}
+
 }  // namespace
 
 void PipelineOptions::Check() const {
@@ -138,192 +360,28 @@ PipelineOutput RunPipeline(const Burst& burst, const PipelineOptions& options,
       throw InvalidOptions(std::string("invalid options: ") + e.what());
     }
     if (on_stage) on_stage("sparse");
-    SparseOptions sparse_options = options.sparse;
-    if (options.run_dense && !sparse_options.camera_usable)
-      sparse_options.camera_usable = [](const CameraModel& camera, std::string* why) {
-        try {
-          RadialInverse inverse(camera);
-          return true;
-        } catch (const std::invalid_argument& e) {
-          *why = std::string("cannot be inverted for the dense stage (") + e.what() + ")";
-          return false;
-        }
-      };
-    if (!sparse_options.known && burst.exif_focal_35mm && options.exif_focal_sigma_percent > 0.0) {
-      KnownCalibration exif;
-      exif.camera = CameraModel::Initial(burst.width(), burst.height());
-      exif.camera.f = FocalPixelsFrom35mm(*burst.exif_focal_35mm, burst.width(), burst.height());
-      exif.mode = KnownCalibrationMode::kPrior;
-      exif.f_sigma_percent = options.exif_focal_sigma_percent;
-      exif.distortion_sigma_px = 0.0;  // EXIF says nothing of the distortion
-      exif.also_self_calibrate = true;
-      exif.check_fit = false;  // a guess the burst may move: its own estimate says it
-      exif.source = "exif: " + std::to_string(static_cast<int>(*burst.exif_focal_35mm)) +
-                    " mm (35 mm equivalent)";
-      sparse_options.known = exif;
-    }
+    SparseOptions sparse_options = SparseOptionsForBurst(burst, options);
     // The stages see the frames that are not repeats (repeated_frames.h);
     // each frame left out reports what the frame it repeats got.
     const std::vector<int> repeats =
         FindRepeatedFrames(burst.gray, burst.reference(), options.repeated_frames);
     const DistinctFrames distinct(burst, repeats);
-    if (distinct.burst.size() < 3)
-      throw ReconstructionError("only " + std::to_string(distinct.burst.size()) +
-                                " distinct frames: the others repeat them (a still or stalled "
-                                "camera); a burst needs at least 3");
-    if (!distinct.left_out.empty()) {
-      result.extra["repeated_frames"] = distinct.left_out;
-      result.warnings.push_back(
-          std::to_string(distinct.left_out.size()) + " frame" +
-          (distinct.left_out.size() > 1 ? "s repeat" : " repeats") +
-          " the frame before (a clip's frame-rate conversion or a stalled driver): left out, "
-          "with the pose of the frame repeated");
-    }
-    // Both stages see the frames on the reference's brightness; the Mats of
-    // frames left as they are stay shared with the caller's burst.
+    RecordRepeatedFrames(distinct, &result);
     Burst compensated = distinct.burst;
-    const std::vector<FrameCompensation> photometric =
-        CompensateExposure(&compensated.gray, compensated.reference(), options.photometric);
-    nlohmann::json gains = nlohmann::json::array();
-    for (int i = 0; i < burst.size(); ++i) {
-      const FrameCompensation& c = photometric[distinct.stage_index[i]];
-      gains.push_back({{"gain", c.gain}, {"applied", c.applied}});
-    }
-    result.extra["photometric_compensation"] = gains;
-    // A camera that dropped frames, or frames left out as repeats: the
-    // rolling shutter's path between neighbours spans the gap
-    // (io/frame_times.h).
-    sparse_options.frame_times = distinct.times;
-    // The dense stage's frames depend on the frames alone: each is a piece
-    // the sparse stage takes up on a core its probes leave idle;
-    // the dense stage makes the rest. A piece's error is the dense stage's
-    // (SharedWork keeps it until then).
+    CompensateBurstExposure(burst, distinct, options, &compensated, &sparse_options, &result);
     std::optional<DenseFramesMaker> frames_maker;
     std::optional<SharedWork> frames_work;
-    if (options.run_dense) {
-      frames_maker.emplace(compensated, DenseFramesSettingsFor(options.dense, compensated.width(),
-                                                               compensated.height()));
-      std::vector<std::function<void()>> pieces;
-      for (int i = 0; i < frames_maker->frames(); ++i)
-        pieces.push_back([&frames_maker, i] { frames_maker->MakeFrame(i); });
-      frames_work.emplace(std::move(pieces));
-    }
+    if (options.run_dense)
+      StartDenseFrames(compensated, options.dense, &frames_maker, &frames_work);
     output.sparse = ReconstructSparse(compensated.gray, compensated.reference(), sparse_options,
                                       frames_work ? &*frames_work : nullptr);
     const SparseReconstruction& sparse = *output.sparse;
-    result.calibration = sparse.state.camera;
-    result.calibration_detail = {{"uncertainty", ToJson(sparse.uncertainty, sparse.state.camera.f)},
-                                 {"quality", CalibrationQualityName(sparse.verdict.quality)},
-                                 {"quality_reasons", sparse.verdict.reasons},
-                                 {"source", CalibrationSourceName(sparse.calibration_used)}};
-    if (sparse.rejected_camera)
-      result.calibration_detail["rejected"] = ToJson(*sparse.rejected_camera);
-    if (sparse_options.known) result.calibration_detail["known"] = sparse_options.known->source;
-    if (sparse.known_fit)
-      result.calibration_detail["known_fit"] = {
-          {"known_tracks", sparse.known_fit->known_tracks},
-          {"known_rms_px", sparse.known_fit->known_rms_px},
-          {"free_tracks", sparse.known_fit->free_tracks},
-          {"free_rms_px", sparse.known_fit->free_rms_px},
-          {"free_camera", ToJson(sparse.known_fit->free_camera)},
-          {"free_quality", CalibrationQualityName(sparse.known_fit->free_quality)},
-          {"fits", sparse.known_fit->fits}};
-    // What the tracks' noise did to the camera the burst calibrated
-    // (bootstrap_bias.h): of the self-calibration beside a known prior where
-    // there is one, which is what a fusion takes, else of the camera above;
-    // the depth keeps the camera above, a fusion takes `debiased`.
-    if (const std::optional<IntrinsicsBias>& bias = sparse.OwnCalibrationBias()) {
-      nlohmann::json& detail = result.calibration_detail["noise_bias"];
-      detail = {{"of", sparse.self_estimate ? "self_estimate" : "calibration"},
-                {"f_px", bias->f},
-                {"k1", bias->k1},
-                {"k2", bias->k2},
-                {"readout", bias->readout},
-                {"replica_noise_px", bias->noise_px},
-                {"replicas", bias->replicas},
-                {"sigma_f_noise_px", bias->sigma_f_noise_px},
-                {"usable", bias->usable}};
-      if (const std::optional<CameraModel> debiased = sparse.DebiasedCamera();
-          debiased && bias->usable)
-        detail["debiased"] = ToJson(*debiased);
-    }
-    result.calibration_detail["rolling_shutter"] = {
-        {"mode", RollingShutterName(sparse_options.rolling_shutter)},
-        {"readout", sparse.state.readout}};
-    if (sparse.uncertainty.sigma_readout >= 0.0)
-      result.calibration_detail["rolling_shutter"]["sigma_readout"] =
-          sparse.uncertainty.sigma_readout;
-    result.warnings.insert(result.warnings.end(), sparse.warnings.begin(), sparse.warnings.end());
-    if (const int missing = MissingFrames(CaptureTimes(burst.manifest)); missing > 0)
-      result.warnings.push_back(
-          "the burst misses " + std::to_string(missing) + " frame" + (missing > 1 ? "s" : "") +
-          " between its first and last (gaps in the manifest's sequence numbers or timestamps); "
-          "the motion across each gap is taken at the capture times");
-    const int requested_cell = sparse_options.features.cell_px;
-    const int least_cell = MinGridCellSize(burst.width(), burst.height());
-    if (requested_cell > 0 && requested_cell < least_cell) {
-      result.warnings.push_back("grid " + std::to_string(requested_cell) + " px raised to " +
-                                std::to_string(least_cell) + " px, the least for " +
-                                std::to_string(burst.width()) + "x" +
-                                std::to_string(burst.height()) + " (at most " +
-                                std::to_string(kMaxGridCells) + " cells)");
-    }
-    for (int i = 0; i < burst.size(); ++i)
-      result.poses.push_back(sparse.state.poses[distinct.stage_index[i]]);
-    result.bundle_adjustment = sparse.bundle_adjustment;
-    result.bundle_adjustment.runs = sparse.runs;
-    result.features =
-        static_cast<int>(std::count(sparse.inliers.begin(), sparse.inliers.end(), true));
-    result.features_detected = sparse.feature_stats.corners;
-    result.timings_ms = sparse.timings_ms;
-    result.extra["sparse_detail"] = {
-        {"cells", sparse.feature_stats.cells},
-        {"tracked", sparse.feature_stats.tracks},
-        {"reached_per_frame", PerCallerFrame(sparse.feature_stats.reached, distinct.stage_index)},
-        {"inliers", result.features},
-        {"rank1_iterations", sparse.rank_one.iterations},
-        {"rank1_rms_residual_px", sparse.rank_one.rms_residual_px},
-        {"median_track_motion_px", sparse.tracks.MedianMaxDisplacement()},
-        {"starts", StartsJson(sparse.starts)}};
+    RecordCalibrationDetail(sparse, sparse_options, &result);
+    RecordSparseWarnings(burst, sparse, sparse_options, &result);
+    RecordSparseDetail(burst, sparse, distinct, &result);
     if (options.run_dense) {
       if (on_stage) on_stage("dense");
-      const auto dense_start = std::chrono::steady_clock::now();
-      // The frames made beside the sparse stage were made in the order of
-      // the pieces; the rest are made here, in the dense stage's wall time.
-      // Where a piece failed the dense stage makes them itself, after
-      // checking its inputs, so that bad data gets the error that names it.
-      const int frames_beside = frames_work->taken();
-      frames_work->Finish();
-      std::optional<DenseFrames> dense_frames;
-      if (!frames_work->FirstError()) dense_frames = frames_maker->Take();
-      const double frames_ms = MillisecondsBetween(dense_start);
-      double frames_beside_ms = 0.0;
-      for (int i = 0; dense_frames && i < frames_beside; ++i)
-        frames_beside_ms += dense_frames->frame_ms[i];
-      DenseOptions dense_options = options.dense;
-      dense_options.readout = sparse.state.readout;
-      dense_options.frame_times = sparse.state.frame_times;
-      output.dense =
-          ComputeDenseDepth(compensated, sparse.state.camera, sparse.state.poses,
-                            sparse.InlierInverseDepths(), dense_options, std::move(dense_frames));
-      result.timings_ms.emplace_back("dense", MillisecondsBetween(dense_start));
-      DepthSummary depth;
-      depth.valid_fraction = output.dense->valid_fraction;
-      depth.planes = output.dense->planes;
-      depth.min_inverse_depth = output.dense->min_inverse_depth;
-      depth.max_inverse_depth = output.dense->max_inverse_depth;
-      result.depth = depth;
-      nlohmann::json dense_timings = nlohmann::json::object();
-      // The frames made here are the first lap of the dense stage's wall
-      // time; those made beside the sparse stage (their time summed over
-      // the threads) none.
-      if (frames_beside > 0) dense_timings["frames_beside_sparse"] = frames_beside_ms;
-      dense_timings["frames"] = frames_ms;
-      for (const auto& [stage, ms] : output.dense->timings_ms) dense_timings[stage] = ms;
-      result.extra["dense_timings_ms"] = dense_timings;
-      const DepthCheck check = CheckDepthAgainstTracks(sparse, *output.dense);
-      result.extra["depth_check"] = ToJson(check);
-      result.warnings.insert(result.warnings.end(), check.warnings.begin(), check.warnings.end());
+      RunDenseStage(compensated, sparse, options.dense, &*frames_maker, &*frames_work, &output);
     }
     result.ok = true;
   } catch (const ReconstructionError& e) {

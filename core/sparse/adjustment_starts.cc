@@ -428,6 +428,61 @@ void MeasureIntrinsicsBias(const FeatureTracks& tracks, const SparseOptions& opt
       MeasureBiasIfItMatters(tracks, attempt->use, attempt->state, adjust, options.bootstrap);
 }
 
+// One start of the adjustment: how it is made, where it starts, and whether
+// it is probed (its first adjustment capped at kProbeIterations, on at most
+// kProbeTracks of its tracks) rather than run in full.
+struct PlannedStart {
+  StartKind kind = StartKind::kFocal;
+  double start_f = 0.0;  // pixels
+  bool probe = false;
+};
+
+// The starts, in the order they are judged: the focal starts (the paper's
+// guess first, in full; SparseOptions::focal_starts, self-calibration only),
+// the naive probe (SparseOptions::naive_probe), then the given start. With
+// options.init kNaive, one naive start in full.
+std::vector<PlannedStart> PlanStarts(const CameraModel& initial, const SparseOptions& options,
+                                     bool given) {
+  const bool rank_one = options.init == InitMode::kRankOne;
+  std::vector<PlannedStart> plan;
+  const bool self_calibrating = !options.known && rank_one;
+  const size_t focal = self_calibrating ? options.focal_starts.size() : 1;
+  for (size_t n = 0; n < focal; ++n) {
+    const double f = self_calibrating ? options.focal_starts[n] * initial.f : initial.f;
+    plan.push_back({rank_one ? StartKind::kFocal : StartKind::kNaive, f, n > 0});
+  }
+  if (rank_one && options.naive_probe) plan.push_back({StartKind::kNaive, plan[0].start_f, true});
+  if (given) plan.push_back({StartKind::kGiven, initial.f, true});
+  return plan;
+}
+
+// The start a solution is kept from: a later start replaces the solution so
+// far only where it fits every track clearly better (kLaterStartGain); a
+// start that found no solution is passed over. Records each start's cost and
+// outcome in `records`, in the plan's order.
+std::optional<size_t> ChooseStart(const FeatureTracks& tracks,
+                                  const std::vector<AdjustmentAttempt>& attempts,
+                                  const std::vector<std::optional<ReconstructionError>>& errors,
+                                  const std::vector<PlannedStart>& plan,
+                                  const SparseOptions& options, std::vector<StartRecord>* records) {
+  std::optional<size_t> best;
+  double best_cost = std::numeric_limits<double>::infinity();
+  std::vector<double> costs(plan.size(), std::numeric_limits<double>::quiet_NaN());
+  for (size_t n = 0; n < plan.size(); ++n) {
+    if (errors[n]) continue;
+    costs[n] = TruncatedTrackCost(tracks, attempts[n].state, options.outlier_px);
+    if (!best || costs[n] < (1.0 - kLaterStartGain) * best_cost) best = n, best_cost = costs[n];
+  }
+  for (size_t n = 0; n < plan.size(); ++n) {
+    const StartOutcome outcome = errors[n]   ? StartOutcome::kFailed
+                                 : n == best ? StartOutcome::kChosen
+                                             : StartOutcome::kBeaten;
+    records->push_back(Record(plan[n].kind, attempts[n], costs[n], outcome));
+    if (errors[n]) records->back().error = errors[n]->what();
+  }
+  return best;
+}
+
 }  // namespace
 
 AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraModel& initial,
@@ -439,14 +494,9 @@ AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraMode
   naive_options.init = InitMode::kNaive;
   const StartedAdjustment naive_steps(tracks, naive_options);
   // Each start is initialized and adjusted once, side by side: the first
-  // (timed) to the end of its first adjustment, a later one probed, its first
-  // adjustment capped at kProbeIterations. The focal starts come first,
-  // then the naive probe (SparseOptions::naive_probe).
-  const bool restarts = !options.known && options.init == InitMode::kRankOne;
-  const size_t focal = restarts ? options.focal_starts.size() : 1;
-  const bool naive_probe = options.init == InitMode::kRankOne && options.naive_probe;
-  const size_t given_index = focal + (naive_probe ? 1 : 0);
-  const size_t starts = given_index + (given ? 1 : 0);
+  // (timed) to the end of its first adjustment, a later one probed.
+  const std::vector<PlannedStart> plan = PlanStarts(initial, options, given != nullptr);
+  const size_t starts = plan.size();
   // The steps of a start, by how it was made (AdjustmentAttempt::init).
   // A given start finishes as a naive one: without the readout restarts,
   // which its own adjustment has been through.
@@ -467,16 +517,16 @@ AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraMode
   for (size_t n = 0; n < starts; ++n)
     tasks.push_back([&, n] {
       CameraModel start = initial;
-      if (restarts) start.f = options.focal_starts[n < focal ? n : 0] * initial.f;
-      attempts[n].start_f = start.f;
-      attempts[n].init = n < focal ? options.init : InitMode::kNaive;
+      start.f = plan[n].start_f;
+      AdjustmentAttempt& attempt = attempts[n];
+      attempt.start_f = start.f;
+      attempt.init = plan[n].kind == StartKind::kFocal ? InitMode::kRankOne : InitMode::kNaive;
       BundleAdjustmentOptions probe = adjust;
-      if (n > 0) probe.max_iterations = std::min(probe.max_iterations, kProbeIterations);
+      if (plan[n].probe) probe.max_iterations = std::min(probe.max_iterations, kProbeIterations);
       try {
-        if (n == given_index) {
+        if (plan[n].kind == StartKind::kGiven) {
           // Probed from where it stands: its camera replaced by the initial
           // one (the known camera), its readout kept as the adjustment's start.
-          AdjustmentAttempt& attempt = attempts[n];
           attempt.state = given->state;
           attempt.state.camera = initial;
           attempt.use = given->use;
@@ -485,19 +535,18 @@ AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraMode
           attempt.Adjust(tracks, probe);
           measured_iterations[n] = probe.max_iterations;
         } else {
-          measured_iterations[n] =
-              steps_for(attempts[n])
-                  .Solve(start, probe, n == 0 ? timer : nullptr, &attempts[n],
-                         n > 0 ? std::max(kProbeTracks, options.min_tracks) : 0);
+          measured_iterations[n] = steps_for(attempt).Solve(
+              start, probe, n == 0 ? timer : nullptr, &attempt,
+              plan[n].probe ? std::max(kProbeTracks, options.min_tracks) : 0);
         }
         // The first start's finish depends on no other start, so it runs
         // here, beside the probes, unless it restarts from several readouts
         // (those restarts run side by side after the probes, with the cores
         // to themselves: a parallel region inside this one would run serially).
         if (n == 0) {
-          steps.Continue(adjust, measured_iterations[0], &attempts[0]);
-          if (!steps.Restarts(adjust, attempts[0])) {
-            steps.Settle(adjust, &attempts[0]);
+          steps_for(attempt).Continue(adjust, measured_iterations[0], &attempt);
+          if (!steps_for(attempt).Restarts(adjust, attempt)) {
+            steps_for(attempt).Settle(adjust, &attempt);
             first_finished = true;
           }
         }
@@ -521,7 +570,7 @@ AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraMode
   const double beside_ms = helped ? MillisecondsBetween(starts_end, region_end) : 0.0;
   if (!errors[0] && !first_finished) {
     try {
-      steps.Settle(adjust, &attempts[0]);
+      steps_for(attempts[0]).Settle(adjust, &attempts[0]);
     } catch (const ReconstructionError& error) {
       errors[0] = error;
     }
@@ -531,30 +580,11 @@ AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraMode
   // start was done; the wait goes on to later_starts.
   if (helped) LapIfTimed(timer, "beside_starts", waited_ms);
 
-  // A later start replaces the solution so far only where it fits every track
-  // clearly better; a start that found no solution is passed over.
-  std::optional<size_t> best;
-  double best_cost = std::numeric_limits<double>::infinity();
-  std::vector<double> costs(starts, std::numeric_limits<double>::quiet_NaN());
-  for (size_t n = 0; n < starts; ++n) {
-    if (errors[n]) continue;
-    costs[n] = TruncatedTrackCost(tracks, attempts[n].state, options.outlier_px);
-    if (!best || costs[n] < (1.0 - kLaterStartGain) * best_cost) best = n, best_cost = costs[n];
-  }
-  if (!best) throw *errors[0];
-  // One record per start, in the starts' order, then the chosen one's
+  // One record per start, in the plan's order, then the chosen one's
   // readout restarts.
   std::vector<StartRecord> records;
-  for (size_t n = 0; n < starts; ++n) {
-    const StartKind kind = n == given_index                                  ? StartKind::kGiven
-                           : n < focal && options.init == InitMode::kRankOne ? StartKind::kFocal
-                                                                             : StartKind::kNaive;
-    const StartOutcome outcome = errors[n]    ? StartOutcome::kFailed
-                                 : n == *best ? StartOutcome::kChosen
-                                              : StartOutcome::kBeaten;
-    records.push_back(Record(kind, attempts[n], costs[n], outcome));
-    if (errors[n]) records.back().error = errors[n]->what();
-  }
+  const std::optional<size_t> best = ChooseStart(tracks, attempts, errors, plan, options, &records);
+  if (!best) throw *errors[0];
   AdjustmentAttempt solved = std::move(attempts[*best]);
   records.insert(records.end(), solved.starts.begin(), solved.starts.end());
   solved.starts = std::move(records);

@@ -167,13 +167,208 @@ AdjustmentJacobians EvaluateJacobians(ceres::Problem* problem, double* intrinsic
   return jacobians;
 }
 
+namespace {
+
+// The adjustment's parameter blocks, which the problem points into: the
+// locals of RunBundleAdjustment (the inverse depths are the state's). Held
+// by pointer rather than gathered here because Ceres orders the blocks of
+// an ordering group by address: moving them would change the order of the
+// Schur complement's arithmetic.
+struct AdjustmentParameters {
+  double* intrinsics;                         // f, k1, k2
+  std::vector<std::array<double, 6>>* poses;  // per frame (ToParameters)
+  std::vector<double>* inverse_depths;        // per track
+  double* readout;
+};
+
+// The residual blocks of the problem, in the order they were added: the
+// covariance evaluates the jacobians of each kind apart.
+struct AdjustmentResidualBlocks {
+  std::vector<ceres::ResidualBlockId> reprojection, prior;
+  std::vector<std::pair<int, int>> track_frame;  // (track, frame) of each reprojection block
+};
+
+// The problem's residuals: a reprojection per used observation (its track's
+// weight scaling the Huber loss; the scaled losses go to `weighted_losses`,
+// which the problem uses to its end), then the priors on the intrinsics.
+// Each used inverse depth joins the ordering's group 0.
+void AddAdjustmentResiduals(const FeatureTracks& tracks, const std::vector<bool>& use,
+                            const CameraModel& camera, const BundleAdjustmentOptions& options,
+                            const Reprojection& reprojection,
+                            const AdjustmentParameters& parameters, ceres::HuberLoss* huber,
+                            std::vector<std::unique_ptr<ceres::ScaledLoss>>* weighted_losses,
+                            ceres::Problem* problem, ceres::ParameterBlockOrdering* ordering,
+                            AdjustmentResidualBlocks* blocks) {
+  const int n = tracks.num_frames();
+  const int m = tracks.num_tracks();
+  double* intrinsics = parameters.intrinsics;
+  std::vector<double>& inverse_depths = *parameters.inverse_depths;
+  for (int j = 0; j < m; ++j) {
+    if (!use[j]) continue;
+    ceres::LossFunction* loss = huber;
+    if (tracks.weight(j) != 1.0) {
+      weighted_losses->push_back(std::make_unique<ceres::ScaledLoss>(huber, tracks.weight(j),
+                                                                     ceres::DO_NOT_TAKE_OWNERSHIP));
+      loss = weighted_losses->back().get();
+    }
+    for (int i = 0; i < n; ++i) {
+      if (i == tracks.reference) continue;
+      blocks->track_frame.emplace_back(j, i);
+      blocks->reprojection.push_back(reprojection.Add(problem, loss, j, i, intrinsics,
+                                                      parameters.poses, &inverse_depths[j],
+                                                      parameters.readout));
+    }
+    // Inverse depths first: Schur eliminates them, leaving a small dense
+    // system over the poses and intrinsics.
+    ordering->AddElementToGroup(&inverse_depths[j], 0);
+  }
+  if (options.log_f_prior_sigma > 0.0)
+    blocks->prior.push_back(
+        problem->AddResidualBlock(IntrinsicsPrior::Create(camera, options.log_f_prior_sigma,
+                                                          options.corner_shift_prior_sigma),
+                                  nullptr, intrinsics));
+  if (options.lens_k_prior_sigma > 0.0)
+    blocks->prior.push_back(problem->AddResidualBlock(LensPrior::Create(options.lens_k_prior_sigma),
+                                                      nullptr, intrinsics));
+  if (options.HasKnownIntrinsicsPrior())
+    blocks->prior.push_back(problem->AddResidualBlock(
+        KnownIntrinsicsPrior::Create(camera, options.known_f_sigma_percent,
+                                     options.known_distortion_sigma_px),
+        nullptr, intrinsics));
+}
+
+// What the problem holds: the poses, intrinsics and readout join the
+// ordering's group 1; the gauge is fixed (the reference's pose where it is a
+// block, the scale anchor's inverse depth) and the intrinsics and readout
+// the options do not refine are held. Returns the scale anchor.
+int ConstrainAdjustmentParameters(const FeatureTracks& tracks, const std::vector<bool>& use,
+                                  const BundleAdjustmentOptions& options, bool rolling,
+                                  const AdjustmentParameters& parameters, ceres::Problem* problem,
+                                  ceres::ParameterBlockOrdering* ordering) {
+  const int n = tracks.num_frames();
+  double* intrinsics = parameters.intrinsics;
+  std::vector<std::array<double, 6>>& poses = *parameters.poses;
+  std::vector<double>& inverse_depths = *parameters.inverse_depths;
+  double* readout = parameters.readout;
+  for (int i = 0; i < n; ++i)
+    if (i != tracks.reference) ordering->AddElementToGroup(poses[i].data(), 1);
+  ordering->AddElementToGroup(intrinsics, 1);
+  if (rolling) {
+    // The reference's pose is a neighbour's: held at R = I, T = 0.
+    if (problem->HasParameterBlock(poses[tracks.reference].data())) {
+      problem->SetParameterBlockConstant(poses[tracks.reference].data());
+      ordering->AddElementToGroup(poses[tracks.reference].data(), 1);
+    }
+    ordering->AddElementToGroup(readout, 1);
+    if (options.estimate_readout) {
+      problem->SetParameterLowerBound(readout, 0, -kMaxReadout);
+      problem->SetParameterUpperBound(readout, 0, kMaxReadout);
+    } else {
+      problem->SetParameterBlockConstant(readout);
+    }
+  }
+  const int anchor = ScaleAnchor(inverse_depths, use);
+  problem->SetParameterBlockConstant(&inverse_depths[anchor]);
+  if (options.fix_intrinsics)
+    problem->SetParameterBlockConstant(intrinsics);
+  else if (options.distortion_terms == 1)
+    problem->SetManifold(intrinsics, new ceres::SubsetManifold(3, {2}));
+  else if (options.distortion_terms == 0)
+    problem->SetManifold(intrinsics, new ceres::SubsetManifold(3, {1, 2}));
+  return anchor;
+}
+
+// Dense Schur over `ordering` (which the solver takes), silent: the caller
+// reports the summary.
+ceres::Solver::Summary SolveAdjustment(const BundleAdjustmentOptions& options,
+                                       ceres::ParameterBlockOrdering* ordering,
+                                       ceres::Problem* problem) {
+  ceres::Solver::Options solver_options;
+  solver_options.linear_solver_type = ceres::DENSE_SCHUR;
+  solver_options.linear_solver_ordering.reset(ordering);
+  solver_options.max_num_iterations = options.max_iterations;
+  solver_options.function_tolerance = options.function_tolerance;
+  solver_options.num_threads = options.num_threads;
+  solver_options.logging_type = ceres::SILENT;
+  ceres::Solver::Summary summary;
+  ceres::Solve(solver_options, problem, &summary);
+  return summary;
+}
+
+// The marginal covariance of the intrinsics at the solution
+// (calibration_uncertainty.h), `camera` the refined one: the problem's
+// jacobians, and each reprojection block's derivative by its track's
+// reference pixel, whose noise every residual of the track shares.
+void ComputeAdjustmentUncertainty(const FeatureTracks& tracks, const std::vector<bool>& use,
+                                  const CameraModel& camera, const BundleAdjustmentOptions& options,
+                                  const Reprojection& reprojection,
+                                  const AdjustmentParameters& parameters, int anchor,
+                                  const AdjustmentResidualBlocks& blocks, ceres::Problem* problem,
+                                  CalibrationUncertainty* uncertainty) {
+  double* intrinsics = parameters.intrinsics;
+  const std::vector<std::array<double, 6>>& poses = *parameters.poses;
+  std::vector<double>& inverse_depths = *parameters.inverse_depths;
+  double* readout = parameters.readout;
+  AdjustmentJacobians jacobians =
+      EvaluateJacobians(problem, intrinsics, parameters.poses, tracks.reference, readout,
+                        &inverse_depths, use, anchor, blocks.reprojection, blocks.prior);
+  // d residual / d reference pixel, by central differences (a tenth of a
+  // millipixel: the residual is smooth and this only scales a covariance).
+  constexpr double kStep = 1e-4;
+  for (const auto& [j, i] : blocks.track_frame) {
+    Eigen::Matrix2d B;
+    for (int axis = 0; axis < 2; ++axis) {
+      Eigen::Vector2d plus = tracks.pixels[tracks.reference].col(j);
+      Eigen::Vector2d minus = plus;
+      plus[axis] += kStep;
+      minus[axis] -= kStep;
+      double r_plus[2], r_minus[2];
+      reprojection.Evaluate(j, i, plus, intrinsics, poses, &inverse_depths[j], readout, r_plus);
+      reprojection.Evaluate(j, i, minus, intrinsics, poses, &inverse_depths[j], readout, r_minus);
+      for (int k = 0; k < 2; ++k) B(k, axis) = (r_plus[k] - r_minus[k]) / (2.0 * kStep);
+    }
+    // Whitened like the residuals the problem evaluates (its loss applied).
+    B *= std::sqrt(tracks.weight(j));
+    jacobians.block_track.push_back(j);
+    jacobians.reference_jacobians.push_back(B);
+  }
+  jacobians.noise_inflation = UncertaintyInflation(options, camera);
+  jacobians.inverse_depths = inverse_depths;
+  *uncertainty = MarginalIntrinsicsCovariance(jacobians);
+  uncertainty->wide_angle_factor = WideAngleFactor(options, camera);
+  PropagateToDistortion(camera, uncertainty);
+}
+
+// What result.json reports of the adjustment: Ceres' outcome, and the RMS
+// reprojection error over the used tracks at the refined `state`.
+BundleAdjustmentSummary SummariseAdjustment(const FeatureTracks& tracks,
+                                            const std::vector<bool>& use, const SparseState& state,
+                                            const ceres::Solver::Summary& summary) {
+  BundleAdjustmentSummary result;
+  result.iterations = summary.num_successful_steps + summary.num_unsuccessful_steps;
+  result.converged = summary.termination_type == ceres::CONVERGENCE;
+  result.initial_cost = summary.initial_cost;
+  result.final_cost = summary.final_cost;
+  result.termination = ceres::TerminationTypeToString(summary.termination_type) +
+                       std::string(": ") + summary.message;
+  const int m = tracks.num_tracks();
+  double sum = 0.0;
+  int count = 0;
+  const std::vector<double> errors = TrackReprojectionErrors(tracks, state);
+  for (int j = 0; j < m; ++j)
+    if (use[j]) sum += errors[j] * errors[j], ++count;
+  result.rms_reprojection_px = count > 0 ? std::sqrt(sum / count) : 0.0;
+  return result;
+}
+
+}  // namespace
+
 BundleAdjustmentSummary RunBundleAdjustment(const FeatureTracks& tracks,
                                             const std::vector<bool>& use, SparseState* state,
                                             const BundleAdjustmentOptions& options,
                                             CalibrationUncertainty* uncertainty) {
   options.Check();
   const int n = tracks.num_frames();
-  const int m = tracks.num_tracks();
   double intrinsics[3] = {state->camera.f, state->camera.k1, state->camera.k2};
   std::vector<std::array<double, 6>> poses(n);
   for (int i = 0; i < n; ++i) poses[i] = ToParameters(state->poses[i]);
@@ -187,130 +382,27 @@ BundleAdjustmentSummary RunBundleAdjustment(const FeatureTracks& tracks,
   problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   ceres::Problem problem(problem_options);
   auto* ordering = new ceres::ParameterBlockOrdering;
-  std::vector<ceres::ResidualBlockId> reprojection_blocks, prior_blocks;
-  std::vector<std::pair<int, int>> block_track_frame;  // (track, frame) of each block
+  AdjustmentResidualBlocks blocks;
   double readout = state->readout;
+  const AdjustmentParameters parameters = {intrinsics, &poses, &inverse_depths, &readout};
   const Reprojection reprojection(tracks, state->camera, readout != 0.0 || options.estimate_readout,
                                   state->frame_times);
-  for (int j = 0; j < m; ++j) {
-    if (!use[j]) continue;
-    ceres::LossFunction* loss = &huber;
-    if (tracks.weight(j) != 1.0) {
-      weighted_losses.push_back(std::make_unique<ceres::ScaledLoss>(&huber, tracks.weight(j),
-                                                                    ceres::DO_NOT_TAKE_OWNERSHIP));
-      loss = weighted_losses.back().get();
-    }
-    for (int i = 0; i < n; ++i) {
-      if (i == tracks.reference) continue;
-      block_track_frame.emplace_back(j, i);
-      reprojection_blocks.push_back(
-          reprojection.Add(&problem, loss, j, i, intrinsics, &poses, &inverse_depths[j], &readout));
-    }
-    // Inverse depths first: Schur eliminates them, leaving a small dense
-    // system over the poses and intrinsics.
-    ordering->AddElementToGroup(&inverse_depths[j], 0);
-  }
-  if (options.log_f_prior_sigma > 0.0)
-    prior_blocks.push_back(
-        problem.AddResidualBlock(IntrinsicsPrior::Create(state->camera, options.log_f_prior_sigma,
-                                                         options.corner_shift_prior_sigma),
-                                 nullptr, intrinsics));
-  if (options.lens_k_prior_sigma > 0.0)
-    prior_blocks.push_back(problem.AddResidualBlock(LensPrior::Create(options.lens_k_prior_sigma),
-                                                    nullptr, intrinsics));
-  if (options.HasKnownIntrinsicsPrior())
-    prior_blocks.push_back(problem.AddResidualBlock(
-        KnownIntrinsicsPrior::Create(state->camera, options.known_f_sigma_percent,
-                                     options.known_distortion_sigma_px),
-        nullptr, intrinsics));
-  for (int i = 0; i < n; ++i)
-    if (i != tracks.reference) ordering->AddElementToGroup(poses[i].data(), 1);
-  ordering->AddElementToGroup(intrinsics, 1);
-  if (reprojection.rolling()) {
-    // The reference's pose is a neighbour's: held at R = I, T = 0.
-    if (problem.HasParameterBlock(poses[tracks.reference].data())) {
-      problem.SetParameterBlockConstant(poses[tracks.reference].data());
-      ordering->AddElementToGroup(poses[tracks.reference].data(), 1);
-    }
-    ordering->AddElementToGroup(&readout, 1);
-    if (options.estimate_readout) {
-      problem.SetParameterLowerBound(&readout, 0, -kMaxReadout);
-      problem.SetParameterUpperBound(&readout, 0, kMaxReadout);
-    } else {
-      problem.SetParameterBlockConstant(&readout);
-    }
-  }
-  const int anchor = ScaleAnchor(inverse_depths, use);
-  problem.SetParameterBlockConstant(&inverse_depths[anchor]);
-  if (options.fix_intrinsics)
-    problem.SetParameterBlockConstant(intrinsics);
-  else if (options.distortion_terms == 1)
-    problem.SetManifold(intrinsics, new ceres::SubsetManifold(3, {2}));
-  else if (options.distortion_terms == 0)
-    problem.SetManifold(intrinsics, new ceres::SubsetManifold(3, {1, 2}));
-
-  ceres::Solver::Options solver_options;
-  solver_options.linear_solver_type = ceres::DENSE_SCHUR;
-  solver_options.linear_solver_ordering.reset(ordering);
-  solver_options.max_num_iterations = options.max_iterations;
-  solver_options.function_tolerance = options.function_tolerance;
-  solver_options.num_threads = options.num_threads;
-  solver_options.logging_type = ceres::SILENT;
-  ceres::Solver::Summary summary;
-  ceres::Solve(solver_options, &problem, &summary);
+  AddAdjustmentResiduals(tracks, use, state->camera, options, reprojection, parameters, &huber,
+                         &weighted_losses, &problem, ordering, &blocks);
+  const int anchor = ConstrainAdjustmentParameters(tracks, use, options, reprojection.rolling(),
+                                                   parameters, &problem, ordering);
+  const ceres::Solver::Summary summary = SolveAdjustment(options, ordering, &problem);
 
   state->camera.f = intrinsics[0];
   state->camera.k1 = intrinsics[1];
   state->camera.k2 = intrinsics[2];
   state->readout = readout;
-  if (uncertainty) {
-    AdjustmentJacobians jacobians =
-        EvaluateJacobians(&problem, intrinsics, &poses, tracks.reference, &readout, &inverse_depths,
-                          use, anchor, reprojection_blocks, prior_blocks);
-    // d residual / d reference pixel, by central differences (a tenth of a
-    // millipixel: the residual is smooth and this only scales a covariance).
-    constexpr double kStep = 1e-4;
-    for (const auto& [j, i] : block_track_frame) {
-      Eigen::Matrix2d B;
-      for (int axis = 0; axis < 2; ++axis) {
-        Eigen::Vector2d plus = tracks.pixels[tracks.reference].col(j);
-        Eigen::Vector2d minus = plus;
-        plus[axis] += kStep;
-        minus[axis] -= kStep;
-        double r_plus[2], r_minus[2];
-        reprojection.Evaluate(j, i, plus, intrinsics, poses, &inverse_depths[j], &readout, r_plus);
-        reprojection.Evaluate(j, i, minus, intrinsics, poses, &inverse_depths[j], &readout,
-                              r_minus);
-        for (int k = 0; k < 2; ++k) B(k, axis) = (r_plus[k] - r_minus[k]) / (2.0 * kStep);
-      }
-      // Whitened like the residuals the problem evaluates (its loss applied).
-      B *= std::sqrt(tracks.weight(j));
-      jacobians.block_track.push_back(j);
-      jacobians.reference_jacobians.push_back(B);
-    }
-    jacobians.noise_inflation = UncertaintyInflation(options, state->camera);
-    jacobians.inverse_depths = inverse_depths;
-    *uncertainty = MarginalIntrinsicsCovariance(jacobians);
-    uncertainty->wide_angle_factor = WideAngleFactor(options, state->camera);
-    PropagateToDistortion(state->camera, uncertainty);
-  }
+  if (uncertainty)
+    ComputeAdjustmentUncertainty(tracks, use, state->camera, options, reprojection, parameters,
+                                 anchor, blocks, &problem, uncertainty);
   for (int i = 0; i < n; ++i)
     state->poses[i] = i == tracks.reference ? Pose{} : FromParameters(poses[i]);
-
-  BundleAdjustmentSummary result;
-  result.iterations = summary.num_successful_steps + summary.num_unsuccessful_steps;
-  result.converged = summary.termination_type == ceres::CONVERGENCE;
-  result.initial_cost = summary.initial_cost;
-  result.final_cost = summary.final_cost;
-  result.termination = ceres::TerminationTypeToString(summary.termination_type) +
-                       std::string(": ") + summary.message;
-  double sum = 0.0;
-  int count = 0;
-  const std::vector<double> errors = TrackReprojectionErrors(tracks, *state);
-  for (int j = 0; j < m; ++j)
-    if (use[j]) sum += errors[j] * errors[j], ++count;
-  result.rms_reprojection_px = count > 0 ? std::sqrt(sum / count) : 0.0;
-  return result;
+  return SummariseAdjustment(tracks, use, *state, summary);
 }
 
 namespace {
