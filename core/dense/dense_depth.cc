@@ -91,10 +91,9 @@ void ValidateInputs(const Burst& burst, const CameraModel& camera, const std::ve
 // Coarse planes are spaced this far apart in coarse pixels of parallax, fine
 // windows this far in full-resolution pixels (when the options leave them to
 // the data): well below the matching precision of either level, so the
-// parabola through three neighbours still resolves the minimum. 0.15, not
-// the 0.2 it was: the seeds of the 1080p phone bursts, and so the filled
-// map, are better for the 10 more planes, at 30-40 ms of coarse sweep
-// (docs/experiments/241-coarse-plane-spacing.md).
+// parabola through three neighbours still resolves the minimum; the 1080p
+// phone bursts' seeds, and so the filled map, want the coarse level this
+// fine (docs/experiments/241-coarse-plane-spacing.md).
 constexpr double kCoarsePlaneParallax = 0.15;
 constexpr double kFinePlaneParallax = 0.35;
 // Level pixels of parallax between the planes a sweep projects exactly; the

@@ -59,10 +59,10 @@ RadialInverse::RadialInverse(const CameraModel& camera) {
   // The captured image's largest undistorted radius is then at a corner (one
   // pixel out, for a bilinear sample's neighbours): no sample beyond it lands
   // on the image, so the fit need not reach further. The 1 % margin is for
-  // rounding only. A wider one (10 % until 2026-11-29) reached toward the fold
-  // of a wide lens just outside its image, where the inverse grows like a
-  // square root that no polynomial of degree 10 follows, and refused cameras
-  // that fit their burst (docs/experiments/229-radial-inverse-range.md).
+  // rounding only: a wider one reaches toward the fold of a wide lens just
+  // outside its image, where the inverse grows like a square root that no
+  // polynomial of degree 10 follows, and would refuse cameras that fit their
+  // burst (docs/experiments/229-radial-inverse-range.md).
   double max_r2 = 0.0;
   for (const double u : {-1.0, static_cast<double>(camera.width)})
     for (const double v : {-1.0, static_cast<double>(camera.height)})

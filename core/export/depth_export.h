@@ -23,8 +23,8 @@ struct DepthExportOptions {
   Flush flush = Flush::kEach;
   // preview.png (both halves side by side) is scaled down to at most this
   // width: it is for a screen, while depth.tiff and depth.png keep every
-  // pixel. At full size it was the slowest file of a 1080p result
-  // (3840x1080: ~100-160 ms of deflate, the critical path of the writing).
+  // pixel. At full size (3840x1080) its deflate, ~100-160 ms, would be the
+  // slowest file of a 1080p result and the critical path of the writing.
   int preview_max_width = 1920;
 };
 

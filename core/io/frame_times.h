@@ -2,8 +2,8 @@
 // shutter's path between frames (core/camera/rolling_shutter.h). A camera
 // that drops a frame (USB bandwidth, a busy board) leaves a gap of two
 // intervals between neighbours; taken as one, the rows' motion across it is
-// half what it was, and a 640x480 phone burst missing one frame came out with
-// f 16 % off and depth 8 % off instead of 1 % and 3 %
+// halved, and a 640x480 phone burst missing one frame comes out with f 16 %
+// off and depth 8 % off instead of 1 % and 3 %
 // (docs/experiments/119-dropped-frames.md).
 #pragma once
 

@@ -36,11 +36,11 @@ constexpr double kReadoutStarts[] = {0.5, 1.0};
 constexpr double kSameReadoutStart = 0.15;
 // Iterations of the first adjustment where it estimates the readout: it only
 // measures the readout for the restarts, which converge from there in a few
-// iterations. On phone bursts it used to crawl along a narrow valley to its
-// 100-iteration cap (1080p: cost 2717 at the start, 36 after 30 iterations,
-// 26.3 after 100), while the restart from its readout reached 12.2 in 8.
-// Where it measures no readout it goes on to the full budget, since no
-// restart follows (docs/experiments/117-first-adjustment-budget.md).
+// iterations: on phone bursts an uncapped one crawls along a narrow valley
+// to its 100-iteration cap, where the restart from its readout converges
+// lower in a few. Where it measures no readout it goes on to the full
+// budget, since no restart follows
+// (docs/experiments/117-first-adjustment-budget.md).
 constexpr int kMeasuringIterations = 30;
 
 // A later start (focal, or the naive probe) replaces the solution so far
