@@ -1,4 +1,4 @@
-// The calibration sweep (core/pipeline/calibration_sweep.h): one JSON line per
+// The calibration sweep (tests/support/calibration_sweep.h): one JSON line per
 // burst, then the summary line. Measures whether sigma_f, the distortion sigma
 // and the verdict are honest over the settings a user meets.
 //   calibration_sweep [--bursts N] [--seed S] [--no-weak-prior]
@@ -6,7 +6,7 @@
 //                     the longer side) [--only I] (burst I of the sweep alone)
 //                     [--focal-starts F1,F2,...] (SparseOptions::focal_starts)
 //                     [--without LAYER,...] (sparse layers off: core/sparse/sparse_layers.h)
-#include "core/pipeline/calibration_sweep.h"
+#include "tests/support/calibration_sweep.h"
 
 #include <algorithm>
 #include <cmath>

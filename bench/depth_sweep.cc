@@ -1,4 +1,4 @@
-// The depth sweep: the calibration sweep's bursts (core/pipeline/calibration_sweep.h:
+// The depth sweep: the calibration sweep's bursts (tests/support/calibration_sweep.h:
 // 320x240-1080p, tremor 0.25-2 deg, baseline 3-10 mm, k1 of either sign, JPEG
 // on and off), rendered with a camera preset's effects and run through the
 // whole pipeline, dense stage included. Each depth map is scored against the
@@ -38,12 +38,12 @@
 
 #include "bench/report_options.h"
 #include "core/io/exif_focal.h"
-#include "core/pipeline/calibration_sweep.h"
 #include "core/pipeline/evaluation.h"
 #include "core/pipeline/pipeline.h"
 #include "core/sparse/calibration_fusion.h"
 #include "core/sparse/sparse_layers.h"
 #include "core/synth/burst_synthesizer.h"
+#include "tests/support/calibration_sweep.h"
 
 namespace dfsm {
 namespace {

@@ -10,8 +10,8 @@
 #include "core/sparse/grided_features.h"
 #include "core/sparse/rank_one_init.h"
 #include "core/sparse/rotation_init.h"
-#include "core/sparse/track_simulator.h"
 #include "core/synth/burst_synthesizer.h"
+#include "tests/support/track_simulator.h"
 
 namespace dfsm {
 namespace {

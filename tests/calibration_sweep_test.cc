@@ -1,9 +1,9 @@
 // The calibration issue's targets over the sweep of generated bursts
-// (core/pipeline/calibration_sweep.h): 64 bursts from 320x240 to 1080p, tremor
+// (tests/support/calibration_sweep.h): 64 bursts from 320x240 to 1080p, tremor
 // 0.25-2 deg, baseline 3-10 mm, k1 -0.3..0.3, JPEG on and off. Label long
 // (~5 min on 2 cores). The seed is 3: seeds 1 and 2 chose the uncertainty's
 // inflation factor, so this sweep checks it on bursts it was not fitted to.
-#include "core/pipeline/calibration_sweep.h"
+#include "tests/support/calibration_sweep.h"
 
 #include <gtest/gtest.h>
 

@@ -14,7 +14,7 @@
 #include <vector>
 
 #include "core/sparse/sparse_layers.h"
-#include "core/sparse/track_simulator.h"
+#include "tests/support/track_simulator.h"
 
 namespace dfsm {
 namespace {

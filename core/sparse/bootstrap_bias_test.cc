@@ -8,9 +8,9 @@
 #include <stdexcept>
 #include <vector>
 
-#include "core/sparse/rank_one_start_for_tests.h"
 #include "core/sparse/sparse_reconstruction.h"
-#include "core/sparse/track_simulator.h"
+#include "tests/support/rank_one_start.h"
+#include "tests/support/track_simulator.h"
 
 namespace dfsm {
 namespace {

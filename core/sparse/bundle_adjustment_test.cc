@@ -12,9 +12,9 @@
 
 #include "core/sparse/intrinsics_prior.h"
 #include "core/sparse/rank_one_init.h"
-#include "core/sparse/rank_one_start_for_tests.h"
 #include "core/sparse/rotation_init.h"
-#include "core/sparse/track_simulator.h"
+#include "tests/support/rank_one_start.h"
+#include "tests/support/track_simulator.h"
 
 namespace dfsm {
 namespace {

@@ -10,8 +10,8 @@
 
 #include "core/sparse/bundle_adjustment.h"
 #include "core/sparse/calibration_quality.h"
-#include "core/sparse/rank_one_start_for_tests.h"
-#include "core/sparse/track_simulator.h"
+#include "tests/support/rank_one_start.h"
+#include "tests/support/track_simulator.h"
 
 namespace dfsm {
 namespace {

@@ -9,7 +9,7 @@
 #include <stdexcept>
 
 #include "core/sparse/grided_features.h"
-#include "core/sparse/random_texture.h"
+#include "tests/support/random_texture.h"
 
 namespace dfsm {
 namespace {

@@ -6,7 +6,7 @@
 #include <opencv2/imgproc.hpp>
 #include <set>
 
-#include "core/sparse/random_texture.h"
+#include "tests/support/random_texture.h"
 
 namespace dfsm {
 namespace {

@@ -2,7 +2,7 @@
 
 #include <gtest/gtest.h>
 
-#include "core/sparse/track_simulator.h"
+#include "tests/support/track_simulator.h"
 
 namespace dfsm {
 namespace {

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "core/sparse/track_simulator.h"
+#include "tests/support/track_simulator.h"
 
 namespace dfsm {
 namespace {

@@ -1,4 +1,4 @@
-#include "core/pipeline/calibration_sweep.h"
+#include "tests/support/calibration_sweep.h"
 
 #include <chrono>
 #include <cmath>

@@ -10,7 +10,7 @@
 #include "core/sparse/bundle_adjustment.h"
 #include "core/sparse/rank_one_init.h"
 #include "core/sparse/rotation_init.h"
-#include "core/sparse/track_simulator.h"
+#include "tests/support/track_simulator.h"
 
 namespace dfsm {
 

@@ -1,4 +1,4 @@
-#include "core/sparse/track_simulator.h"
+#include "tests/support/track_simulator.h"
 
 #include <Eigen/Geometry>
 #include <algorithm>

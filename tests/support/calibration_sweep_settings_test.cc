@@ -7,7 +7,7 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "core/pipeline/calibration_sweep.h"
+#include "tests/support/calibration_sweep.h"
 
 namespace dfsm {
 namespace {
