@@ -17,7 +17,6 @@
 #include "core/dense/guided_filter.h"
 #include "core/dense/high_pass.h"
 #include "core/dense/inverse_depth_lattice.h"
-#include "core/dense/parallel_rows.h"
 #include "core/dense/plane_selection.h"
 #include "core/dense/plane_sweep.h"
 #include "core/dense/radial_inverse.h"
@@ -25,6 +24,7 @@
 #include "core/dense/sweep_level.h"
 #include "core/dense/weak_texture.h"
 #include "core/io/stage_timer.h"
+#include "core/parallel/parallel_for.h"
 
 namespace dfsm {
 namespace {

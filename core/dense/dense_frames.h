@@ -67,7 +67,7 @@ struct DenseFrames {
 cv::Mat Prefiltered(const cv::Mat& gray, double sigma);
 
 // DenseFrames made one frame at a time: each frame is a piece of work of its
-// own, so that a caller can share them out among threads (core/io/shared_work.h).
+// own, so that a caller can share them out among threads (core/parallel/shared_work.h).
 // The burst must outlive the maker.
 class DenseFramesMaker {
  public:

@@ -7,7 +7,7 @@
 
 #include "core/dense/bilinear_upsample.h"
 #include "core/dense/guided_filter.h"
-#include "core/dense/parallel_rows.h"
+#include "core/parallel/parallel_for.h"
 
 namespace dfsm {
 namespace {

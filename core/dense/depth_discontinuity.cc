@@ -3,8 +3,7 @@
 #include <cmath>
 #include <opencv2/imgproc.hpp>
 
-#include "core/dense/parallel_rows.h"
-#include "core/io/parallel_bands.h"
+#include "core/parallel/parallel_for.h"
 
 namespace dfsm {
 

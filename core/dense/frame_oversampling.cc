@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <vector>
 
-#include "core/dense/parallel_rows.h"
+#include "core/parallel/parallel_for.h"
 
 namespace dfsm {
 namespace {

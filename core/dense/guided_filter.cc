@@ -5,7 +5,7 @@
 #include <vector>
 
 #include "core/dense/bilinear_upsample.h"
-#include "core/dense/parallel_rows.h"
+#include "core/parallel/parallel_for.h"
 
 namespace dfsm {
 namespace {

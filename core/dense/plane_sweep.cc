@@ -6,7 +6,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "core/dense/row_projection.h"
-#include "core/io/parallel_bands.h"
+#include "core/parallel/parallel_for.h"
 
 namespace dfsm {
 namespace {

@@ -7,7 +7,7 @@
 
 #include "core/camera/rolling_shutter.h"
 #include "core/dense/frame_oversampling.h"
-#include "core/dense/parallel_rows.h"
+#include "core/parallel/parallel_for.h"
 
 namespace dfsm {
 namespace {

@@ -2,14 +2,14 @@
 
 #include <opencv2/imgproc.hpp>
 
-#include "core/io/parallel_bands.h"
+#include "core/parallel/parallel_for.h"
 
 namespace dfsm {
 
 cv::Mat WeakTextureMask(const cv::Mat& image, int radius, double max_rms_gradient) {
   CV_Assert(image.type() == CV_32FC1 && radius >= 0 && max_rms_gradient >= 0.0);
   const float max_energy = static_cast<float>(max_rms_gradient * max_rms_gradient);
-  // In bands of rows (core/io/parallel_bands.h): OpenCV runs each filter on
+  // In bands of rows (core/parallel/parallel_for.h): OpenCV runs each filter on
   // one core, and over a whole 1080p frame the three full-size temporaries
   // cost ~60 ms. The halo is the window's radius and the central
   // difference's row.

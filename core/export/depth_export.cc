@@ -8,8 +8,8 @@
 #include "core/io/burst.h"
 #include "core/io/depth_tiff.h"
 #include "core/io/file_util.h"
-#include "core/io/parallel_tasks.h"
 #include "core/io/png_encode.h"
+#include "core/parallel/parallel_for.h"
 
 namespace dfsm {
 namespace {

@@ -14,9 +14,9 @@
 #include "core/io/exif_focal.h"
 #include "core/io/file_util.h"
 #include "core/io/frame_times.h"
-#include "core/io/parallel_tasks.h"
-#include "core/io/shared_work.h"
 #include "core/io/stage_timer.h"
+#include "core/parallel/parallel_for.h"
+#include "core/parallel/shared_work.h"
 #include "core/pipeline/depth_check.h"
 #include "core/pipeline/repeated_frames.h"
 

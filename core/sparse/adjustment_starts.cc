@@ -10,8 +10,8 @@
 #include <random>
 #include <string>
 
-#include "core/io/parallel_tasks.h"
-#include "core/io/shared_work.h"
+#include "core/parallel/parallel_for.h"
+#include "core/parallel/shared_work.h"
 #include "core/sparse/fixed_text.h"
 #include "core/sparse/robust_sigma.h"
 #include "core/sparse/rolling_shutter_rectification.h"

@@ -20,8 +20,8 @@
 #include <optional>
 #include <vector>
 
-#include "core/io/shared_work.h"
 #include "core/io/stage_timer.h"
+#include "core/parallel/shared_work.h"
 #include "core/sparse/sparse_reconstruction.h"
 
 namespace dfsm {

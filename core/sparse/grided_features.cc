@@ -9,7 +9,7 @@
 #include <optional>
 #include <stdexcept>
 
-#include "core/io/parallel_bands.h"
+#include "core/parallel/parallel_for.h"
 
 namespace dfsm {
 

@@ -8,8 +8,8 @@
 #include <optional>
 
 #include "core/camera/rolling_shutter.h"
-#include "core/io/parallel_tasks.h"
 #include "core/io/stage_timer.h"
+#include "core/parallel/parallel_for.h"
 #include "core/sparse/adjustment_starts.h"
 #include "core/sparse/fixed_text.h"
 #include "core/sparse/lens_relief_shift.h"

@@ -13,7 +13,7 @@
 #include "core/camera/rolling_shutter.h"
 #include "core/io/burst.h"
 #include "core/io/result.h"
-#include "core/io/shared_work.h"
+#include "core/parallel/shared_work.h"
 #include "core/sparse/bootstrap_bias.h"
 #include "core/sparse/bundle_adjustment.h"
 #include "core/sparse/calibration_quality.h"

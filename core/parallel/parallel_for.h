@@ -1,14 +1,56 @@
-// Bands of rows on OpenCV's pool, for the filters OpenCV runs on one core
-// and for the plane sweep: each band is filtered from its rows and a halo of
-// rows on each side, and keeps its own rows. Over a whole 1080p frame such a
-// filter also allocates its full-size temporaries afresh (fresh pages are
-// dear); a band's are small.
+// The loops over OpenCV's thread pool, one place for all of them, so that
+// the pipeline spreads over the cores the same way on x86-64 and arm64:
+// independent tasks (RunInParallel), rows of an image (ParallelRows) and
+// bands of rows with a halo (ForEachRowBand). SharedWork (shared_work.h)
+// hands pieces of one stage to the idle cores of another.
 #pragma once
 
 #include <algorithm>
+#include <exception>
+#include <functional>
 #include <opencv2/core/utility.hpp>
+#include <vector>
 
 namespace dfsm {
+
+// Runs a handful of independent tasks (writing the files of one result, say)
+// and returns when every task has run; rethrows the exception of the first
+// task (in order) that threw, after all of them have finished.
+inline void RunInParallel(const std::vector<std::function<void()>>& tasks) {
+  // One task runs here: a parallel region would hold OpenCV's process-wide
+  // nesting flag for its whole length and turn every other thread's
+  // parallel_for_ serial meanwhile.
+  if (tasks.size() == 1) return tasks.front()();
+  std::vector<std::exception_ptr> errors(tasks.size());
+  cv::parallel_for_(cv::Range(0, static_cast<int>(tasks.size())), [&](const cv::Range& range) {
+    for (int i = range.start; i < range.end; ++i) {
+      try {
+        tasks[i]();
+      } catch (...) {
+        errors[i] = std::current_exception();
+      }
+    }
+  });
+  for (const std::exception_ptr& error : errors) {
+    if (error) std::rethrow_exception(error);
+  }
+}
+
+// Calls row(y) for y in [0, rows), in parallel: every per-pixel pass of the
+// dense stage is independent across rows, and a serial 2-megapixel pass
+// costs as much as a sub-stage on a 2-core device.
+template <typename RowFunction>
+void ParallelRows(int rows, const RowFunction& row) {
+  cv::parallel_for_(cv::Range(0, rows), [&](const cv::Range& range) {
+    for (int y = range.start; y < range.end; ++y) row(y);
+  });
+}
+
+// Bands of rows, for the filters OpenCV runs on one core and for the plane
+// sweep: each band is filtered from its rows and a halo of rows on each
+// side, and keeps its own rows. Over a whole 1080p frame such a filter also
+// allocates its full-size temporaries afresh (fresh pages are dear); a
+// band's are small.
 
 // Rows [first, last) are the band's own; [from, to) adds up to `halo` rows
 // on each side, clamped into the image.

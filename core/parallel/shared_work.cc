@@ -1,4 +1,4 @@
-#include "core/io/shared_work.h"
+#include "core/parallel/shared_work.h"
 
 #include <algorithm>
 #include <opencv2/core.hpp>

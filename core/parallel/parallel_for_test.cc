@@ -1,4 +1,4 @@
-#include "core/io/parallel_bands.h"
+#include "core/parallel/parallel_for.h"
 
 #include <gtest/gtest.h>
 

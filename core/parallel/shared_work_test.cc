@@ -1,4 +1,4 @@
-#include "core/io/shared_work.h"
+#include "core/parallel/shared_work.h"
 
 #include <gtest/gtest.h>
 
