@@ -235,10 +235,13 @@ struct SweepGeometry {
 SweepGeometry PlanSweep(const InverseDepthLattice& lattice, const CameraModel& camera,
                         const std::vector<Pose>& other_poses, int scale, int width,
                         const DenseOptions& options) {
+  SweepGeometry geometry;
   // Parallax (full-resolution pixels) between neighbouring lattice planes in
   // the frame that moves most: what "a plane" means in the images.
-  const double plane_parallax = MaxParallaxPerInverseDepth(camera, other_poses) * lattice.step();
-  InverseDepthLattice coarse_lattice = lattice;
+  geometry.plane_parallax = MaxParallaxPerInverseDepth(camera, other_poses) * lattice.step();
+  const double plane_parallax = geometry.plane_parallax;
+  InverseDepthLattice& coarse_lattice = geometry.coarse_lattice;
+  coarse_lattice = lattice;
   if (scale > 1) {
     coarse_lattice.planes =
         options.coarse_planes > 0
@@ -252,27 +255,17 @@ SweepGeometry PlanSweep(const InverseDepthLattice& lattice, const CameraModel& c
   // projections kProjectedSpan apart, the planes between interpolated.
   const double coarse_plane_parallax =
       plane_parallax * (lattice.planes - 1) / std::max(1, coarse_lattice.planes - 1) / scale;
-  const int projected_every =
+  geometry.projected_every =
       std::max(1, static_cast<int>(std::floor(kProjectedSpan / coarse_plane_parallax)));
   // The full-resolution window around each coarse seed.
-  const int stride =
+  geometry.stride =
       options.refine_stride > 0
           ? options.refine_stride
           : std::max(1, static_cast<int>(std::lround(kFinePlaneParallax / plane_parallax)));
-  const int window =
-      std::min(2 * RefineRadius(width, options) + 1, (lattice.planes - 1) / stride + 1);
-  const int reach = (window - 1) / 2 * stride;
-  const double lattice_ratio =
-      static_cast<double>(lattice.planes - 1) / (coarse_lattice.planes - 1);
-
-  SweepGeometry geometry;
-  geometry.plane_parallax = plane_parallax;
-  geometry.lattice_ratio = lattice_ratio;
-  geometry.coarse_lattice = coarse_lattice;
-  geometry.projected_every = projected_every;
-  geometry.stride = stride;
-  geometry.window = window;
-  geometry.reach = reach;
+  geometry.window =
+      std::min(2 * RefineRadius(width, options) + 1, (lattice.planes - 1) / geometry.stride + 1);
+  geometry.reach = (geometry.window - 1) / 2 * geometry.stride;
+  geometry.lattice_ratio = static_cast<double>(lattice.planes - 1) / (coarse_lattice.planes - 1);
   return geometry;
 }
 

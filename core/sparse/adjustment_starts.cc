@@ -363,19 +363,15 @@ class StartedAdjustment {
     for (size_t k = 0; k < starts.size(); ++k) {
       AdjustmentAttempt& restart = restarts[k];
       restart.start_f = measured.camera.f;
-      if (restart.runs.empty()) {
-        StartRecord failed;
-        failed.kind = StartKind::kReadout;
-        failed.start_f = measured.camera.f;
-        failed.start_readout = starts[k];
-        failed.cost = std::numeric_limits<double>::quiet_NaN();
-        failed.outcome = StartOutcome::kFailed;
-        failed.error = "no rectified rank-1 start with enough consistent tracks";
-        records.push_back(failed);
+      const bool rectified = !restart.runs.empty();
+      records.push_back(Record(StartKind::kReadout, restart,
+                               rectified ? errors[k] : std::numeric_limits<double>::quiet_NaN(),
+                               rectified ? StartOutcome::kBeaten : StartOutcome::kFailed));
+      records.back().start_readout = starts[k];
+      if (!rectified) {
+        records.back().error = "no rectified rank-1 start with enough consistent tracks";
         continue;
       }
-      records.push_back(Record(StartKind::kReadout, restart, errors[k], StartOutcome::kBeaten));
-      records.back().start_readout = starts[k];
       attempt->runs.insert(attempt->runs.end(), restart.runs.begin(), restart.runs.end());
       if (errors[k] < best_error) {
         best_error = errors[k];

@@ -10,38 +10,62 @@ const std::vector<SparseLayerInfo>& SparseLayers() {
   static const std::vector<SparseLayerInfo> layers = {
       {SparseLayer::kFocalStarts, "focal-starts",
        "self-calibration with the rank-1 start: each focal start after the first, probed",
-       "the solution, where its truncated cost over every track is clearly lower", "focal_starts"},
+       "the solution, where its truncated cost over every track is clearly lower", "focal_starts",
+       [](const SparseOptions& o) { return o.focal_starts.size() > 1; },
+       [](SparseOptions* o) { o->focal_starts.resize(1); }},
       {SparseLayer::kNaiveProbe, "naive-probe", "the rank-1 start: the naive start, probed",
-       "the solution, as a focal start", "naive_probe"},
+       "the solution, as a focal start", "naive_probe",
+       [](const SparseOptions& o) { return o.naive_probe; },
+       [](SparseOptions* o) { o->naive_probe = false; }},
       {SparseLayer::kReadoutRestarts, "readout-restarts",
        "an estimated readout, where the first adjustment measured one",
-       "the solution, where its median track error is lower", "readout_restarts"},
+       "the solution, where its median track error is lower", "readout_restarts",
+       [](const SparseOptions& o) { return o.readout_restarts; },
+       [](SparseOptions* o) { o->readout_restarts = false; }},
       {SparseLayer::kOutlierRounds, "outlier-rounds", "every solution that is settled",
-       "the tracks kept, and the solution refitted on them", "outlier_rounds"},
+       "the tracks kept, and the solution refitted on them", "outlier_rounds",
+       [](const SparseOptions& o) { return o.outlier_rounds > 0; },
+       [](SparseOptions* o) { o->outlier_rounds = 0; }},
       {SparseLayer::kReweight, "reweight", "the chosen solution",
-       "poses and inverse depths (the camera held)", "reweight_rounds"},
+       "poses and inverse depths (the camera held)", "reweight_rounds",
+       [](const SparseOptions& o) { return o.reweight_rounds > 0; },
+       [](SparseOptions* o) { o->reweight_rounds = 0; }},
       {SparseLayer::kBootstrapBias, "bias",
        "self-calibration whose tracks' noise alone gives a sigma_f above "
        "bootstrap.min_sigma_f_percent",
-       "nothing of this burst: its report, and the camera a fusion takes", "bootstrap.replicas"},
+       "nothing of this burst: its report, and the camera a fusion takes", "bootstrap.replicas",
+       [](const SparseOptions& o) { return o.bootstrap.replicas > 0; },
+       [](SparseOptions* o) { o->bootstrap.replicas = 0; }},
       {SparseLayer::kLensRelief, "lens-relief", "self-calibration of k1 and k2",
-       "nothing of the solution: the depth check's verdict", "measure_lens_relief"},
+       "nothing of the solution: the depth check's verdict", "measure_lens_relief",
+       [](const SparseOptions& o) { return o.measure_lens_relief; },
+       [](SparseOptions* o) { o->measure_lens_relief = false; }},
       {SparseLayer::kKnownFitCheck, "known-fit",
        "a known camera to check (KnownCalibration::check_fit): the burst calibrated alone first",
-       "the verdict, and one more start under the known camera", "max_known_fit_ratio"},
+       "the verdict, and one more start under the known camera", "max_known_fit_ratio",
+       [](const SparseOptions& o) { return o.max_known_fit_ratio > 0.0; },
+       [](SparseOptions* o) { o->max_known_fit_ratio = 0.0; }},
       {SparseLayer::kUncheckedKnownRetry, "unchecked-known-retry",
        "a known camera not checked whose adjustment keeps too few of the tracks",
        "the solution: adjusted again with the burst's own as one more start",
-       "min_known_inlier_share"},
+       "min_known_inlier_share",
+       [](const SparseOptions& o) { return o.min_known_inlier_share > 0.0; },
+       [](SparseOptions* o) { o->min_known_inlier_share = 0.0; }},
   };
   return layers;
 }
 
-const char* SparseLayerName(SparseLayer layer) {
-  for (const SparseLayerInfo& info : SparseLayers())
-    if (info.layer == layer) return info.name;
-  return "?";
+namespace {
+
+const SparseLayerInfo& InfoOf(SparseLayer layer) {
+  const std::vector<SparseLayerInfo>& layers = SparseLayers();
+  return *std::find_if(layers.begin(), layers.end(),
+                       [layer](const SparseLayerInfo& info) { return info.layer == layer; });
 }
+
+}  // namespace
+
+const char* SparseLayerName(SparseLayer layer) { return InfoOf(layer).name; }
 
 SparseLayer ParseSparseLayer(const std::string& name) {
   std::string names;
@@ -54,59 +78,11 @@ SparseLayer ParseSparseLayer(const std::string& name) {
 }
 
 bool UsesLayer(const SparseOptions& options, SparseLayer layer) {
-  switch (layer) {
-    case SparseLayer::kFocalStarts:
-      return options.focal_starts.size() > 1;
-    case SparseLayer::kNaiveProbe:
-      return options.naive_probe;
-    case SparseLayer::kReadoutRestarts:
-      return options.readout_restarts;
-    case SparseLayer::kOutlierRounds:
-      return options.outlier_rounds > 0;
-    case SparseLayer::kReweight:
-      return options.reweight_rounds > 0;
-    case SparseLayer::kBootstrapBias:
-      return options.bootstrap.replicas > 0;
-    case SparseLayer::kLensRelief:
-      return options.measure_lens_relief;
-    case SparseLayer::kKnownFitCheck:
-      return options.max_known_fit_ratio > 0.0;
-    case SparseLayer::kUncheckedKnownRetry:
-      return options.min_known_inlier_share > 0.0;
-  }
-  return false;
+  return InfoOf(layer).uses(options);
 }
 
 SparseOptions WithoutLayer(SparseOptions options, SparseLayer layer) {
-  switch (layer) {
-    case SparseLayer::kFocalStarts:
-      options.focal_starts.resize(1);
-      break;
-    case SparseLayer::kNaiveProbe:
-      options.naive_probe = false;
-      break;
-    case SparseLayer::kReadoutRestarts:
-      options.readout_restarts = false;
-      break;
-    case SparseLayer::kOutlierRounds:
-      options.outlier_rounds = 0;
-      break;
-    case SparseLayer::kReweight:
-      options.reweight_rounds = 0;
-      break;
-    case SparseLayer::kBootstrapBias:
-      options.bootstrap.replicas = 0;
-      break;
-    case SparseLayer::kLensRelief:
-      options.measure_lens_relief = false;
-      break;
-    case SparseLayer::kKnownFitCheck:
-      options.max_known_fit_ratio = 0.0;
-      break;
-    case SparseLayer::kUncheckedKnownRetry:
-      options.min_known_inlier_share = 0.0;
-      break;
-  }
+  InfoOf(layer).switch_off(&options);
   return options;
 }
 

@@ -5,8 +5,8 @@
 // place and a bench can switch any of them off by name
 // (`--without naive-probe,bias`) to measure what it earns on each witness
 // (docs/experiments/138-sparse-layers.md). Each layer is switched by the
-// SparseOptions field that configures it; UsesLayer reads those fields and
-// WithoutLayer writes them, so the options stay the one place of the fact.
+// SparseOptions field that configures it, read and written beside its
+// entry in the list, so the options stay the one place of the fact.
 #pragma once
 
 #include <string>
@@ -30,10 +30,12 @@ enum class SparseLayer {
 
 struct SparseLayerInfo {
   SparseLayer layer;
-  const char* name;        // as benches and logs spell it
-  const char* runs_when;   // the bursts it runs on
-  const char* may_change;  // what of the result it can change
-  const char* option;      // the SparseOptions field that switches it
+  const char* name;                            // as benches and logs spell it
+  const char* runs_when;                       // the bursts it runs on
+  const char* may_change;                      // what of the result it can change
+  const char* option;                          // the SparseOptions field that switches it
+  bool (*uses)(const SparseOptions& options);  // reads that field
+  void (*switch_off)(SparseOptions* options);  // writes it
 };
 
 // Every layer, in the order the stage runs them.
