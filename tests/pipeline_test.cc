@@ -11,6 +11,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <ostream>
 #include <string>
+#include <vector>
 
 #include "core/camera/pose.h"
 #include "core/dense/dense_depth.h"
@@ -160,11 +161,26 @@ TEST(DenseStage, BreaksAmongTheRawWinnersAreLeftToTheFill) {
   EXPECT_LT(filled_after.abs_rel, filled_before.abs_rel - 0.002);
 }
 
+// Also: each lap is reported as it ends, in the order and under the names
+// result.json times them, and the tracking frame by frame before its lap.
 TEST(Pipeline, WritesACompleteResultDirectory) {
   const SynthBurst generated = SmallBurst();
   const Burst burst = ToBurst(generated);
-  PipelineOutput output = RunPipeline(burst, {});
+  std::vector<std::string> laps;
+  std::vector<double> features;
+  PipelineOutput output = RunPipeline(burst, {}, [&](const std::string& stage, double fraction) {
+    if (stage == "features" && laps.empty()) features.push_back(fraction);
+    if (fraction == 1.0) laps.push_back(stage);
+  });
   ASSERT_TRUE(output.result.ok) << output.result.error;
+  std::vector<std::string> timed;
+  for (const auto& [stage, ms] : output.result.timings_ms)
+    if (stage != "dense" && stage != "total") timed.push_back(stage);
+  timed.push_back("frames");
+  for (const auto& [stage, ms] : output.dense->timings_ms) timed.push_back(stage);
+  EXPECT_EQ(laps, timed);
+  ASSERT_EQ(features.size(), 11u);  // the detection, 9 frames tracked, the lap's end
+  for (size_t i = 1; i < features.size(); ++i) EXPECT_GT(features[i], features[i - 1]);
   const auto dir = std::filesystem::temp_directory_path() / "dfsm_pipeline_test_result";
   std::filesystem::remove_all(dir);
   WritePipelineOutputs(dir, burst, &output);

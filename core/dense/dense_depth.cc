@@ -619,7 +619,7 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
   InverseDepthLattice lattice = InverseDepthLattice::FromSparse(
       sparse_inverse_depths, options.inverse_depth_margin, options.planes);
   DenseDepth result;
-  StageTimer timer(&result.timings_ms);
+  StageTimer timer(&result.timings_ms, options.progress);
 
   // Everything below sees the high-passed frames; the caller's stay as they are.
   SweptFrames swept = TakeSweptFrames(burst, settings, &prepared);

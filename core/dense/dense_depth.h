@@ -13,6 +13,7 @@
 #include "core/dense/depth_completion.h"
 #include "core/dense/semi_global.h"
 #include "core/io/burst.h"
+#include "core/io/progress.h"
 
 namespace dfsm {
 
@@ -162,6 +163,8 @@ struct DenseOptions {
   // measured surroundings (depth_completion.h). false: not computed.
   bool fill_holes = true;
   DepthCompletionOptions completion;
+  // Hears each lap of the stage as it ends (core/io/progress.h).
+  ProgressCallback progress;
 
   // Throws std::invalid_argument ("dense: ...") naming the option out of its
   // range.

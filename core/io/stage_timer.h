@@ -8,6 +8,8 @@
 #include <utility>
 #include <vector>
 
+#include "core/io/progress.h"
+
 namespace dfsm {
 
 // Milliseconds from `from` to `to` (default: now), as timings_ms reports them.
@@ -19,8 +21,12 @@ inline double MillisecondsBetween(
 
 class StageTimer {
  public:
-  explicit StageTimer(std::vector<std::pair<std::string, double>>* timings)
-      : timings_(timings), start_(std::chrono::steady_clock::now()) {}
+  // `progress` (may be empty) hears of each lap as it ends.
+  explicit StageTimer(std::vector<std::pair<std::string, double>>* timings,
+                      ProgressCallback progress = {})
+      : timings_(timings),
+        progress_(std::move(progress)),
+        start_(std::chrono::steady_clock::now()) {}
 
   // Records the time since the previous lap (or construction) under `stage`,
   // less `carried_ms` of it, which goes to the next lap instead: time this
@@ -32,10 +38,12 @@ class StageTimer {
     timings_->emplace_back(stage, elapsed_ms - carried_ms);
     start_ = now - std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                        std::chrono::duration<double, std::milli>(carried_ms));
+    ReportProgress(progress_, stage, 1, 1);
   }
 
  private:
   std::vector<std::pair<std::string, double>>* timings_;
+  ProgressCallback progress_;
   std::chrono::steady_clock::time_point start_;
 };
 

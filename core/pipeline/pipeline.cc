@@ -114,6 +114,14 @@ nlohmann::json PerCallerFrame(const std::vector<int>& values, const std::vector<
   return list;
 }
 
+// `options` whose stages tell `progress` of their laps.
+PipelineOptions ReportingTo(PipelineOptions options, const ProgressCallback& progress) {
+  options.sparse.progress = progress;
+  options.sparse.features.progress = progress;
+  options.dense.progress = progress;
+  return options;
+}
+
 // The sparse stage's options for this burst: where the dense stage runs, a
 // camera it cannot invert is refused (SparseOptions::camera_usable), and
 // without a known calibration the burst's EXIF focal length is a prior on f.
@@ -307,6 +315,7 @@ void RunDenseStage(const Burst& compensated, const SparseReconstruction& sparse,
   std::optional<DenseFrames> dense_frames;
   if (!frames_work->FirstError()) dense_frames = frames_maker->Take();
   const double frames_ms = MillisecondsBetween(dense_start);
+  ReportProgress(dense.progress, "frames", 1, 1);
   double frames_beside_ms = 0.0;
   for (int i = 0; dense_frames && i < frames_beside; ++i)
     frames_beside_ms += dense_frames->frame_ms[i];
@@ -347,8 +356,9 @@ void PipelineOptions::Check() const {
   repeated_frames.Check();
 }
 
-PipelineOutput RunPipeline(const Burst& burst, const PipelineOptions& options,
-                           const StageCallback& on_stage) {
+PipelineOutput RunPipeline(const Burst& burst, const PipelineOptions& given,
+                           const ProgressCallback& progress) {
+  const PipelineOptions options = ReportingTo(given, progress);
   PipelineOutput output;
   Result& result = output.result;
   result.bundle_adjustment.init = InitModeName(options.sparse.init);
@@ -359,7 +369,6 @@ PipelineOutput RunPipeline(const Burst& burst, const PipelineOptions& options,
     } catch (const std::invalid_argument& e) {
       throw InvalidOptions(std::string("invalid options: ") + e.what());
     }
-    if (on_stage) on_stage("sparse");
     SparseOptions sparse_options = SparseOptionsForBurst(burst, options);
     // The stages see the frames that are not repeats (repeated_frames.h);
     // each frame left out reports what the frame it repeats got.
@@ -380,7 +389,6 @@ PipelineOutput RunPipeline(const Burst& burst, const PipelineOptions& options,
     RecordSparseWarnings(burst, sparse, sparse_options, &result);
     RecordSparseDetail(burst, sparse, distinct, &result);
     if (options.run_dense) {
-      if (on_stage) on_stage("dense");
       RunDenseStage(compensated, sparse, options.dense, &*frames_maker, &*frames_work, &output);
     }
     result.ok = true;

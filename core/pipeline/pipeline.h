@@ -9,6 +9,7 @@
 
 #include "core/dense/dense_depth.h"
 #include "core/io/burst.h"
+#include "core/io/progress.h"
 #include "core/io/result.h"
 #include "core/pipeline/photometric_compensation.h"
 #include "core/pipeline/repeated_frames.h"
@@ -39,13 +40,11 @@ struct PipelineOutput {
   std::optional<DenseDepth> dense;
 };
 
-// Called with the name of each stage as it starts ("sparse", "dense", "writing").
-using StageCallback = std::function<void(const std::string& stage)>;
-
 // Never throws for a burst the method cannot handle: the failure is reported in
-// the returned result (status "failed" with a named reason).
+// the returned result (status "failed" with a named reason). `progress` hears
+// each lap of the stages as it ends (core/io/progress.h).
 PipelineOutput RunPipeline(const Burst& burst, const PipelineOptions& options,
-                           const StageCallback& on_stage = {});
+                           const ProgressCallback& progress = {});
 
 // Writes result.json and every output file of a successful run into out_dir
 // (created when needed): depth.tiff, depth.png, confidence.png, preview.png,

@@ -136,6 +136,9 @@ FeatureTracks TrackGridedFeatures(const std::vector<cv::Mat>& frames, int refere
   const int cell = GridCellSize(options, ref.cols, ref.rows);
   const std::vector<cv::Point2f> corners =
       DetectGridedCorners(ref, cell, options.min_quality, options.klt_window / 2 + 1);
+  // The steps: the detection, each other frame's tracking, the alignment.
+  const int steps = static_cast<int>(frames.size()) + 1;
+  ReportProgress(options.progress, "features", 1, steps);
 
   const cv::Size window(options.klt_window, options.klt_window);
   const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 30, 0.01);
@@ -159,6 +162,7 @@ FeatureTracks TrackGridedFeatures(const std::vector<cv::Mat>& frames, int refere
     if (reference - d >= 0) order.push_back(reference - d);
   }
   std::vector<cv::Mat> pyramid;
+  int tracked_frames = 0;
   for (const int i : order) {
     if (m == 0) break;
     const int neighbour = i > reference ? i - 1 : i + 1;
@@ -183,6 +187,7 @@ FeatureTracks TrackGridedFeatures(const std::vector<cv::Mat>& frames, int refere
       if (!valid[i][j]) forward[j] = positions[neighbour][j];
     }
     positions[i] = std::move(forward);
+    ReportProgress(options.progress, "features", ++tracked_frames + 1, steps);
   }
 
   std::vector<uchar> tracked(m, 1);

@@ -10,6 +10,7 @@
 #include <opencv2/core.hpp>
 #include <vector>
 
+#include "core/io/progress.h"
 #include "core/sparse/feature_tracks.h"
 #include "core/sparse/gain_bias_alignment.h"
 
@@ -60,6 +61,8 @@ struct GridedFeatureOptions {
   // against a translation (a roll of 0.5 deg moves them 0.09 px).
   double min_shape_px = 0.1;
   GainBiasAlignmentOptions alignment;
+  // Hears "features" after the detection and after each tracked frame.
+  ProgressCallback progress;
 
   // Throws std::invalid_argument naming the option out of its range.
   void Check() const;

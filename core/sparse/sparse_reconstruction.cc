@@ -374,7 +374,7 @@ void ScaleToUnitMedianInverseDepth(SparseReconstruction* sparse) {
 SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int height,
                                   const SparseOptions& options, bool measure_lens_relief,
                                   SharedWork* beside, const GivenStart* given = nullptr) {
-  StageTimer timer(&sparse.timings_ms);
+  StageTimer timer(&sparse.timings_ms, options.progress);
   const double parallax = sparse.tracks.MedianMaxDisplacement();
   // A known calibration starts (and, fixed, stays) where the file puts it; it
   // also makes the rotations of the initialization exact instead of assuming
@@ -445,13 +445,15 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
 
 // The same tracks calibrated by the burst alone (no known camera, no
 // bootstrap: its camera is compared or started from, not reported or
-// fused); empty where the burst cannot calibrate itself.
+// fused); empty where the burst cannot calibrate itself. Its laps are not
+// the stage's: the caller reports the whole as one.
 std::optional<SparseReconstruction> CalibrateAlone(const SparseReconstruction& tracked, int width,
                                                    int height, const SparseOptions& options,
                                                    SharedWork* beside) {
   SparseOptions alone = options;
   alone.known.reset();
   alone.bootstrap.replicas = 0;
+  alone.progress = nullptr;
   try {
     return AdjustTracks(tracked, width, height, alone, /*measure_lens_relief=*/false, beside);
   } catch (const ReconstructionError&) {
@@ -514,6 +516,7 @@ SparseReconstruction AdjustCheckedKnown(SparseReconstruction tracked, int width,
   const std::optional<SparseReconstruction> free =
       CalibrateAlone(tracked, width, height, options, beside);
   const double check_ms = MillisecondsBetween(check_start);
+  ReportProgress(options.progress, "known_fit", 1, 1);
   std::optional<GivenStart> own;
   if (free) own = OwnSolutionStart(*free);
   SparseReconstruction sparse =
@@ -576,7 +579,7 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
   // Before the tracking, so that a bad option costs no seconds of work.
   options.Check();
   SparseReconstruction tracked;
-  StageTimer timer(&tracked.timings_ms);
+  StageTimer timer(&tracked.timings_ms, options.progress);
   tracked.tracks = TrackGridedFeatures(frames, reference, options.features, &tracked.feature_stats);
   timer.Lap("features");
   if (tracked.tracks.num_tracks() < options.min_tracks)

@@ -12,6 +12,7 @@
 
 #include "core/camera/rolling_shutter.h"
 #include "core/io/burst.h"
+#include "core/io/progress.h"
 #include "core/io/result.h"
 #include "core/parallel/shared_work.h"
 #include "core/sparse/bootstrap_bias.h"
@@ -178,6 +179,9 @@ struct SparseOptions {
   // model); a camera it refuses is replaced as a folding one is. Null: only
   // the fold check. Returns false and says why.
   std::function<bool(const CameraModel&, std::string* why)> camera_usable;
+  // Hears each lap of the stage as it ends (core/io/progress.h); the
+  // features' own steps go to features.progress.
+  ProgressCallback progress;
 
   // Throws std::invalid_argument naming the option out of its range, its
   // parts' options included (features, rank_one, bundle_adjustment, ...).

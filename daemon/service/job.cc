@@ -30,14 +30,7 @@ JobStatus ParseJobStatus(const std::string& name) {
 double JobProgress(const Job& job) {
   if (IsFinished(job.status)) return 1.0;
   if (job.status == JobStatus::kQueued) return 0.0;
-  // Shares of the time before each stage, from the timings of 1080p x 10
-  // jobs (docs/daemon.md): sparse ~35 %, dense ~50 %, writing ~10 %.
-  static const std::pair<const char*, double> kStages[] = {
-      {"loading", 0.02}, {"sparse", 0.05}, {"dense", 0.4}, {"writing", 0.9}};
-  for (const auto& [stage, share] : kStages) {
-    if (job.stage == stage) return share;
-  }
-  return 0.02;
+  return job.progress;
 }
 
 nlohmann::json ToJson(const Job& job) {

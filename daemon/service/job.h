@@ -51,7 +51,11 @@ struct Job {
   std::string id;
   std::string origin;  // "capture" | "upload" | "recovered"
   JobStatus status = JobStatus::kQueued;
-  std::string stage;  // current or last pipeline stage ("sparse", "dense", "writing")
+  // Current or last stage ("loading", "features", "sparse", "dense",
+  // "writing", "done") and, while processing, how far the job has come
+  // (0..1, job_progress_model.h); in memory only.
+  std::string stage;
+  double progress = 0.0;
   std::string error;  // when failed
   JobOptions options;
   int64_t created_ms = 0;  // Unix epoch milliseconds
@@ -70,10 +74,8 @@ struct Job {
 
 nlohmann::json ToJson(const Job& job);
 
-// How far a job has come, 0..1, from its status and stage: 0 queued, then
-// the stages in the order the processor runs them (loading, sparse, dense,
-// writing) at the share of a typical job's time that precedes them, 1
-// finished. A stage the table does not know keeps the last known share.
+// How far a job has come, 0..1: 0 queued, its reported progress while
+// processing, 1 finished.
 double JobProgress(const Job& job);
 // Throws std::invalid_argument / nlohmann::json::exception for a damaged record;
 // an option of unknown value (options.when, options.init) is named with it.

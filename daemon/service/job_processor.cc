@@ -1,7 +1,9 @@
 #include "daemon/service/job_processor.h"
 
+#include <chrono>
 #include <iostream>
 
+#include "core/io/stage_timer.h"
 #include "core/pipeline/pipeline.h"
 #include "daemon/log/log.h"
 
@@ -36,8 +38,14 @@ void JobProcessor::Process(const std::string& id, std::shared_ptr<const Burst> p
     job.status = JobStatus::kProcessing;
     job.started_ms = NowUnixMs();
     job.stage = "loading";
+    job.progress = 0.0;
     ++job.attempts;
     store_->Update(job);
+    const auto report = [&](const std::string& lap, double fraction) {
+      if (const std::optional<double> progress = progress_.Progress(lap, fraction))
+        store_->SetProgress(id, JobProgressModel::StageOf(lap), *progress);
+    };
+    const auto loading_start = std::chrono::steady_clock::now();
 
     std::shared_ptr<const Burst> burst = preloaded;
     if (!burst && !job.has_burst) {
@@ -62,19 +70,18 @@ void JobProcessor::Process(const std::string& id, std::shared_ptr<const Burst> p
         return;
       }
     }
-    const auto on_stage = [&](const std::string& stage) {
-      job.stage = stage;
-      store_->SetStage(id, stage);
-    };
+    const double loading_ms = MillisecondsBetween(loading_start);
+    report("loading", 1.0);
     PipelineOptions pipeline = ToPipelineOptions(job.options);
     KnownCalibration known;
     if (calibration_ && calibration_->ForJob(job.options, burst->width(), burst->height(), &known))
       pipeline.sparse.known = known;
-    PipelineOutput output = RunPipeline(*burst, pipeline, on_stage);
+    PipelineOutput output = RunPipeline(*burst, pipeline, report);
     if (calibration_ && output.result.ok && output.sparse)
       output.result.extra["calibration_fusion"] =
           calibration_->Record(id, job.options, NowUnixMs(), *output.sparse);
-    on_stage("writing");
+    report("writing", 0.0);
+    const auto writing_start = std::chrono::steady_clock::now();
     const std::filesystem::path staged = store_->NewStagingDir();
     try {
       WritePipelineOutputs(staged, *burst, &output);
@@ -87,6 +94,7 @@ void JobProcessor::Process(const std::string& id, std::shared_ptr<const Burst> p
       Finish(&job, false, std::string("cannot store the result: ") + e.what());
       return;
     }
+    if (output.result.ok) LearnShares(loading_ms, output, MillisecondsBetween(writing_start));
     job.timings_ms = output.result.timings_ms;
     job.warnings = output.result.warnings;
     job.calibration_quality = output.result.calibration_detail.value("quality", "");
@@ -94,6 +102,15 @@ void JobProcessor::Process(const std::string& id, std::shared_ptr<const Burst> p
   } catch (const std::exception& e) {
     Finish(&job, false, e.what());
   }
+}
+
+void JobProcessor::LearnShares(double loading_ms, const PipelineOutput& output, double writing_ms) {
+  std::vector<std::pair<std::string, double>> laps = output.result.timings_ms;
+  if (output.dense)
+    laps.insert(laps.end(), output.dense->timings_ms.begin(), output.dense->timings_ms.end());
+  laps.emplace_back("loading", loading_ms);
+  laps.emplace_back("writing", writing_ms);
+  progress_.Learn(laps);
 }
 
 void JobProcessor::Finish(Job* job, bool ok, const std::string& error) {

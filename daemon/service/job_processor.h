@@ -12,8 +12,13 @@
 #include "daemon/service/burst_persister.h"
 #include "daemon/service/calibration_keeper.h"
 #include "daemon/service/config.h"
+#include "daemon/service/job_progress_model.h"
 #include "daemon/service/job_store.h"
 #include "daemon/service/metrics.h"
+
+namespace dfsm {
+struct PipelineOutput;
+}  // namespace dfsm
 
 namespace dfsm::service {
 
@@ -38,12 +43,15 @@ class JobProcessor {
 
  private:
   void Finish(Job* job, bool ok, const std::string& error);
+  // Teaches progress_ the laps of a job that succeeded.
+  void LearnShares(double loading_ms, const PipelineOutput& output, double writing_ms);
 
   JobStore* store_;
   Metrics* metrics_;
   const RetentionSection retention_;
   CalibrationKeeper* calibration_;
   BurstPersister* persister_;
+  JobProgressModel progress_;
 };
 
 }  // namespace dfsm::service

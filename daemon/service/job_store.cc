@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <iostream>
 #include <random>
 
@@ -117,6 +118,7 @@ Job JobStore::Create(const std::string& origin, const JobOptions& options,
   }
   SyncJobs();
   jobs_.emplace(job.id, job);
+  ChangedLocked();
   return job;
 }
 
@@ -137,6 +139,7 @@ bool JobStore::AttachBurst(const std::string& id, const fs::path& staged_burst) 
   // A job that finished first counted its bytes without the burst.
   if (IsFinished(job.status)) job.bytes += DirectoryBytes(BurstDir(id));
   WriteRecord(JobDir(id), job);
+  ChangedLocked();
   return true;
 }
 
@@ -190,6 +193,11 @@ void JobStore::Update(const Job& job) {
   if (it == jobs_.end()) throw JobStoreError("unknown job " + job.id);
   Job stored = job;
   stored.has_burst = it->second.has_burst;
+  // The caller's copy may predate the progress reported since (SetProgress).
+  if (job.status == JobStatus::kProcessing && it->second.status == JobStatus::kProcessing &&
+      job.attempts == it->second.attempts)
+    stored.progress = std::max(job.progress, it->second.progress);
+  ChangedLocked();
   // A finished job's bytes are counted here, under the lock AttachBurst
   // takes: counted by the caller, a burst attached between the count and
   // this update would be missed by both (AttachBurst adds it only to a job
@@ -208,10 +216,24 @@ void JobStore::Update(const Job& job) {
   it->second = stored;
 }
 
-void JobStore::SetStage(const std::string& id, const std::string& stage) {
+void JobStore::SetProgress(const std::string& id, const std::string& stage, double progress) {
   std::lock_guard<std::mutex> lock(mutex_);
   const auto it = jobs_.find(id);
-  if (it != jobs_.end()) it->second.stage = stage;
+  if (it == jobs_.end() || it->second.status != JobStatus::kProcessing) return;
+  it->second.stage = stage;
+  it->second.progress = std::clamp(std::max(progress, it->second.progress), 0.0, 1.0);
+  ChangedLocked();
+}
+
+uint64_t JobStore::WaitForChange(uint64_t seen, std::chrono::milliseconds timeout) const {
+  std::unique_lock<std::mutex> lock(mutex_);
+  changed_.wait_for(lock, timeout, [&] { return changes_ != seen; });
+  return changes_;
+}
+
+void JobStore::ChangedLocked() {
+  ++changes_;
+  changed_.notify_all();
 }
 
 void JobStore::CommitOutput(const std::string& id, const fs::path& staged_output) {
@@ -233,12 +255,14 @@ void JobStore::DropBurst(const std::string& id) {
   std::lock_guard<std::mutex> lock(mutex_);
   const auto it = jobs_.find(id);
   if (it != jobs_.end()) it->second.has_burst = false;
+  ChangedLocked();
 }
 
 bool JobStore::Remove(const std::string& id) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     if (!jobs_.erase(id)) return false;
+    ChangedLocked();
   }
   Discard(JobDir(id));
   return true;

@@ -12,6 +12,8 @@
 // Thread-safe: every method may be called from any thread.
 #pragma once
 
+#include <chrono>
+#include <condition_variable>
 #include <cstdint>
 #include <filesystem>
 #include <map>
@@ -77,9 +79,14 @@ class JobStore {
   // (then the job is updated in memory only).
   void Update(const Job& job);
 
-  // Sets the job's current stage in memory only: a stage is progress news for
-  // clients, not state worth an fsync (a restarted job starts over anyway).
-  void SetStage(const std::string& id, const std::string& stage);
+  // Sets a processing job's stage and progress (0..1) in memory only: they
+  // are news for clients, not state worth an fsync (a restarted job starts
+  // over anyway). The progress of one run never goes back.
+  void SetProgress(const std::string& id, const std::string& stage, double progress);
+
+  // Waits until the jobs change (one created, updated, progressed, removed)
+  // after the change count `seen`, or `timeout` passes; returns the count.
+  uint64_t WaitForChange(uint64_t seen, std::chrono::milliseconds timeout) const;
 
   // Replaces <job>/output with `staged_output` (a directory from NewStagingDir()).
   void CommitOutput(const std::string& id, const std::filesystem::path& staged_output);
@@ -108,10 +115,14 @@ class JobStore {
   std::string NewIdLocked();
   // Moves a directory into tmp/ (atomic, instant) and deletes it from there.
   void Discard(const std::filesystem::path& dir);
+  // Counts a change and wakes WaitForChange; mutex_ held.
+  void ChangedLocked();
 
   const std::filesystem::path state_dir_;
   mutable std::mutex mutex_;
   std::map<std::string, Job> jobs_;  // by id, i.e. by creation time
+  uint64_t changes_ = 0;
+  mutable std::condition_variable changed_;
   uint64_t staging_counter_ = 0;
   uint32_t id_counter_ = 0;
 };

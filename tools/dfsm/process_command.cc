@@ -102,8 +102,9 @@ int RunProcessCommand(const Args& args) {
     }
     options.sparse.known = known;
   }
-  PipelineOutput output = RunPipeline(burst, options, [](const std::string& stage) {
-    std::fprintf(stderr, "dfsm process: %s...\n", stage.c_str());
+  // Each lap as it ends: where a long burst is.
+  PipelineOutput output = RunPipeline(burst, options, [](const std::string& lap, double fraction) {
+    if (fraction >= 1.0) std::fprintf(stderr, "dfsm process: %s done\n", lap.c_str());
   });
   WritePipelineOutputs(out_dir, burst, &output);
 
