@@ -217,4 +217,19 @@ ListQuery ParseListQuery(const std::multimap<std::string, std::string>& query) {
   return list;
 }
 
+SnapshotQuery ParseSnapshotQuery(const std::multimap<std::string, std::string>& query) {
+  SnapshotQuery snapshot;
+  for (const auto& [field, text] : query) {
+    if (field != "width")
+      throw RequestError("unknown query parameter '" + field + "' (known: width)");
+    const int64_t width = ParseIntegerText(field, text);
+    if (width < SnapshotQuery::kMinWidth || width > SnapshotQuery::kMaxWidth)
+      throw RequestError("'width' must be in [" + std::to_string(SnapshotQuery::kMinWidth) + ", " +
+                         std::to_string(SnapshotQuery::kMaxWidth) + "], got " +
+                         std::to_string(width));
+    snapshot.width = static_cast<int>(width);
+  }
+  return snapshot;
+}
+
 }  // namespace dfsm::api

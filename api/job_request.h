@@ -37,4 +37,13 @@ struct ListQuery {
 };
 ListQuery ParseListQuery(const std::multimap<std::string, std::string>& query);
 
+// ?width= of GET /api/v1/snapshot.jpg: the frame scaled down to this many
+// pixels wide (a live view on a phone needs a fraction of a 1080p frame).
+struct SnapshotQuery {
+  static constexpr int kMinWidth = 16;
+  static constexpr int kMaxWidth = 8192;
+  int width = 0;  // 0: as captured; wider than the frame: as captured
+};
+SnapshotQuery ParseSnapshotQuery(const std::multimap<std::string, std::string>& query);
+
 }  // namespace dfsm::api

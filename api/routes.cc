@@ -2,11 +2,14 @@
 
 #include <sys/statvfs.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cerrno>
 #include <chrono>
+#include <cmath>
 #include <cstring>
 #include <map>
+#include <opencv2/imgproc.hpp>
 #include <regex>
 #include <thread>
 
@@ -273,10 +276,9 @@ void GetCalibration(const ApiContext& context, httplib::Response& response) {
   nlohmann::json body = nlohmann::json::object();
   if (context.calibration) body["fused"] = context.calibration->Snapshot();
   if (!job) {
-    if (body.contains("fused") && !body["fused"].value("empty", true))
-      return SetJson(response, 200, body);
-    return SetProblem(response, 404, "no-calibration", "No calibration yet",
-                      "no job has succeeded yet; POST /api/v1/captures to make one");
+    // No calibration yet is the camera's state, not a missing resource.
+    body["calibration"] = nullptr;
+    return SetJson(response, 200, body);
   }
   try {
     const nlohmann::json result =
@@ -317,12 +319,26 @@ void GetCamera(const ApiContext& context, httplib::Response& response) {
   SetJson(response, 200, context.camera->Describe());
 }
 
-void GetSnapshot(const ApiContext& context, httplib::Response& response) {
-  const cv::Mat frame = context.camera ? context.camera->NewestFrame() : cv::Mat();
+void GetSnapshot(const ApiContext& context, const httplib::Request& request,
+                 httplib::Response& response) {
+  SnapshotQuery query;
+  try {
+    query = ParseSnapshotQuery(request.params);
+  } catch (const RequestError& e) {
+    return SetProblem(response, 400, "invalid-request", "Invalid snapshot query", e.what());
+  }
+  cv::Mat frame = context.camera ? context.camera->NewestFrame() : cv::Mat();
   if (frame.empty()) {
     response.set_header("Retry-After", "1");
     return SetProblem(response, 503, "no-frame", "No frame yet",
                       "the capture source has not delivered a frame");
+  }
+  if (query.width > 0 && query.width < frame.cols) {
+    const int height = std::max(1, static_cast<int>(std::lround(static_cast<double>(frame.rows) *
+                                                                query.width / frame.cols)));
+    cv::Mat scaled;
+    cv::resize(frame, scaled, cv::Size(query.width, height), 0, 0, cv::INTER_AREA);
+    frame = scaled;
   }
   const std::vector<unsigned char> jpeg = EncodeJpeg(frame, 90);
   response.set_content(std::string(jpeg.begin(), jpeg.end()), "image/jpeg");
@@ -433,6 +449,8 @@ void StreamJobEvents(const ApiContext& context, httplib::Response& response) {
   struct Seen {
     std::map<std::string, std::string> jobs;  // id -> status/stage/progress key
     std::chrono::steady_clock::time_point end;
+    std::chrono::steady_clock::time_point sent;
+    uint64_t changes = 0;  // the store's change count at the last look
     bool first = true;
   };
   auto seen = std::make_shared<Seen>();
@@ -442,7 +460,16 @@ void StreamJobEvents(const ApiContext& context, httplib::Response& response) {
   response.set_chunked_content_provider(
       "text/event-stream",
       [context, seen](size_t, httplib::DataSink& sink) {
-        if (!seen->first) std::this_thread::sleep_for(std::chrono::milliseconds(500));
+        if (!seen->first) {
+          // A change goes out as it happens, at most every 100 ms (a job's
+          // progress moves often); a quiet stream gets a keep-alive every 500 ms.
+          const auto since = std::chrono::steady_clock::now() - seen->sent;
+          if (since < std::chrono::milliseconds(100))
+            std::this_thread::sleep_for(std::chrono::milliseconds(100) - since);
+          seen->changes =
+              context.store->WaitForChange(seen->changes, std::chrono::milliseconds(500));
+        }
+        seen->sent = std::chrono::steady_clock::now();
         if (std::chrono::steady_clock::now() >= seen->end || !sink.is_writable()) {
           sink.done();
           return true;
@@ -560,7 +587,7 @@ void RegisterRoutes(const ApiContext& context, HttpServer* http) {
   server->Get("/api/v1/camera",
               [c](const httplib::Request&, httplib::Response& r) { GetCamera(c, r); });
   server->Get("/api/v1/snapshot.jpg",
-              [c](const httplib::Request&, httplib::Response& r) { GetSnapshot(c, r); });
+              [c](const httplib::Request& q, httplib::Response& r) { GetSnapshot(c, q, r); });
   server->Get(
       "/", [](const httplib::Request& q, httplib::Response& r) { GetWwwFile(q, "index.html", r); });
   server->Get("/ui/(.+)", [](const httplib::Request& q, httplib::Response& r) {

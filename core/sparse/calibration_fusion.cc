@@ -289,6 +289,21 @@ bool CalibrationFusion::reliable() const {
          distortion_sigma_px() < options_.max_reliable_distortion_sigma_px;
 }
 
+std::vector<std::string> CalibrationFusion::UnreliableReasons() const {
+  if (empty()) return {"no burst fused yet"};
+  std::vector<std::string> reasons;
+  if (bursts_ < options_.min_bursts_for_reliable)
+    reasons.push_back(std::to_string(bursts_) + " of " +
+                      std::to_string(options_.min_bursts_for_reliable) + " bursts fused");
+  if (!(sigma_f_percent() < options_.max_reliable_sigma_f_percent))
+    reasons.push_back("focal length sigma " + FixedText(sigma_f_percent()) + " %, needs < " +
+                      FixedText(options_.max_reliable_sigma_f_percent) + " %");
+  if (!(distortion_sigma_px() < options_.max_reliable_distortion_sigma_px))
+    reasons.push_back("distortion sigma " + FixedText(distortion_sigma_px()) + " px, needs < " +
+                      FixedText(options_.max_reliable_distortion_sigma_px) + " px");
+  return reasons;
+}
+
 namespace {
 
 using nlohmann::json;
@@ -366,6 +381,7 @@ nlohmann::json CalibrationFusion::ToJson() const {
             {"empty", empty()},
             {"bursts", bursts_},
             {"reliable", reliable()},
+            {"unreliable_reasons", UnreliableReasons()},
             {"consistency_gate_chi2", gate_},
             {"information_matrix", MatrixJson(information_)},
             {"information_vector",

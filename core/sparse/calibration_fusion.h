@@ -119,6 +119,9 @@ class CalibrationFusion {
   double distortion_sigma_px() const;  // mean over the image (PropagateToDistortion)
   // bursts() >= min_bursts_for_reliable and both sigmas under their thresholds.
   bool reliable() const;
+  // What keeps it from being reliable, one sentence per condition it misses
+  // ("2 of 3 bursts", ...); empty when reliable.
+  std::vector<std::string> UnreliableReasons() const;
 
   double consistency_gate() const { return gate_; }  // the chi-square quantile
   // The last burst that failed the gate, waiting for a second one like it.

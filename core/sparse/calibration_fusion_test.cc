@@ -8,6 +8,8 @@
 #include <functional>
 #include <nlohmann/json.hpp>
 #include <random>
+#include <string>
+#include <vector>
 
 namespace dfsm {
 namespace {
@@ -273,16 +275,23 @@ TEST(CalibrationFusion, ReliableNeedsEnoughBurstsAndSmallSigmas) {
   std::mt19937 rng(13);
   CalibrationFusion fusion;
   EXPECT_FALSE(fusion.reliable());
+  EXPECT_EQ(fusion.UnreliableReasons(), std::vector<std::string>{"no burst fused yet"});
   fusion.Add(Draw(&rng, C));
   EXPECT_NEAR(fusion.sigma_f_percent(), 0.6, 0.01);
   EXPECT_FALSE(fusion.reliable());
+  ASSERT_EQ(fusion.UnreliableReasons().size(), 2u);
+  EXPECT_EQ(fusion.UnreliableReasons()[0], "1 of 3 bursts fused");
+  EXPECT_EQ(fusion.UnreliableReasons()[1].rfind("focal length sigma 0.6", 0), 0u)
+      << fusion.UnreliableReasons()[1];
   fusion.Add(Draw(&rng, C));
   EXPECT_LT(fusion.sigma_f_percent(), 0.5);
   EXPECT_LT(fusion.distortion_sigma_px(), 0.25);
   EXPECT_FALSE(fusion.reliable());  // 2 < min_bursts_for_reliable
+  EXPECT_EQ(fusion.UnreliableReasons(), std::vector<std::string>{"2 of 3 bursts fused"});
   fusion.Add(Draw(&rng, C));
   EXPECT_NEAR(fusion.sigma_f_percent(), 0.6 / std::sqrt(3.0), 0.01);
   EXPECT_TRUE(fusion.reliable());
+  EXPECT_TRUE(fusion.UnreliableReasons().empty());
   fusion.Reset();
   EXPECT_TRUE(fusion.empty());
   EXPECT_FALSE(fusion.reliable());

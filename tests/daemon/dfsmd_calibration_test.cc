@@ -155,6 +155,11 @@ TEST_F(DfsmdCalibrationTest, ADamagedFusionFileIsMovedAside) {
   httplib::Client client = daemon->Client();
   const auto answer = client.Get("/api/v1/calibration");
   ASSERT_TRUE(answer);
+  // No job yet: no calibration, an empty fusion, and no error.
+  EXPECT_EQ(answer->status, 200);
+  const json body = json::parse(answer->body);
+  EXPECT_TRUE(body["calibration"].is_null()) << body;
+  EXPECT_TRUE(body["fused"]["empty"].get<bool>()) << body;
   EXPECT_TRUE(fs::exists(dir / "state" / "calibration" / "fusion.json.damaged"));
   EXPECT_EQ(daemon->Stop(SIGTERM), 0) << daemon->Log();
 }

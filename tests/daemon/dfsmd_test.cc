@@ -189,6 +189,16 @@ TEST_F(DfsmdTest, CaptureThenFetchEveryOutput) {
                          cv::IMREAD_UNCHANGED)
                 .size(),
             cv::Size(320, 240));
+  // A live view asks for the width it shows; the aspect is kept.
+  snapshot = client.Get("/api/v1/snapshot.jpg?width=160");
+  EXPECT_EQ(cv::imdecode(std::vector<uchar>(snapshot->body.begin(), snapshot->body.end()),
+                         cv::IMREAD_UNCHANGED)
+                .size(),
+            cv::Size(160, 120));
+  EXPECT_EQ(client.Get("/api/v1/snapshot.jpg?width=4000")->status, 200);
+  snapshot = client.Get("/api/v1/snapshot.jpg?width=8");
+  EXPECT_EQ(snapshot->status, 400);
+  EXPECT_NE(snapshot->body.find("'width' must be in [16, 8192], got 8"), std::string::npos);
   const std::string metrics = client.Get("/metrics")->body;
   EXPECT_NE(metrics.find("dfsmd_jobs_total{outcome=\"succeeded\"} 1"), std::string::npos);
   EXPECT_NE(metrics.find("dfsmd_stage_duration_seconds_count{stage=\"dense\"} 1"),
