@@ -116,7 +116,7 @@ const getJson = async (path) => (await api(path)).json();
 // ---------------------------------------------------------------------------
 // Messages (errors as the problem's detail, and notices).
 
-function message(text, kind = 'error') {
+function message(text, kind = 'error', {sticky = false} = {}) {
   const box = $('messages');
   const item = document.createElement('div');
   item.className = `message ${kind}`;
@@ -127,11 +127,12 @@ function message(text, kind = 'error') {
   close.className = 'close';
   close.textContent = '×';
   close.title = 'dismiss';
+  close.setAttribute('aria-label', 'Dismiss this message');
   close.addEventListener('click', () => item.remove());
   item.append(span, close);
   box.prepend(item);
   while (box.children.length > 5) box.lastElementChild.remove();
-  if (kind !== 'error') setTimeout(() => item.remove(), 8000);
+  if (kind !== 'error' && !sticky) setTimeout(() => item.remove(), 8000);
   return item;
 }
 
@@ -141,18 +142,61 @@ function showError(prefix, error) {
 }
 
 // ---------------------------------------------------------------------------
-// Live view: the newest frame by fetch (so the token can be sent), and the
-// camera's state once a second.
+// Live view: the newest frame by fetch (so the token can be sent), at the
+// rate and size the user picks (kept in localStorage), none while the tab is
+// hidden or a result is open; and the camera's state once a second.
 
+const LIVE_KEY = 'dfsmd.live';
 const live = {shown: [], url: null, busy: false, lastCamera: null};
 
+function liveSettings() {
+  return {fps: Number($('live-rate').value), size: $('live-size').value};
+}
+
+function bindLiveSettings() {
+  try {
+    const saved = JSON.parse(localStorage.getItem(LIVE_KEY) || '{}');
+    if ([...$('live-rate').options].some((o) => o.value === String(saved.fps))) $('live-rate').value = String(saved.fps);
+    if ([...$('live-size').options].some((o) => o.value === saved.size)) $('live-size').value = saved.size;
+  } catch { /* a damaged entry: the defaults */ }
+  for (const id of ['live-rate', 'live-size'])
+    $(id).addEventListener('change', () => localStorage.setItem(LIVE_KEY, JSON.stringify(liveSettings())));
+}
+
+// Why the live view fetches nothing now, or '' when it runs.
+function livePaused() {
+  if (document.hidden) return 'paused while the tab is hidden';
+  if (liveSettings().fps <= 0) return 'live view paused (pick a rate above)';
+  if (!$('result-panel').hidden) return 'live view paused while a result is open';
+  return '';
+}
+
+// The snapshot's URL: at the width the image is shown ("fit"), in device pixels.
+function snapshotPath() {
+  if (liveSettings().size === 'full') return 'api/v1/snapshot.jpg';
+  const shown = $('live-image').clientWidth || $('live-placeholder').clientWidth || 640;
+  const width = Math.min(8192, Math.max(16, Math.ceil((shown * (window.devicePixelRatio || 1)) / 64) * 64));
+  return `api/v1/snapshot.jpg?width=${width}`;
+}
+
+function showLivePlaceholder(text) {
+  $('live-placeholder').hidden = false;
+  $('live-placeholder').textContent = text;
+}
+
 async function liveLoop() {
-  const minInterval = 1000 / 15;  // at most 15 frames a second
   for (;;) {
     const started = performance.now();
-    if (document.hidden) { await sleep(500); continue; }
+    const paused = livePaused();
+    $('view-rate').textContent = paused ? 'paused' : `${liveSettings().fps} fps, ${liveSettings().size === 'full' ? 'full' : 'fit'}`;
+    if (paused) {
+      if (!document.hidden) showLivePlaceholder(paused);
+      live.shown = [];
+      await sleep(300);
+      continue;
+    }
     try {
-      const response = await api('api/v1/snapshot.jpg');
+      const response = await api(snapshotPath());
       const blob = await response.blob();
       const next = URL.createObjectURL(blob);
       const img = $('live-image');
@@ -168,11 +212,11 @@ async function liveLoop() {
       live.shown.push(now);
       while (live.shown.length && now - live.shown[0] > 2000) live.shown.shift();
     } catch (e) {
-      $('live-placeholder').hidden = false;
-      $('live-placeholder').textContent = e.status === 503 ? 'no frame yet (capture not streaming)' : `no frame: ${e.message}`;
+      showLivePlaceholder(e.status === 503 ? 'no frame yet (capture not streaming)'
+        : e.status === 0 ? 'dfsmd cannot be reached; retrying…' : `no frame: ${e.message}`);
       await sleep(e.status === 401 ? 5000 : 1000);
     }
-    const wait = minInterval - (performance.now() - started);
+    const wait = 1000 / Math.max(1, liveSettings().fps) - (performance.now() - started);
     if (wait > 0) await sleep(wait);
   }
 }
@@ -201,7 +245,10 @@ async function cameraLoop() {
       err.hidden = !cam.last_error;
       err.textContent = cam.last_error ? `last error: ${cam.last_error}` : '';
     } catch (e) {
-      $('cam-state').textContent = e.status ? `HTTP ${e.status}` : 'unreachable';
+      // Nothing below is known any more: no number stays as if it were.
+      for (const id of ['cam-fps', 'cam-captured', 'cam-drops', 'cam-ring']) $(id).textContent = '–';
+      live.lastCamera = null;
+      $('cam-state').textContent = e.status ? `HTTP ${e.status}` : 'dfsmd unreachable';
       $('cam-state').className = 'bad';
     }
     const n = live.shown.length;
@@ -219,14 +266,43 @@ const jobs = new Map();
 let followed = new Set();   // jobs triggered or uploaded from this page: opened when they succeed
 let openJobId = null;
 
+// Where a job is, in the order it gets there.
+const STATUS_RANK = {queued: 0, processing: 1, succeeded: 2, failed: 2};
+
+// What `job` (an event, a poll's or a request's answer) changes of `before`:
+// never a step back within one run, since an answer may be older than the
+// last event (the capture's own answer, "queued", often is).
+function mergeJob(before, job) {
+  if (!before) return {...job, progress: typeof job.progress === 'number' ? job.progress : 0};
+  const older = (job.attempts ?? before.attempts) === before.attempts &&
+    (STATUS_RANK[job.status] ?? 0) < (STATUS_RANK[before.status] ?? 0);
+  if (older) {
+    const {status, stage, progress, ...rest} = job;
+    return {...before, ...rest};
+  }
+  const merged = {...before, ...job};
+  if (merged.status === 'succeeded' || merged.status === 'failed') merged.progress = 1;
+  else if (typeof job.progress !== 'number') merged.progress = before.progress || 0;
+  else if (before.status === merged.status && before.attempts === merged.attempts)
+    merged.progress = Math.max(before.progress || 0, job.progress);
+  return merged;
+}
+
 function upsertJob(job) {
   if (!job || !job.id) return;
   if (job.deleted) {
     jobs.delete(job.id);
     if (openJobId === job.id) closeResult();
+    scheduleCalibration();  // it may have come from this job
   } else {
     const before = jobs.get(job.id);
-    jobs.set(job.id, {...(before || {}), ...job});
+    const merged = mergeJob(before, job);
+    jobs.set(job.id, merged);
+    // A new status is shown at once, before a result opens and takes the
+    // main thread; progress and stages wait for the next frame.
+    if (!before || before.status !== merged.status) {
+      renderJobs();
+    }
     if (job.status === 'succeeded' && (!before || before.status !== 'succeeded')) {
       scheduleCalibration();
       if (followed.has(job.id)) {
@@ -236,7 +312,8 @@ function upsertJob(job) {
     }
     if (job.status === 'failed' && followed.has(job.id)) {
       followed.delete(job.id);
-      message(`job ${job.id} failed: ${job.error || 'no reason given'}`);
+      const advice = adviceFor(job.error || '');
+      message(`job ${job.id} failed: ${job.error || 'no reason given'}${advice ? `. ${advice}` : ''}`);
     }
   }
   scheduleRender();
@@ -267,38 +344,56 @@ function fmtTime(ms) {
   return d.toLocaleTimeString([], {hour: '2-digit', minute: '2-digit', second: '2-digit'});
 }
 
+// What to do about a failed burst, by the reason the pipeline gave.
+const ADVICE = [
+  [/insufficient parallax|too little baseline/, 'Too little motion: hold the camera by hand (not on a tripod or a table), as still as for a photo, and capture again; the tremor does the rest.'],
+  [/too few (consistent )?tracks/, 'Too little to track: aim at a textured, well-lit scene a few metres away, and hold the camera steadier (less blur).'],
+  [/needs at least 3 frames/, 'Capture more frames (10-30).'],
+];
+
+function adviceFor(error) {
+  const found = ADVICE.find(([pattern]) => pattern.test(error));
+  return found ? found[1] : '';
+}
+
+function jobItem(id, j) {
+  const stage = j.status === 'processing' && j.stage ? j.stage : '';
+  const total = j.timings_ms && j.timings_ms.total ? `${(j.timings_ms.total / 1000).toFixed(1)} s` : '';
+  const input = j.input && j.input.width ? `${j.input.frames}×${j.input.width}x${j.input.height}` : '';
+  const advice = j.status === 'failed' ? adviceFor(j.error || '') : '';
+  const li = el('li', {class: `job ${j.status}${id === openJobId ? ' open' : ''}`, dataset: {jobId: id, status: j.status},
+                       title: j.status === 'succeeded' ? 'open the result' : ''},
+    el('div', {class: 'job-head'},
+      el('span', {class: 'mono job-id'}, id),
+      el('span', {class: `status status-${j.status}`}, j.status),
+      stage && el('span', {class: 'stage'}, stage),
+      j.status === 'succeeded' && el('button', {type: 'button', class: 'link-like open-result',
+        'aria-label': `Open the result of job ${id}`, onclick: (e) => { e.stopPropagation(); openResult(id); }}, 'open')),
+    el('div', {class: 'job-meta muted'},
+      [fmtTime(j.created_ms), j.origin, input, total].filter(Boolean).join(' · ')),
+    el('progress', {max: '1', value: String(j.progress ?? 0), 'aria-label': `progress of job ${id}`}),
+    j.error ? el('div', {class: 'error-text'}, j.error) : null,
+    advice ? el('div', {class: 'advice'}, advice) : null);
+  if (j.status !== 'processing') {
+    li.append(el('button', {type: 'button', class: 'small delete', 'aria-label': `Delete job ${id}`,
+      title: 'delete this job and its files', onclick: (e) => { e.stopPropagation(); deleteJob(id); }}, 'Delete'));
+  }
+  li.addEventListener('click', () => { if (j.status === 'succeeded') openResult(id); });
+  return li;
+}
+
 function renderJobs() {
-  const list = $('job-list');
   const ids = [...jobs.keys()].sort().reverse();  // ids sort by creation time
   $('jobs-empty').hidden = ids.length > 0;
   $('jobs-count').textContent = ids.length ? `(${ids.length})` : '';
-  const items = [];
-  for (const id of ids.slice(0, JOB_LIMIT)) {
-    const j = jobs.get(id);
-    const progress = typeof j.progress === 'number' ? j.progress : (j.status === 'succeeded' || j.status === 'failed' ? 1 : 0);
-    const stage = j.status === 'processing' && j.stage ? j.stage : '';
-    const total = j.timings_ms && j.timings_ms.total ? `${(j.timings_ms.total / 1000).toFixed(1)} s` : '';
-    const input = j.input && j.input.width ? `${j.input.frames}×${j.input.width}x${j.input.height}` : '';
-    const li = el('li', {class: `job ${j.status}${id === openJobId ? ' open' : ''}`, dataset: {jobId: id, status: j.status},
-                         tabindex: '0', title: j.status === 'succeeded' ? 'open the result' : ''},
-      el('div', {class: 'job-head'},
-        el('span', {class: 'mono job-id'}, id),
-        el('span', {class: `status status-${j.status}`}, j.status),
-        stage && el('span', {class: 'stage'}, stage)),
-      el('div', {class: 'job-meta muted'},
-        [fmtTime(j.created_ms), j.origin, input, total].filter(Boolean).join(' · ')),
-      el('progress', {max: '1', value: String(progress)}),
-      j.error ? el('div', {class: 'error-text'}, j.error) : null);
-    if (j.status !== 'processing') {
-      li.append(el('button', {type: 'button', class: 'small delete', title: 'delete this job and its files',
-        onclick: (e) => { e.stopPropagation(); deleteJob(id); }}, 'Delete'));
-    }
-    const open = () => { if (j.status === 'succeeded') openResult(id); };
-    li.addEventListener('click', open);
-    li.addEventListener('keydown', (e) => { if (e.key === 'Enter') open(); });
-    items.push(li);
+  // The focused control is found again by its label after the list is rebuilt.
+  const focused = document.activeElement && $('job-list').contains(document.activeElement)
+    ? document.activeElement.getAttribute('aria-label') : null;
+  $('job-list').replaceChildren(...ids.slice(0, JOB_LIMIT).map((id) => jobItem(id, jobs.get(id))));
+  if (focused) {
+    const again = [...$('job-list').querySelectorAll('button')].find((b) => b.getAttribute('aria-label') === focused);
+    if (again) again.focus();
   }
-  list.replaceChildren(...items);
 }
 
 async function deleteJob(id) {
@@ -306,6 +401,7 @@ async function deleteJob(id) {
   try {
     await api(`api/v1/jobs/${id}`, {method: 'DELETE'});
     upsertJob({id, deleted: true});
+    message(`job ${id} deleted`, 'notice');
   } catch (e) {
     showError(`cannot delete ${id}`, e);
   }
@@ -350,8 +446,9 @@ async function eventsLoop() {
         if (done) break;
         parser.push(value);
       }
-      // The server ends each stream after about a minute: reconnect.
-      await sleep(Math.min(retry, 5000));
+      // The server ends each stream after about a minute: reconnect at once
+      // (the list would miss the changes of a pause), after a failure later.
+      await sleep(100);
     } catch (e) {
       if (!ok) {
         await pollFor(e.status === 503 ? 60000 : 20000, e);
@@ -405,13 +502,41 @@ async function trigger(event) {
   }
 }
 
+// POST with the upload's progress (fetch reports none): resolves to the
+// parsed JSON of a 2xx answer, rejects with the ApiError of any other.
+function postWithProgress(path, file, onProgress) {
+  return new Promise((resolve, reject) => {
+    const xhr = new XMLHttpRequest();
+    xhr.open('POST', url(path));
+    xhr.setRequestHeader('Content-Type', 'application/x-tar');
+    if (token()) xhr.setRequestHeader('Authorization', `Bearer ${token()}`);
+    xhr.upload.addEventListener('progress', (e) => { if (e.lengthComputable) onProgress(e.loaded / e.total); });
+    xhr.addEventListener('error', () => reject(new ApiError(0, 'dfsmd cannot be reached', 'the upload was cut off')));
+    xhr.addEventListener('load', () => {
+      let body = {};
+      try { body = JSON.parse(xhr.responseText); } catch { /* not JSON */ }
+      if (xhr.status >= 200 && xhr.status < 300) resolve(body);
+      else reject(new ApiError(xhr.status, body.title || xhr.statusText, body.detail || xhr.responseText.slice(0, 300), body.type));
+    });
+    xhr.send(file);
+  });
+}
+
 async function upload(file) {
   if (!file) return;
-  const note = message(`uploading ${file.name} (${(file.size / 1048576).toFixed(1)} MiB)…`, 'notice');
+  const note = message(`uploading ${file.name} (${(file.size / 1048576).toFixed(1)} MiB)…`, 'notice', {sticky: true});
+  const bar = el('progress', {max: '1', value: '0', 'aria-label': `upload of ${file.name}`});
+  note.querySelector('span').append(bar);
   try {
-    const response = await api('api/v1/jobs', {
-      method: 'POST', headers: {'Content-Type': 'application/x-tar'}, body: file});
-    const job = await response.json();
+    let job;
+    try {
+      job = await postWithProgress('api/v1/jobs', file, (share) => { bar.value = share; });
+    } catch (e) {
+      if (e.status !== 401) throw e;
+      // The server asks for its token: once, then the upload again through api().
+      job = await (await api('api/v1/jobs', {
+        method: 'POST', headers: {'Content-Type': 'application/x-tar'}, body: file})).json();
+    }
     followed.add(job.id);
     upsertJob({progress: 0, created_ms: Date.now(), origin: 'upload', ...job});
     message(`${file.name}: job ${job.id} ${job.status}`, 'notice');
@@ -437,6 +562,7 @@ function bindDrop() {
     overlay.hidden = true;
     for (const f of e.dataTransfer.files) upload(f);
   });
+  $('upload-button').addEventListener('click', () => $('upload-input').click());
   $('upload-input').addEventListener('change', (e) => {
     for (const f of e.target.files) upload(f);
     e.target.value = '';
@@ -449,11 +575,23 @@ function bindDrop() {
 const result = {id: null, depth: null, confidence: null, range: null, viewer: null, generation: 0};
 
 function closeResult() {
+  const id = openJobId;
   openJobId = null;
   result.id = null;
   $('result-panel').hidden = true;
-  scheduleRender();
+  renderJobs();
+  // Back to where the user came from: the job's own control, else the list.
+  const back = [...$('job-list').querySelectorAll('button.open-result')]
+    .find((b) => b.getAttribute('aria-label') === `Open the result of job ${id}`);
+  if (back) back.focus();
 }
+
+const IMAGE_NAMES = {
+  'reference-canvas': 'reference frame',
+  'depth-canvas': 'depth map (colour scale below: far blue, near red)',
+  'confidence-canvas': 'confidence of the depth (bright: confident)',
+  'points-canvas': '3-D point cloud of the depth',
+};
 
 function fileUrl(job, name) {
   return (job.links && job.links.files || []).find((f) => f.endsWith(`/${name}`));
@@ -473,9 +611,13 @@ async function openResult(id) {
   $('result-warnings').replaceChildren();
   $('downloads').replaceChildren();
   $('result-calibration').replaceChildren();
-  $('hover-readout').textContent = 'hover over an image to read the depth at a pixel';
+  $('hover-readout').textContent = 'hover over or touch an image to read the depth at a pixel';
   for (const c of ['reference-canvas', 'depth-canvas', 'confidence-canvas']) delete $(c).dataset.ready;
-  panel.scrollIntoView({behavior: 'smooth', block: 'start'});
+  for (const [canvas, name] of Object.entries(IMAGE_NAMES)) $(canvas).setAttribute('aria-label', `${name} of job ${id}`);
+  // The heading below the sticky header (scroll-margin-top), and the focus
+  // on it, so that keyboard and screen-reader users land on the result.
+  $('result-heading').focus({preventScroll: true});
+  $('result-heading').scrollIntoView({behavior: 'smooth', block: 'start'});
   let job, res;
   try {
     job = await getJson(`api/v1/jobs/${id}`);
@@ -506,6 +648,12 @@ async function openResult(id) {
 function renderSummary(job, res) {
   const parts = [];
   if (res.input) parts.push(`${res.input.frames} frames of ${res.input.width}x${res.input.height}`);
+  // What the burst's motion gave: its parallax, and the precision of the focal length it measured.
+  const detail = res.sparse_detail || {};
+  if (typeof detail.median_track_motion_px === 'number')
+    parts.push(`parallax ${num(detail.median_track_motion_px, 1)} px (median track motion)`);
+  const sigma = res.calibration && res.calibration.uncertainty && res.calibration.uncertainty.sigma_f_percent;
+  if (typeof sigma === 'number') parts.push(`focal length ± ${num(sigma, 2)} %`);
   if (res.depth) parts.push(`${Math.round(100 * (res.depth.valid_fraction || 0))} % of pixels measured, ${res.depth.planes} planes`);
   if (res.depth_outputs && res.depth_outputs.points) parts.push(`${res.depth_outputs.points} points`);
   if (job.timings_ms && job.timings_ms.total) parts.push(`pipeline ${(job.timings_ms.total / 1000).toFixed(2)} s`);
@@ -544,7 +692,8 @@ function calibrationTable(cal, extra = {}) {
   const rows = [
     ['focal length', `${num(cal.fx, 1)} px` + (u.available !== false && u.sigma_f_px != null
       ? ` ± ${num(u.sigma_f_px, 1)} px (${num(u.sigma_f_percent ?? extra.sigma_f_percent, 2)} %)`
-      : extra.sigma_f_percent != null ? ` ± ${num(extra.sigma_f_percent, 2)} %` : '')],
+      : extra.sigma_f_percent != null && typeof cal.fx === 'number'
+        ? ` ± ${num((cal.fx * extra.sigma_f_percent) / 100, 1)} px (${num(extra.sigma_f_percent, 2)} %)` : '')],
     ['principal point', `${num(cal.cx, 1)}, ${num(cal.cy, 1)} px`],
     ['k1', num(cal.k1, 4) + (u.sigma_k1 != null ? ` ± ${num(u.sigma_k1, 4)}` : extra.sigma_k1 != null ? ` ± ${num(extra.sigma_k1, 4)}` : '')],
     ['k2', num(cal.k2, 4) + (u.sigma_k2 != null ? ` ± ${num(u.sigma_k2, 4)}` : extra.sigma_k2 != null ? ` ± ${num(extra.sigma_k2, 4)}` : '')],
@@ -736,6 +885,20 @@ function scheduleCalibration() {
   calibrationTimer = setTimeout(loadCalibration, 300);
 }
 
+// A fusion's history entry in words (its reason, as the daemon logs it,
+// stays in the row's tooltip).
+function historyReason(h, gate) {
+  const chi2 = typeof h.chi2 === 'number' ? `χ² ${num(h.chi2, 2)}` : '';
+  const limit = typeof gate === 'number' ? `, limit ${num(gate, 1)}` : '';
+  switch (h.outcome) {
+    case 'started': return 'the first burst of the fusion';
+    case 'fused': return `agrees with the fusion (${chi2}${limit})`;
+    case 'outlier': return `disagrees with the fusion (${chi2}${limit}): left out`;
+    case 'restarted-after-change': return 'agrees with the burst left out before it: the camera changed, the fusion restarted';
+    default: return h.reason || '';
+  }
+}
+
 async function loadCalibration() {
   const body = $('calibration-body');
   let cal;
@@ -743,12 +906,12 @@ async function loadCalibration() {
     cal = await getJson('api/v1/calibration');
   } catch (e) {
     $('calibration-reset').hidden = true;
-    body.replaceChildren(el('p', {class: 'muted'}, e.status === 404
-      ? 'No calibration yet: it comes with the first job that succeeds.'
-      : `cannot read the calibration: ${e instanceof ApiError ? e.describe() : e.message}`));
+    body.replaceChildren(el('p', {class: 'muted'},
+      `cannot read the calibration: ${e instanceof ApiError ? e.describe() : e.message}`));
     return;
   }
   const parts = [];
+  if (!cal.calibration) parts.push(el('p', {class: 'muted'}, 'No calibration yet: it comes with the first job that succeeds.'));
   if (cal.calibration) {
     const rows = {};
     if (cal.rms_reprojection_px != null) rows['reprojection RMS'] = `${num(cal.rms_reprojection_px, 3)} px`;
@@ -764,7 +927,7 @@ async function loadCalibration() {
     const counts = f.counts ? Object.entries(f.counts).map(([k, v]) => `${k} ${v}`).join(', ') : '';
     const rows = {
       bursts: String(f.bursts ?? '–'),
-      reliable: f.reliable ? 'yes' : 'not yet',
+      reliable: f.reliable ? 'yes' : `not yet${(f.unreliable_reasons || []).length ? `: ${f.unreliable_reasons.join('; ')}` : ''}`,
     };
     if (counts) rows.outcomes = counts;
     const fused = el('div', {class: 'cal-block'},
@@ -784,7 +947,7 @@ async function loadCalibration() {
         el('td', {}, num(h.sigma_f_percent, 2)),
         el('td', {}, h.chi2 == null ? '–' : num(h.chi2, 2)),
         el('td', {}, num(h.fused_f_after, 1)),
-        el('td', {}, h.reason || '')));
+        el('td', {class: 'reason', title: h.reason || ''}, historyReason(h, f.consistency_gate_chi2))));
       parts.push(el('div', {class: 'cal-history'}, el('h3', {}, 'History ', el('span', {class: 'muted'}, 'newest first')),
         el('div', {class: 'table-wrap'}, el('table', {}, el('thead', {}, head), el('tbody', {}, ...rowsEl)))));
     }
@@ -824,7 +987,17 @@ function bindToken() {
   if (token()) $('token-button').hidden = false;
 }
 
+// The sticky header's height as a CSS variable: what scrolled-to headings keep clear of.
+function trackHeaderHeight() {
+  const bar = document.querySelector('header.bar');
+  const set = () => document.documentElement.style.setProperty('--header-height', `${bar.offsetHeight}px`);
+  new ResizeObserver(set).observe(bar);
+  set();
+}
+
 function main() {
+  trackHeaderHeight();
+  bindLiveSettings();
   bindToken();
   bindDrop();
   bindHover();

@@ -1,6 +1,9 @@
 // The 3-D view of points.ply: three.js (vendored, www/vendor/, scripts/vendor-www.sh)
 // with a small orbit of its own: drag rotates about the cloud's centre, the
-// wheel zooms, a double click returns to the reference camera's view.
+// wheel zooms, a double click returns to the reference camera's view. On a
+// touch screen one finger across rotates, one finger up or down scrolls the
+// page (the canvas's touch-action is pan-y, so the viewer never traps it),
+// two fingers pinch to zoom and a double tap returns.
 // Loaded on demand (import() from app.js), so the first page load stays small.
 import * as THREE from './vendor/three.module.min.js';
 
@@ -71,20 +74,43 @@ export class PointViewer {
 
   bindInput() {
     const c = this.canvas;
-    let drag = null;
+    const pointers = new Map();  // pointerId -> {x, y}, the pointers down on the canvas
+    let pinch = 0;               // the two touches' distance at the last move
+    let lastTap = 0;
+    const spread = () => {
+      const [a, b] = [...pointers.values()];
+      return Math.hypot(a.x - b.x, a.y - b.y);
+    };
     c.addEventListener('pointerdown', (e) => {
-      drag = {x: e.clientX, y: e.clientY};
+      pointers.set(e.pointerId, {x: e.clientX, y: e.clientY});
       c.setPointerCapture(e.pointerId);
+      if (pointers.size === 2) pinch = spread();
+      if (e.pointerType === 'touch' && pointers.size === 1) {
+        if (e.timeStamp - lastTap < 300) this.resetView();
+        lastTap = e.timeStamp;
+      }
     });
     c.addEventListener('pointermove', (e) => {
-      if (!drag) return;
-      const dx = e.clientX - drag.x, dy = e.clientY - drag.y;
-      drag = {x: e.clientX, y: e.clientY};
-      this.theta -= dx * 0.008;
-      this.phi = Math.min(Math.PI - 0.05, Math.max(0.05, this.phi - dy * 0.008));
+      const last = pointers.get(e.pointerId);
+      if (!last) return;
+      const dx = e.clientX - last.x, dy = e.clientY - last.y;
+      pointers.set(e.pointerId, {x: e.clientX, y: e.clientY});
+      if (pointers.size === 2) {
+        const now = spread();
+        if (pinch > 0 && now > 0) this.radius *= pinch / now;
+        pinch = now;
+      } else if (pointers.size === 1) {
+        this.theta -= dx * 0.008;
+        // A finger's vertical motion scrolls the page (touch-action: pan-y).
+        if (e.pointerType !== 'touch') this.phi = Math.min(Math.PI - 0.05, Math.max(0.05, this.phi - dy * 0.008));
+      }
       this.requestRender();
     });
-    const end = (e) => { drag = null; if (c.hasPointerCapture(e.pointerId)) c.releasePointerCapture(e.pointerId); };
+    const end = (e) => {
+      pointers.delete(e.pointerId);
+      pinch = pointers.size === 2 ? spread() : 0;
+      if (c.hasPointerCapture(e.pointerId)) c.releasePointerCapture(e.pointerId);
+    };
     c.addEventListener('pointerup', end);
     c.addEventListener('pointercancel', end);
     c.addEventListener('wheel', (e) => {

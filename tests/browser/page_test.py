@@ -39,11 +39,13 @@ a replay source:
      stream taken (4 held by the test): the page asks for the token once, then
      shows the live view with it, falls back to polling (the 5th stream gets
      503) and still follows a job to "succeeded"; the token is kept in
-     sessionStorage and appears in no requested URL.
+     sessionStorage and appears in no requested URL;
+ 12. on a phone (390x844, touch; a third dfsmd replaying a generated 1080p
+     burst): see phone_tests.
 
 Screenshots go to --out (page.png: the whole page with the result open;
 result.png: the result panel; error.png: the 503 message; token.png: the
-token prompt; failure.png on a failure), with console.log (the browser's
+token prompt; phone.png: the phone's screen; failure.png on a failure), with console.log (the browser's
 console) and dfsmd-PORT.log (each dfsmd's output).
 
 Exit status: 0 passed, 1 failed (with the reason), 77 skipped (no Chromium,
@@ -103,10 +105,10 @@ def find_browser():
 class Dfsmd:
     """A dfsmd on a free loopback port (server.port 0; the port from its log line)."""
 
-    def __init__(self, binary, burst, state_dir, extra=('--server.event_stream_s', '4')):
+    def __init__(self, binary, burst, state_dir, extra=('--server.event_stream_s', '4'), burst_timeout_ms=300):
         self.lines = []
         args = [binary, '--capture.source', f'replay:{burst}', '--jobs.state_dir', state_dir,
-                '--server.port', '0', '--pipeline.burst_timeout_ms', '300', *extra]
+                '--server.port', '0', '--pipeline.burst_timeout_ms', str(burst_timeout_ms), *extra]
         log('starting ' + ' '.join(args))
         self.process = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
         self.port = None
@@ -567,6 +569,267 @@ def token_tests(driver, dfsmd, out):
     log(f'token in none of the {len(urls)} URLs the page requested')
 
 
+# Records, every 15 ms, the value of the newest job's progress bar whenever it
+# changes: what a user watching the list sees.
+PROGRESS_RECORDER = """
+window.progressSeen = [];
+window.progressTimer = setInterval(() => {
+  const li = document.querySelector('#job-list li.job');
+  const bar = li && li.querySelector('progress');
+  if (!bar) return;
+  const seen = window.progressSeen, v = Number(bar.value), last = seen[seen.length - 1];
+  if (!last || last.id !== li.dataset.jobId || last.v !== v)
+    seen.push({id: li.dataset.jobId, v, status: li.dataset.status});
+}, 15);
+"""
+
+# The displayed elements a user can reach or needs named, and those of them
+# without an accessible name (images with alt="" are decorative).
+UNNAMED_CANDIDATES = """
+return [...document.querySelectorAll(
+  'img, canvas, button, input:not([type=hidden]), select, textarea, a[href], progress, [role=img], [tabindex]')]
+  .filter(e => e.getClientRects().length > 0 && getComputedStyle(e).visibility !== 'hidden')
+  .filter(e => !(e.tagName === 'IMG' && e.getAttribute('alt') === ''));
+"""
+
+
+def touch(driver, kind, points):
+    driver.execute_cdp_cmd('Input.dispatchTouchEvent', {
+        'type': kind, 'touchPoints': [{'x': x, 'y': y, 'id': i} for i, (x, y) in enumerate(points)]})
+
+
+def touch_gesture(driver, paths, steps=12):
+    """Moves len(paths) fingers along straight paths [((x0, y0), (x1, y1)), ...]."""
+    at = lambda t: [(a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])) for a, b in paths]  # noqa: E731
+    touch(driver, 'touchStart', at(0))
+    for step in range(1, steps + 1):
+        touch(driver, 'touchMove', at(step / steps))
+        time.sleep(0.016)
+    driver.execute_cdp_cmd('Input.dispatchTouchEvent', {'type': 'touchEnd', 'touchPoints': []})
+    time.sleep(0.3)
+
+
+def phone_tests(driver, dfsmd, out):
+    """At 390x844 with touch (issue 58), on a 1080p replay: the page by keyboard
+    (capture and upload reachable by Tab, Enter works them), the progress of a
+    1080p job, no horizontal scroll, every control and image named, the result
+    heading in view and focused, the 3-D view by touch without trapping the
+    page's scrolling, and the live view's rate (none when paused, hidden or
+    while a result is open)."""
+    from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.common.by import By
+    from selenium.webdriver.common.keys import Keys
+
+    js = driver.execute_script
+    find = lambda css: driver.find_element(By.CSS_SELECTOR, css)  # noqa: E731
+    driver.execute_cdp_cmd('Emulation.setDeviceMetricsOverride',
+                           {'width': 390, 'height': 844, 'deviceScaleFactor': 2, 'mobile': True})
+    driver.execute_cdp_cmd('Emulation.setTouchEmulationEnabled', {'enabled': True, 'maxTouchPoints': 5})
+    driver.get(dfsmd.base + '/')
+    js("localStorage.clear(); performance.setResourceTimingBufferSize(100000)")
+    driver.get(dfsmd.base + '/')
+    js("performance.setResourceTimingBufferSize(100000)")
+    wait('a live frame on the phone', lambda: js("const i = document.getElementById('live-image');"
+                                                 "return i.complete && i.naturalWidth > 0"), 30)
+    wait('the event stream on the phone', lambda: find('#connection').text == 'live', 15)
+    view = js("return {w: innerWidth, h: innerHeight, shown: document.getElementById('live-image').naturalWidth}")
+    if view['w'] != 390:
+        raise Failure(f'the phone viewport is {view}, not 390 px wide')
+    if not 16 <= view['shown'] <= 1024:
+        raise Failure(f'the live view on a 390 px screen fetches frames {view["shown"]} px wide; it should ask '
+                      'for about the width it shows, not the 1080p frame')
+    log(f'phone: viewport {view["w"]}x{view["h"]}, live frames {view["shown"]} px wide (of 1920)')
+
+    def snapshots_in(seconds):
+        js("performance.clearResourceTimings()")
+        time.sleep(seconds)
+        return js("return performance.getEntriesByType('resource')"
+                  ".filter(e => e.name.includes('snapshot.jpg')).length")
+
+    def pick_rate(value):
+        js("const s = document.getElementById('live-rate'); s.value = arguments[0];"
+           "s.dispatchEvent(new Event('change'))", value)
+
+    pick_rate('1')
+    slow = snapshots_in(3)
+    pick_rate('0')
+    time.sleep(1.2)
+    paused = snapshots_in(2)
+    pick_rate('15')
+    js("Object.defineProperty(document, 'hidden', {configurable: true, get: () => true});"
+       "document.dispatchEvent(new Event('visibilitychange'))")
+    time.sleep(1.2)
+    hidden = snapshots_in(2)
+    js("delete document.hidden; document.dispatchEvent(new Event('visibilitychange'))")
+    fast = snapshots_in(2)
+    if not (1 <= slow <= 5 and paused == 0 and hidden == 0 and fast >= 6):
+        raise Failure(f'live view requests: {slow} in 3 s at 1 fps, {paused} in 2 s paused, {hidden} in 2 s '
+                      f'hidden, {fast} in 2 s at 15 fps')
+    log(f'live view: {slow} frames in 3 s at 1 fps, {fast} in 2 s at 15 fps, none paused or hidden')
+
+    # Keyboard only: Tab reaches the capture button, then the upload button;
+    # Enter on the upload opens the file chooser (its input's click, stopped
+    # here: headless Chromium has no dialog); Enter on capture triggers.
+    js("document.activeElement.blur(); window.scrollTo(0, 0);"
+       "window.chooserOpened = 0; document.getElementById('upload-input').addEventListener('click',"
+       " (e) => { window.chooserOpened++; e.preventDefault(); });")
+    order = []
+    for _ in range(40):
+        ActionChains(driver).send_keys(Keys.TAB).perform()
+        focused = js("return document.activeElement.id")
+        order.append(focused)
+        if focused == 'upload-button':
+            break
+    if 'trigger-button' not in order or order[-1] != 'upload-button':
+        raise Failure(f'Tab does not reach the capture and upload buttons: {order}')
+    ActionChains(driver).send_keys(Keys.ENTER).perform()
+    wait('the file chooser from Enter on the upload button', lambda: js("return window.chooserOpened") == 1, 5)
+    log(f'keyboard: Tab reaches capture and upload ({len(order)} stops), Enter opens the file chooser')
+
+    js(PROGRESS_RECORDER)
+    ActionChains(driver).key_down(Keys.SHIFT).send_keys(Keys.TAB).key_up(Keys.SHIFT).perform()
+    if js("return document.activeElement.id") != 'trigger-button':
+        raise Failure(f'Shift+Tab from upload lands on {js("return document.activeElement.id")!r}')
+    ActionChains(driver).send_keys(Keys.ENTER).perform()
+    job_id = wait('the 1080p job in the list', lambda: js(
+        "const li = document.querySelector('#job-list li.job'); return li && li.dataset.jobId"), 10, 0.05)
+    wait(f'1080p job {job_id} to succeed', lambda: find(f'#job-list li[data-job-id="{job_id}"] .status')
+         .text.lower() == 'succeeded', 240, 0.25)
+    time.sleep(0.2)
+    seen = [e['v'] for e in js("clearInterval(window.progressTimer); return window.progressSeen")
+            if e['id'] == job_id]
+    steps = [b - a for a, b in zip(seen, seen[1:])]
+    if len(seen) < 8 or any(s <= 0 for s in steps) or max(steps) > 0.35 or seen[-1] != 1:
+        raise Failure(f'progress of the 1080p job as shown: {seen}; it should rise strictly through at least '
+                      '8 values to 1, no step over 0.35')
+    log(f'1080p job {job_id}: progress through {len(seen)} values, largest step {max(steps):.2f}: '
+        + ' '.join(f'{v:.2f}' for v in seen))
+
+    wait('the result to open', lambda: find('#result-id').text == job_id
+         and find('#result-panel').get_attribute('data-ready') == 'true', 60)
+    wait('the result heading in view below the header', lambda: js("""
+      const h = document.getElementById('result-heading').getBoundingClientRect();
+      const bar = document.querySelector('header.bar').getBoundingClientRect();
+      return h.top >= bar.bottom - 1 && h.bottom <= innerHeight;"""), 5)
+    if js("return document.activeElement.id") != 'result-heading':
+        raise Failure(f'focus is on {js("return document.activeElement.id")!r}, not the result heading')
+    wait('the calibration panel on the phone', lambda: 'focal length' in find('#calibration-body').text, 20)
+    time.sleep(0.5)
+    widths = js("return {scroll: document.documentElement.scrollWidth, inner: innerWidth}")
+    if widths['scroll'] > widths['inner']:
+        wide = js("""return [...document.querySelectorAll('body *')].filter(e => e.getBoundingClientRect().right > innerWidth + 1)
+                     .slice(0, 8).map(e => e.tagName + '#' + e.id + '.' + e.className)""")
+        raise Failure(f'the page scrolls sideways at 390 px: {widths}; wider than the screen: {wide}')
+    live_paused = snapshots_in(1.5)
+    if live_paused:
+        raise Failure(f'{live_paused} live frames fetched while a result is open')
+    log(f'result open: heading in view and focused, no sideways scroll ({widths}), live view paused')
+
+    unnamed, named = [], 0
+    for element in js(UNNAMED_CANDIDATES):
+        name = element.accessible_name
+        if name and name.strip():
+            named += 1
+        else:
+            unnamed.append(element.get_attribute('outerHTML')[:120])
+    if unnamed:
+        raise Failure(f'{len(unnamed)} controls or images without an accessible name: {unnamed}')
+    log(f'accessible names: all {named} controls and images named')
+
+    # Touch on the 3-D view: one finger across rotates; one finger up scrolls
+    # the page (the viewer does not trap it); two fingers apart zoom.
+    wait('the 3-D canvas to render', lambda: int(find('#points-canvas').get_attribute('data-rendered') or 0) > 0, 60)
+    js("document.getElementById('points-canvas').scrollIntoView({block: 'center'})")
+    time.sleep(0.5)
+    box = js("const r = document.getElementById('points-canvas').getBoundingClientRect();"
+             "return {x: r.left + r.width / 2, y: r.top + r.height / 2, w: r.width, h: r.height}")
+    background = [0x11, 0x15, 0x1c]
+    before = js(CANVAS_STATS, 'points-canvas', background)
+    x, y = box['x'], box['y']
+    touch_gesture(driver, [((x - 80, y), (x + 80, y))])
+    rotated = js(CANVAS_STATS, 'points-canvas', background)
+    if rotated['hash'] == before['hash']:
+        raise Failure('one finger across the 3-D view does not rotate it')
+    touch_gesture(driver, [((x - 30, y), (x - 110, y)), ((x + 30, y), (x + 110, y))])
+    zoomed = js(CANVAS_STATS, 'points-canvas', background)
+    if zoomed['hash'] == rotated['hash']:
+        raise Failure('two fingers apart on the 3-D view do not zoom it')
+    # A finger down over the viewer: the page scrolls back up (it is scrolled
+    # to the viewer, so it can).
+    scrolled = js("return scrollY")
+    touch_gesture(driver, [((x, y - 100), (x, y + 100))], steps=20)
+    if not 0 < js("return scrollY") < scrolled:
+        raise Failure(f'a finger down over the 3-D view does not scroll the page (scrollY {scrolled} -> '
+                      f'{js("return scrollY")}): the viewer traps it')
+    log(f'touch: one finger rotates, two pinch-zoom, a swipe over the viewer scrolls the page '
+        f'(scrollY {scrolled} -> {js("return scrollY")})')
+    driver.save_screenshot(os.path.join(out, 'phone.png'))
+
+    # Delete by keyboard: the job's Delete button is named for its job; the
+    # calibration that came from it goes from the panel.
+    if job_id not in find('#calibration-body').text:
+        raise Failure(f'the calibration panel does not name job {job_id}: {find("#calibration-body").text!r}')
+    delete = find(f'#job-list button[aria-label="Delete job {job_id}"]')
+    js("arguments[0].focus()", delete)
+    ActionChains(driver).send_keys(Keys.ENTER).perform()
+    wait('the confirmation', lambda: driver.switch_to.alert, 5).accept()
+    wait(f'job {job_id} to leave the list', lambda: not driver.find_elements(
+        By.CSS_SELECTOR, f'#job-list li[data-job-id="{job_id}"]'), 10)
+    # The fusion's history still lists the job; the current calibration is gone.
+    wait('the calibration panel to forget the deleted job', lambda: not js(
+        "return [...document.querySelectorAll('#calibration-body h3 a')].some(a => a.textContent === arguments[0])",
+        job_id) and 'No calibration yet' in find('#calibration-body').text, 10)
+    log(f'keyboard delete of {job_id}: the calibration panel no longer names it')
+
+    # dfsmd gone: the camera's numbers are no longer shown as if current.
+    js("window.scrollTo(0, 0); document.getElementById('result-close').click()")
+    dfsmd.stop()
+    wait('the page to say dfsmd is unreachable', lambda: find('#cam-fps').text == '–'
+         and 'cannot be reached' in find('#live-placeholder').text, 15)
+    log(f'dfsmd stopped: camera numbers cleared, the live view says {find("#live-placeholder").text!r}')
+
+
+def check_console(driver, console, where):
+    problems = console_problems(driver, console)
+    if problems:
+        raise Failure(f'{where}, the browser console shows errors:\n  ' + '\n  '.join(problems))
+
+
+def desktop_tests(driver, args, burst, work, console, daemons):
+    """Parts 1-11: the page at 1400 px on a 320x240 replay, under a prefix, with a token."""
+    dfsmd = Dfsmd(args.dfsmd, burst, os.path.join(work, 'state'))
+    daemons.append(dfsmd)
+    log(f'dfsmd at {dfsmd.base}')
+    page_tests(driver, dfsmd, args.out, burst, work)
+    check_console(driver, console, 'on the page')
+    prefix_tests(driver, dfsmd)
+    check_console(driver, console, 'under the path prefix and the strict CSP')
+    token_file = os.path.join(work, 'token')
+    with open(token_file, 'w') as f:
+        f.write(TOKEN + '\n')
+    os.chmod(token_file, 0o600)
+    token_dfsmd = Dfsmd(args.dfsmd, burst, os.path.join(work, 'state-token'),
+                        ['--server.token_file', token_file])  # streams of the default 60 s
+    daemons.append(token_dfsmd)
+    token_tests(driver, token_dfsmd, args.out)
+    check_console(driver, console, 'with a token')
+
+
+def phone_part(driver, args, work, console, daemons):
+    """Part 12: a third dfsmd replaying a generated 1080p burst."""
+    if not args.dfsm:
+        raise Failure('the phone part needs --dfsm to generate its 1080p burst')
+    burst_1080 = os.path.join(work, 'burst-1080')
+    subprocess.run([args.dfsm, 'synth', '--out', burst_1080, '--frames', '10', '--supersampling', '2'],
+                   check=True, stdout=subprocess.DEVNULL)
+    # 1080p frames take longer to copy out of the ring than the others'
+    # 300 ms allow for ten on a busy machine.
+    dfsmd = Dfsmd(args.dfsmd, burst_1080, os.path.join(work, 'state-phone'), extra=(), burst_timeout_ms=10000)
+    daemons.append(dfsmd)
+    phone_tests(driver, dfsmd, args.out)
+    check_console(driver, console, 'on the phone')
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument('--dfsmd', required=True, help='the dfsmd binary')
@@ -574,17 +837,19 @@ def main():
     parser.add_argument('--dfsm', help='the dfsm tool, to generate a 320x240 10-frame burst when --burst is absent')
     parser.add_argument('--out', required=True, help='directory for screenshots and logs')
     parser.add_argument('--keep', action='store_true', help='keep the temporary state directories')
+    parser.add_argument('--phone-only', action='store_true', help='only the phone part (12)')
     args = parser.parse_args()
 
     chromium, driver_path = find_browser()
     os.makedirs(args.out, exist_ok=True)
     for name in os.listdir(args.out):  # outputs of an earlier run
-        if re.fullmatch(r'(page|result|error|token|failure)\.png|console\.log|dfsmd-\d+\.log', name):
+        if re.fullmatch(r'(page|result|error|token|phone|failure)\.png|console\.log|dfsmd-\d+\.log', name):
             os.remove(os.path.join(args.out, name))
     if not os.access(args.dfsmd, os.X_OK):
         raise Failure(f'--dfsmd {args.dfsmd} is not an executable')
     work = tempfile.mkdtemp(prefix='dfsm-page-test-')
-    dfsmd = token_dfsmd = driver = None
+    driver = None
+    daemons = []
     console = []
     try:
         burst = args.burst
@@ -596,30 +861,11 @@ def main():
                             '--frames', '10'], check=True, stdout=subprocess.DEVNULL)
         if not os.path.exists(os.path.join(burst, 'manifest.json')):
             raise Failure(f'{burst} is not a burst directory (no manifest.json)')
-        dfsmd = Dfsmd(args.dfsmd, burst, os.path.join(work, 'state'))
         driver = start_browser(chromium, driver_path, work)
-        log(f'{driver.capabilities.get("browserName")} {driver.capabilities.get("browserVersion")}, '
-            f'dfsmd at {dfsmd.base}')
-        page_tests(driver, dfsmd, args.out, burst, work)
-        problems = console_problems(driver, console)
-        if problems:
-            raise Failure('the browser console shows errors:\n  ' + '\n  '.join(problems))
-        prefix_tests(driver, dfsmd)
-        problems = console_problems(driver, console)
-        if problems:
-            raise Failure('under the path prefix and the strict CSP, the browser console shows errors:\n  '
-                          + '\n  '.join(problems))
-
-        token_file = os.path.join(work, 'token')
-        with open(token_file, 'w') as f:
-            f.write(TOKEN + '\n')
-        os.chmod(token_file, 0o600)
-        token_dfsmd = Dfsmd(args.dfsmd, burst, os.path.join(work, 'state-token'),
-                            ['--server.token_file', token_file])  # streams of the default 60 s
-        token_tests(driver, token_dfsmd, args.out)
-        problems = console_problems(driver, console)
-        if problems:
-            raise Failure('the browser console shows errors:\n  ' + '\n  '.join(problems))
+        log(f'{driver.capabilities.get("browserName")} {driver.capabilities.get("browserVersion")}')
+        if not args.phone_only:
+            desktop_tests(driver, args, burst, work, console, daemons)
+        phone_part(driver, args, work, console, daemons)
         log('PASS')
         return 0
     except Failure as e:
@@ -637,7 +883,7 @@ def main():
             with open(os.path.join(args.out, 'console.log'), 'w') as f:
                 for entry in console:
                     f.write(f'{entry.get("level")} {entry.get("message")}\n')
-        for d in (dfsmd, token_dfsmd):
+        for d in daemons:
             if d:
                 d.stop()
                 with open(os.path.join(args.out, f'dfsmd-{d.port}.log'), 'w') as f:
