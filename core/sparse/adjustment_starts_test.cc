@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "core/sparse/sparse_layers.h"
+#include "tests/support/rolling_shutter_phone.h"
 #include "tests/support/track_simulator.h"
 
 namespace dfsm {
@@ -21,19 +22,7 @@ namespace {
 
 // A wide phone camera: a rolling shutter whose readout the adjustment
 // estimates (so the readout restarts run) and two focal starts.
-TrackSimulatorOptions PhoneCamera() {
-  TrackSimulatorOptions options;
-  options.width = 640;
-  options.height = 480;
-  options.f = 420.0;
-  options.k1 = -0.05;
-  options.k2 = 0.01;
-  options.rotation_deg = 1.0;
-  options.noise_px = 0.05;
-  options.readout = 0.6;
-  options.seed = 5;
-  return options;
-}
+TrackSimulatorOptions PhoneCamera() { return RollingShutterPhone(420.0, 5); }
 
 TrackSimulation PhoneTracks() { return SimulateTracks(PhoneCamera()); }
 
@@ -44,12 +33,6 @@ TrackSimulation WideLensTracks() {
   camera.f = 0.5 * 640;
   camera.readout = 0.0;
   return SimulateTracks(camera);
-}
-
-SparseOptions EstimatedReadout() {
-  SparseOptions options;
-  options.rolling_shutter.mode = RollingShutterOptions::Mode::kEstimate;
-  return options;
 }
 
 struct Adjusted {
@@ -75,7 +58,7 @@ Adjusted AdjustOn(int threads, const TrackSimulation& sim, const SparseOptions& 
 // give the same bits.
 TEST(AdjustFromStarts, GivesTheSameResultOnOneCoreAsOnTwo) {
   const TrackSimulation sim = PhoneTracks();
-  const SparseOptions options = EstimatedReadout();
+  const SparseOptions options = EstimatingTheReadout();
   const AdjustmentAttempt one = AdjustOn(1, sim, options).attempt;
   const AdjustmentAttempt two = AdjustOn(2, sim, options).attempt;
   // The first adjustment measured a readout, so the readout restarts ran
@@ -116,7 +99,7 @@ TEST(AdjustFromStarts, GivesTheSameResultOnOneCoreAsOnTwo) {
 // the first start is left.
 TEST(AdjustFromStarts, RecordsEveryStartAndWhatBecameOfIt) {
   const TrackSimulation sim = PhoneTracks();
-  const SparseOptions options = EstimatedReadout();
+  const SparseOptions options = EstimatingTheReadout();
   const AdjustmentAttempt solved = AdjustOn(2, sim, options).attempt;
   ASSERT_GE(solved.starts.size(), 5u);  // 2 focal, 1 naive, >= 2 readout
   EXPECT_EQ(solved.starts[0].kind, StartKind::kFocal);
@@ -155,7 +138,7 @@ TEST(AdjustFromStarts, RecordsEveryStartAndWhatBecameOfIt) {
 TEST(AdjustFromStarts, LapsTheFirstStartThenTheOthers) {
   const TrackSimulation sim = PhoneTracks();
   for (const int threads : {1, 2}) {
-    const Adjusted adjusted = AdjustOn(threads, sim, EstimatedReadout());
+    const Adjusted adjusted = AdjustOn(threads, sim, EstimatingTheReadout());
     std::vector<std::string> stages;
     for (const auto& [stage, ms] : adjusted.laps) stages.push_back(stage);
     EXPECT_EQ(stages, (std::vector<std::string>{"rotation", "rank1", "bundle_adjustment",
@@ -171,7 +154,7 @@ TEST(AdjustFromStarts, LapsTheFirstStartThenTheOthers) {
 // the other and leave no core idle: nothing is taken.
 TEST(AdjustFromStarts, TakesUpTheCallersPiecesAndChangesNothing) {
   const TrackSimulation sim = PhoneTracks();
-  const SparseOptions options = EstimatedReadout();
+  const SparseOptions options = EstimatingTheReadout();
   BundleAdjustmentOptions adjust = options.bundle_adjustment;
   adjust.estimate_readout = true;
   const AdjustmentAttempt alone = AdjustOn(2, sim, options).attempt;
@@ -216,7 +199,7 @@ TEST(AdjustFromStarts, TakesUpTheCallersPiecesAndChangesNothing) {
 // left to it.
 TEST(AdjustFromStarts, AKnownCameraStartsFromItself) {
   const TrackSimulation sim = PhoneTracks();
-  SparseOptions options = EstimatedReadout();
+  SparseOptions options = EstimatingTheReadout();
   KnownCalibration known;
   known.camera = sim.camera;
   known.mode = KnownCalibrationMode::kFixed;
@@ -256,7 +239,7 @@ TEST(AdjustFromStarts, TheNaiveProbeLeavesASolutionBothStartsReachAsItWas) {
     TrackSimulatorOptions camera = PhoneCamera();
     camera.seed = seed;
     const TrackSimulation sim = SimulateTracks(camera);
-    SparseOptions options = EstimatedReadout();
+    SparseOptions options = EstimatingTheReadout();
     const AdjustmentAttempt probed = AdjustOn(2, sim, options).attempt;
     options.naive_probe = false;
     const AdjustmentAttempt alone = AdjustOn(2, sim, options).attempt;

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "tests/support/rolling_shutter_phone.h"
 #include "tests/support/track_simulator.h"
 
 namespace dfsm {
@@ -16,25 +17,7 @@ namespace {
 
 // A 640x480 camera with a rolling shutter whose readout the adjustment
 // estimates, under a degree of tremor and 0.05 px of tracking noise.
-TrackSimulatorOptions RollingShutterCamera() {
-  TrackSimulatorOptions options;
-  options.width = 640;
-  options.height = 480;
-  options.f = 520.0;
-  options.k1 = -0.05;
-  options.k2 = 0.01;
-  options.rotation_deg = 1.0;
-  options.noise_px = 0.05;
-  options.readout = 0.6;
-  options.seed = 3;
-  return options;
-}
-
-SparseOptions ReadoutEstimated() {
-  SparseOptions options;
-  options.rolling_shutter.mode = RollingShutterOptions::Mode::kEstimate;
-  return options;
-}
+TrackSimulatorOptions RollingShutterCamera() { return RollingShutterPhone(520.0, 3); }
 
 // The message of the std::invalid_argument that ReconstructFromTracks throws
 // for `options`, or "no error".
@@ -71,12 +54,12 @@ TEST(SparseOptions, AnOptionOutOfItsRangeIsRefusedByName) {
       {"bootstrap replicas", [](SparseOptions* o) { o->bootstrap.replicas = -1; }},
   };
   for (const auto& [name, spoil] : cases) {
-    SparseOptions options = ReadoutEstimated();
+    SparseOptions options = EstimatingTheReadout();
     spoil(&options);
     EXPECT_NE(Refusal(sim, options).find(name), std::string::npos)
         << name << ": " << Refusal(sim, options);
   }
-  EXPECT_EQ(Refusal(sim, ReadoutEstimated()), "no error");
+  EXPECT_EQ(Refusal(sim, EstimatingTheReadout()), "no error");
 }
 
 // The whole stage on simulated tracks: the camera, the readout and the
@@ -86,7 +69,7 @@ TEST(SparseOptions, AnOptionOutOfItsRangeIsRefusedByName) {
 TEST(ReconstructFromTracks, CalibratesARollingShutterCameraFromItsTracks) {
   const TrackSimulation sim = SimulateTracks(RollingShutterCamera());
   const SparseReconstruction sparse =
-      ReconstructFromTracks(sim.tracks, 640, 480, ReadoutEstimated());
+      ReconstructFromTracks(sim.tracks, 640, 480, EstimatingTheReadout());
   EXPECT_EQ(sparse.calibration_used, CalibrationSource::kSelf);
   EXPECT_NEAR(sparse.state.camera.f, sim.camera.f, 0.03 * sim.camera.f);
   EXPECT_NEAR(sparse.state.readout, 0.6, 0.1);
@@ -114,7 +97,7 @@ TEST(ReconstructFromTracks, CalibratesARollingShutterCameraFromItsTracks) {
 // check says so in the verdict and a warning, and never calls it reliable.
 TEST(ReconstructFromTracks, AKnownCameraThatDoesNotFitIsSaidSo) {
   const TrackSimulation sim = SimulateTracks(RollingShutterCamera());
-  SparseOptions options = ReadoutEstimated();
+  SparseOptions options = EstimatingTheReadout();
   options.known.emplace();
   options.known->camera = sim.camera;
   options.known->camera.f *= 1.15;
@@ -140,7 +123,7 @@ TEST(ReconstructFromTracks, TooFewTracksAreCounted) {
   TrackSimulatorOptions camera = RollingShutterCamera();
   camera.tracks = 12;
   try {
-    ReconstructFromTracks(SimulateTracks(camera).tracks, 640, 480, ReadoutEstimated());
+    ReconstructFromTracks(SimulateTracks(camera).tracks, 640, 480, EstimatingTheReadout());
     FAIL() << "12 tracks were adjusted";
   } catch (const ReconstructionError& e) {
     EXPECT_NE(std::string(e.what()).find("too few tracks: 12 (need >= 20)"), std::string::npos)
