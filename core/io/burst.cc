@@ -188,8 +188,15 @@ cv::Mat ToGray8(const cv::Mat& frame) {
 }
 
 Burst ReadBurst(const fs::path& burst_dir, const ReadBurstOptions& options) {
+  return ReadBurstFrames(burst_dir, ReadBurstManifest(burst_dir), options,
+                         (burst_dir / "manifest.json").string(), "the manifest says");
+}
+
+Burst ReadBurstFrames(const fs::path& burst_dir, BurstManifest listed,
+                      const ReadBurstOptions& options, const std::string& origin,
+                      const std::string& size_origin) {
   Burst burst;
-  burst.manifest = ReadBurstManifest(burst_dir);
+  burst.manifest = std::move(listed);
   BurstManifest& manifest = burst.manifest;
 
   if (options.max_frames > 0 && options.max_frames < static_cast<int>(manifest.frames.size())) {
@@ -212,8 +219,7 @@ Burst ReadBurst(const fs::path& burst_dir, const ReadBurstOptions& options) {
   const auto read_frame = [&](size_t i) {
     std::error_code ec;
     const std::string& file = manifest.frames[i].file;
-    const std::string where = (burst_dir / "manifest.json").string() + ": frames[" +
-                              std::to_string(i) + "] '" + file + "'";
+    const std::string where = origin + ": frames[" + std::to_string(i) + "] '" + file + "'";
     const fs::path relative(file);
     const fs::path path = burst_dir / relative;
     // Reject both lexical escapes ("../x", "/etc/x") and symlinks that lead out.
@@ -235,7 +241,7 @@ Burst ReadBurst(const fs::path& burst_dir, const ReadBurstOptions& options) {
       const ImageHeader header = ReadImageHeader(bytes);
       if (header.width != manifest.width || header.height != manifest.height)
         throw BurstError(where + ": frame is " + std::to_string(header.width) + "x" +
-                         std::to_string(header.height) + ", the manifest says " +
+                         std::to_string(header.height) + ", " + size_origin + " " +
                          std::to_string(manifest.width) + "x" + std::to_string(manifest.height));
       frame = DecodeImage(bytes, kFrameLimits);
     } catch (const ImageDecodeError& e) {

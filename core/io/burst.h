@@ -74,6 +74,11 @@ struct ReadBurstOptions {
 // Reads a burst directory: validates the manifest, checks that every frame lies
 // inside the directory, decodes it and checks its size. Throws BurstError.
 Burst ReadBurst(const std::filesystem::path& burst_dir, const ReadBurstOptions& options = {});
+// The frames `manifest` lists, read from `dir` as ReadBurst reads them;
+// errors name `origin` (the listing) and say "frame is WxH, <size_origin> ...".
+Burst ReadBurstFrames(const std::filesystem::path& dir, BurstManifest manifest,
+                      const ReadBurstOptions& options, const std::string& origin,
+                      const std::string& size_origin);
 
 // Converts a decoded frame (8/16-bit, 1/3/4 channels) to 8-bit gray.
 cv::Mat ToGray8(const cv::Mat& frame);

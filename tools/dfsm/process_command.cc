@@ -1,17 +1,45 @@
-// dfsm process BURST --out DIR: the whole pipeline on a recorded burst.
+// dfsm process INPUT --out DIR: the whole pipeline on a recorded burst, a
+// folder of images or a glob of them.
 #include <cstdio>
+#include <filesystem>
 #include <opencv2/core/utility.hpp>
 
 #include "core/export/calibration_import.h"
+#include "core/io/image_sequence.h"
 #include "core/pipeline/pipeline.h"
 #include "tools/dfsm/command.h"
 #include "tools/dfsm/command_line.h"
 
 namespace dfsm::tools {
+namespace {
+
+// The burst `input` names: a dfsm-burst/1 directory (its --frames centred on
+// the reference), else a folder or glob of images (--start, then --frames).
+Burst ReadInput(const std::string& input, int start, int frames) {
+  std::error_code error;
+  if (std::filesystem::is_regular_file(input, error))
+    throw BurstError("'" + input +
+                     "' is a file; give a dfsm-burst/1 directory, a folder of PNG or JPEG images, "
+                     "or a glob of them (a video: extract its frames first, e.g. ffmpeg -i " +
+                     input + " frames/%04d.png)");
+  if (!IsImageSequence(input)) {
+    if (start > 0) throw BurstError("--start is for a folder or glob of images, not a burst");
+    ReadBurstOptions read;
+    read.max_frames = frames;
+    return ReadBurst(input, read);
+  }
+  ImageSequenceOptions sequence;
+  sequence.start = start;
+  sequence.frames = frames;
+  return ReadImageSequence(input, sequence);
+}
+
+}  // namespace
 
 int RunProcessCommand(const Args& args) {
   CLI::App app(
-      "Runs the pipeline on a dfsm-burst/1 directory and writes a dfsm-result/1 "
+      "Runs the pipeline on a dfsm-burst/1 directory, a folder of images or a glob of them, and "
+      "writes a dfsm-result/1 "
       "directory.",
       "dfsm process");
   app.footer(
@@ -21,10 +49,13 @@ int RunProcessCommand(const Args& args) {
   std::string rolling_shutter = kDefaultRollingShutter, calibration_file;
   std::string calibration_mode = KnownCalibrationModeName(KnownCalibrationMode::kPrior);
   PipelineOptions options;
-  ReadBurstOptions read_options;
+  int frames = 0, start = 0;
   bool no_dense = false;
   int threads = 0;
-  app.add_option("BURST", burst_dir, "a dfsm-burst/1 directory")->required();
+  app.add_option("INPUT", burst_dir,
+                 "a dfsm-burst/1 directory, a folder of PNG or JPEG images (in name order, "
+                 "numbers compared as numbers) or a glob of them ('clip/*.jpg', quoted)")
+      ->required();
   app.add_option("--out", out_dir, "result directory (dfsm-result/1); created when missing")
       ->required();
   app.add_option("--init", init,
@@ -32,9 +63,14 @@ int RunProcessCommand(const Args& args) {
                  "keeps the one that fits every track better)")
       ->check(CLI::IsMember({InitModeName(InitMode::kRankOne), InitModeName(InitMode::kNaive)}))
       ->capture_default_str();
-  app.add_option("--frames", read_options.max_frames,
-                 "use N consecutive frames centred on the reference (0: all)")
+  app.add_option("--frames", frames,
+                 "use N consecutive frames: of a burst centred on its reference, of images "
+                 "from --start (0: all)")
       ->check(FrameCount());
+  app.add_option("--start", start,
+                 "images only: skip this many first (the first read is the "
+                 "reference)")
+      ->check(CLI::NonNegativeNumber);
   app.add_option("--grid", options.sparse.features.cell_px,
                  "feature cell size, pixels (0: 80 px at 1080p, scaled)")
       ->check(CLI::Range(0, GridedFeatureOptions::kMaxCellPx));
@@ -77,7 +113,7 @@ int RunProcessCommand(const Args& args) {
 
   Burst burst;
   try {
-    burst = ReadBurst(burst_dir, read_options);
+    burst = ReadInput(burst_dir, start, frames);
   } catch (const BurstError& e) {
     std::fprintf(stderr, "dfsm process: %s\n", e.what());
     return 1;
