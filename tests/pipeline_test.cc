@@ -194,6 +194,15 @@ TEST(Pipeline, WritesACompleteResultDirectory) {
   EXPECT_EQ(result["depth"]["planes"], 128);
   for (const char* stage : {"features", "rotation", "rank1", "bundle_adjustment", "dense", "total"})
     EXPECT_TRUE(result["timings_ms"].contains(stage)) << stage;
+  // The parallax: the tracks' motion less the rotation's share.
+  const nlohmann::json& parallax = result["parallax"];
+  EXPECT_GT(parallax["median_px"].get<double>(), 0.5) << parallax;
+  EXPECT_LT(parallax["median_px"].get<double>(),
+            result["sparse_detail"]["median_track_motion_px"].get<double>())
+      << parallax;
+  EXPECT_GE(parallax["p90_px"].get<double>(), parallax["median_px"].get<double>());
+  EXPECT_GT(parallax["baseline_over_depth"].get<double>(), 0.0);
+  EXPECT_GT(parallax["relative_depth_sigma"].get<double>(), 0.0);
   // The starts decided on: one record each, exactly one of the first three
   // (two focal starts and the naive probe) chosen, its kind and start named.
   const nlohmann::json& starts = result["sparse_detail"]["starts"];

@@ -649,9 +649,10 @@ function renderSummary(job, res) {
   const parts = [];
   if (res.input) parts.push(`${res.input.frames} frames of ${res.input.width}x${res.input.height}`);
   // What the burst's motion gave: its parallax, and the precision of the focal length it measured.
-  const detail = res.sparse_detail || {};
-  if (typeof detail.median_track_motion_px === 'number')
-    parts.push(`parallax ${num(detail.median_track_motion_px, 1)} px (median track motion)`);
+  const parallax = res.parallax || {};
+  if (typeof parallax.median_px === 'number')
+    parts.push(`parallax ${num(parallax.median_px, 1)} px (rotation taken out)` +
+      (parallax.relative_depth_sigma > 0 ? `, depth ± ${num(100 * parallax.relative_depth_sigma, 1)} % per track` : ''));
   const sigma = res.calibration && res.calibration.uncertainty && res.calibration.uncertainty.sigma_f_percent;
   if (typeof sigma === 'number') parts.push(`focal length ± ${num(sigma, 2)} %`);
   if (res.depth) parts.push(`${Math.round(100 * (res.depth.valid_fraction || 0))} % of pixels measured, ${res.depth.planes} planes`);

@@ -19,6 +19,7 @@
 #include "core/parallel/shared_work.h"
 #include "core/pipeline/depth_check.h"
 #include "core/pipeline/repeated_frames.h"
+#include "core/sparse/parallax.h"
 
 namespace dfsm {
 namespace {
@@ -296,6 +297,12 @@ void RecordSparseDetail(const Burst& burst, const SparseReconstruction& sparse,
       {"rank1_rms_residual_px", sparse.rank_one.rms_residual_px},
       {"median_track_motion_px", sparse.tracks.MedianMaxDisplacement()},
       {"starts", StartsJson(sparse.starts)}};
+  const Parallax parallax = MeasureParallax(sparse.tracks, sparse.inliers, sparse.state,
+                                            sparse.bundle_adjustment.rms_reprojection_px);
+  result->extra["parallax"] = {{"median_px", parallax.median_px},
+                               {"p90_px", parallax.p90_px},
+                               {"baseline_over_depth", parallax.baseline_over_depth},
+                               {"relative_depth_sigma", parallax.relative_depth_sigma}};
 }
 
 // The dense stage over the sparse stage's camera, poses and readout: the
