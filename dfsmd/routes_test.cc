@@ -67,8 +67,14 @@ TEST_F(RoutesTest, UnknownJobsFilesAndPathTricksAreProblems) {
   ExpectProblem(client_->Get(("/api/v1/jobs/" + id + "/../../jobs").c_str()), 404);
   ExpectProblem(client_->Get(("/api/v1/jobs/" + id + "/result.json").c_str()), 409);
   ExpectProblem(client_->Get("/api/v1/nothing"), 404);
-  ExpectProblem(client_->Get("/api/v1/calibration"), 404);
+  // No calibration before a job has succeeded is a state, not a problem.
+  const auto calibration = client_->Get("/api/v1/calibration");
+  ASSERT_TRUE(calibration);
+  EXPECT_EQ(calibration->status, 200);
+  EXPECT_TRUE(nlohmann::json::parse(calibration->body)["calibration"].is_null())
+      << calibration->body;
   ExpectProblem(client_->Get("/api/v1/snapshot.jpg"), 503);
+  ExpectProblem(client_->Get("/api/v1/snapshot.jpg?width=8"), 400);
   EXPECT_NE(ExpectProblem(client_->Get("/readyz"), 503).find("no capture source"),
             std::string::npos);
   EXPECT_EQ(client_->Get("/healthz")->status, 200);
