@@ -22,18 +22,6 @@ namespace {
 // burst is uploaded).
 const ImageDecodeLimits kFrameLimits;
 
-// The decoder's reason, with "unreadable or not an image" kept for the frames
-// that are no image or a damaged one, as before image_decode existed.
-std::string DescribeDecodeError(const ImageDecodeError& e) {
-  switch (e.reason()) {
-    case ImageDecodeError::Reason::kNotAnImage:
-    case ImageDecodeError::Reason::kCorrupt:
-      return std::string("unreadable or not an image (") + e.what() + ")";
-    default:
-      return e.what();
-  }
-}
-
 int RequirePositiveInt(const nlohmann::json& j, const char* key, const std::string& origin) {
   if (!j.contains(key)) throw BurstError(origin + ": required field '" + key + "' is missing");
   if (!j[key].is_number_integer() || j[key].get<int64_t>() <= 0 || j[key].get<int64_t>() > 65535)
@@ -245,7 +233,7 @@ Burst ReadBurstFrames(const fs::path& burst_dir, BurstManifest listed,
                          std::to_string(manifest.width) + "x" + std::to_string(manifest.height));
       frame = DecodeImage(bytes, kFrameLimits);
     } catch (const ImageDecodeError& e) {
-      throw BurstError(where + ": " + DescribeDecodeError(e));
+      throw BurstError(where + ": " + e.Describe());
     }
     if (frame.channels() != 1 && frame.channels() != 3 && frame.channels() != 4)
       throw BurstError(where + ": " + std::to_string(frame.channels()) +

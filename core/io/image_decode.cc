@@ -280,4 +280,14 @@ cv::Mat ReadImageFile(const std::filesystem::path& path, const ImageDecodeLimits
   }
 }
 
+std::string ImageDecodeError::Describe() const {
+  switch (reason_) {
+    case Reason::kNotAnImage:
+    case Reason::kCorrupt:
+      return std::string("unreadable or not an image (") + what() + ")";
+    default:
+      return what();
+  }
+}
+
 }  // namespace dfsm

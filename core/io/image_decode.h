@@ -38,6 +38,10 @@ class ImageDecodeError : public std::runtime_error {
 
   Reason reason() const { return reason_; }
 
+  // The reason for a user: "unreadable or not an image (...)" for a file that
+  // is no image or a damaged one, the decoder's message otherwise.
+  std::string Describe() const;
+
  private:
   Reason reason_;
 };

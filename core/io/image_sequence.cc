@@ -56,7 +56,7 @@ BurstManifest ManifestOf(const std::vector<fs::path>& images, const fs::path& di
     manifest.width = static_cast<int>(header.width);
     manifest.height = static_cast<int>(header.height);
   } catch (const ImageDecodeError& e) {
-    throw BurstError(images.front().string() + ": " + DescribeDecodeError(e));
+    throw BurstError(images.front().string() + ": " + e.Describe());
   }
   manifest.pixel_format = "bgr8";
   for (size_t i = 0; i < images.size(); ++i) {
@@ -93,9 +93,12 @@ std::vector<fs::path> ListImageSequence(const std::string& input) {
   if (!fs::is_directory(dir, error))
     throw BurstError("'" + dir.string() + "' is not a directory of images");
   std::vector<fs::path> images;
-  for (const fs::directory_entry& entry : fs::directory_iterator(dir, error)) {
-    const fs::path& file = entry.path();
-    if (!entry.is_regular_file(error) || !IsImageFile(file)) continue;
+  // increment(error), not ++: a directory that fails mid-listing is a
+  // BurstError like the rest, not a filesystem_error.
+  for (fs::directory_iterator it(dir, error), end; !error && it != end; it.increment(error)) {
+    const fs::path& file = it->path();
+    std::error_code type_error;
+    if (!it->is_regular_file(type_error) || !IsImageFile(file)) continue;
     if (glob && fnmatch(path.filename().c_str(), file.filename().c_str(), 0) != 0) continue;
     images.push_back(file);
   }
