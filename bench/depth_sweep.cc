@@ -106,8 +106,7 @@ DepthSweepOutcome RunDepthSweepBurst(const SynthOptions& settings, const std::st
     outcome.error = output.result.error;
     return outcome;
   }
-  outcome.sparse =
-      EvaluateSparse(output.sparse->state.camera, output.sparse->state.poses, synth.truth);
+  outcome.sparse = EvaluateSparse(output.sparse->state.camera, output.result.poses, synth.truth);
   const cv::Mat textured = TexturedMask(burst.gray[burst.reference()]);
   outcome.measured = EvaluateDepth(output.dense->depth, synth.truth.depth, textured);
   outcome.filled = EvaluateDepth(output.dense->depth_filled, synth.truth.depth, textured);

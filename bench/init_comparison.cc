@@ -109,7 +109,12 @@ int main(int argc, char** argv) {
           run.iterations = sparse.runs.front().iterations;  // from the initialization
           for (const auto& [stage, ms] : sparse.timings_ms)
             if (stage == "bundle_adjustment") run.ba_ms = ms;
-          run.errors = EvaluateSparse(sparse.state.camera, sparse.state.poses, burst.truth);
+          // The poses are those of the frames the tracks run through.
+          GroundTruth truth = burst.truth;
+          truth.poses.clear();
+          for (const int i : sparse.feature_stats.kept_frames)
+            truth.poses.push_back(burst.truth.poses[i]);
+          run.errors = EvaluateSparse(sparse.state.camera, sparse.state.poses, truth);
           line["errors"] = ToJson(run.errors);
           line["termination"] = sparse.bundle_adjustment.termination;
         } catch (const ReconstructionError& e) {

@@ -128,6 +128,8 @@ int main(int argc, char** argv) {
     bool confirmed = false;
     double relief_sigma = -1.0;  // the depth check's: the camera's noise on the relief
     std::string known_fit;       // "fits" | "does not fit" | "" (no calibration checked)
+    bool ok = false;
+    int frames_left_out = 0;  // by the tracker (result.json's untracked_frames)
   };
   std::vector<Row> rows;
   for (int first = start; first + frames <= sequence.frames(); first += step) {
@@ -152,6 +154,9 @@ int main(int argc, char** argv) {
               false, -1.0, ""};
       nlohmann::json line = {{"first", first}, {"frames", frames}, {"mode", mode}};
       if (output.result.ok && output.dense) {
+        row.ok = true;
+        row.frames_left_out = static_cast<int>(
+            output.result.extra.value("untracked_frames", nlohmann::json::array()).size());
         row.score = EvaluateDepth(output.dense->depth, truth, cv::Mat());
         if (!output.dense->depth_filled.empty())
           row.filled = EvaluateDepth(output.dense->depth_filled, truth, cv::Mat());
@@ -206,30 +211,44 @@ int main(int argc, char** argv) {
   std::printf(
       "\n| window | mode | f (px) | verdict | AbsRel | within 5 %% | within 25 %% | coverage | "
       "filled: AbsRel | filled: within 25 %% | filled: coverage | constant AbsRel | depth check "
-      "| relief sigma | known calibration |\n"
-      "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
-  for (const Row& r : rows)
+      "| relief sigma | known calibration | frames left out |\n"
+      "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+  for (const Row& r : rows) {
+    if (!r.ok) {
+      std::printf("| %d-%d | %s | failed |||||||||| %.1f %% |||||\n", r.first, r.first + frames - 1,
+                  r.mode.c_str(), 100.0 * r.constant.abs_rel);
+      continue;
+    }
     std::printf(
         "| %d-%d | %s | %.0f | %s | %.1f %% | %.1f %% | %.1f %% | %.1f %% | %.1f %% | %.1f %% | "
-        "%.1f %% | %.1f %% | %s (%.1f %%) | %.1f %% | %s |\n",
+        "%.1f %% | %.1f %% | %s (%.1f %%) | %.1f %% | %s | %d |\n",
         r.first, r.first + frames - 1, r.mode.c_str(), r.f, r.quality.c_str(),
         100.0 * r.score.abs_rel, 100.0 * r.score.within_5_percent,
         100.0 * r.score.within_25_percent, 100.0 * r.score.coverage, 100.0 * r.filled.abs_rel,
         100.0 * r.filled.within_25_percent, 100.0 * r.filled.coverage, 100.0 * r.constant.abs_rel,
         r.confirmed ? "confirmed" : "warned", 100.0 * r.disagreement, 100.0 * r.relief_sigma,
-        r.known_fit.empty() ? "-" : r.known_fit.c_str());
+        r.known_fit.empty() ? "-" : r.known_fit.c_str(), r.frames_left_out);
+  }
+  // Over the windows with a result: a failed window has no score to count.
   for (const std::string mode : {"known", "self"}) {
     std::vector<double> abs_rel, filled, filled_within_25;
-    for (const Row& r : rows)
-      if (r.mode == mode) {
+    int windows = 0, better = 0;
+    for (const Row& r : rows) {
+      if (r.mode != mode) continue;
+      ++windows;
+      if (r.ok) {
+        better += r.score.abs_rel < r.constant.abs_rel;
         abs_rel.push_back(r.score.abs_rel);
         filled.push_back(r.filled.abs_rel);
         filled_within_25.push_back(r.filled.within_25_percent);
       }
+    }
     if (!abs_rel.empty())
-      std::printf("median, %s: AbsRel %.1f %%; filled: AbsRel %.1f %%, within 25 %% %.1f %%\n",
-                  mode.c_str(), 100.0 * WindowMedian(abs_rel), 100.0 * WindowMedian(filled),
-                  100.0 * WindowMedian(filled_within_25));
+      std::printf(
+          "median, %s: %zu of %d windows with a result, %d better than a constant; AbsRel %.1f "
+          "%%; filled: AbsRel %.1f %%, within 25 %% %.1f %%\n",
+          mode.c_str(), abs_rel.size(), windows, better, 100.0 * WindowMedian(abs_rel),
+          100.0 * WindowMedian(filled), 100.0 * WindowMedian(filled_within_25));
   }
   return 0;
 }

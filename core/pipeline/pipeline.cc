@@ -18,6 +18,7 @@
 #include "core/parallel/parallel_for.h"
 #include "core/parallel/shared_work.h"
 #include "core/pipeline/depth_check.h"
+#include "core/pipeline/frame_selection.h"
 #include "core/pipeline/repeated_frames.h"
 #include "core/sparse/parallax.h"
 
@@ -75,23 +76,16 @@ std::vector<ColoredPoint> SparsePointCloud(const SparseReconstruction& sparse,
 // frames went.
 struct DistinctFrames {
   DistinctFrames(const Burst& all, const std::vector<int>& repeats) {
-    std::vector<int> stage_of(all.size(), -1);
-    burst = all;
-    burst.gray.clear();
-    burst.manifest.frames.clear();
-    burst.source_indices.clear();
-    const std::vector<int> indices = all.frame_indices();
+    std::vector<int> stage_of(all.size(), -1), distinct;
     for (int i = 0; i < all.size(); ++i) {
       if (repeats[i] >= 0) {
         left_out.push_back({{"frame", i}, {"repeats", repeats[i]}});
         continue;
       }
-      stage_of[i] = burst.size();
-      if (i == all.reference()) burst.manifest.reference = burst.size();
-      burst.gray.push_back(all.gray[i]);
-      burst.manifest.frames.push_back(all.manifest.frames[i]);
-      if (!all.source_indices.empty()) burst.source_indices.push_back(indices[i]);
+      stage_of[i] = static_cast<int>(distinct.size());
+      distinct.push_back(i);
     }
+    burst = SelectFrames(all, distinct);
     for (int i = 0; i < all.size(); ++i)
       stage_index.push_back(repeats[i] >= 0 ? stage_of[repeats[i]] : stage_of[i]);
     times = CaptureTimes(burst.manifest);
@@ -100,11 +94,62 @@ struct DistinctFrames {
       for (int i = 0; i < all.size(); ++i)
         if (repeats[i] < 0) times.push_back(static_cast<double>(i));
   }
-  Burst burst;                   // what the stages see
-  std::vector<int> stage_index;  // per caller's frame: its (or its original's) index in `burst`
-  std::vector<double> times;     // `burst`'s capture times (io/frame_times.h)
+  // The capture time of `burst`'s frame i: its place where the manifest says
+  // nothing of time.
+  double Time(int i) const { return times.empty() ? static_cast<double>(i) : times[i]; }
+
+  Burst burst;  // what the stages see
+  // Per caller's frame: its (or its original's) index in `burst`.
+  std::vector<int> stage_index;
+  std::vector<double> times;                          // `burst`'s capture times (io/frame_times.h)
   nlohmann::json left_out = nlohmann::json::array();  // {"frame", "repeats"} per repeat
 };
+
+// The sparse stage's pose of each of `distinct.burst`'s frames: a frame the
+// tracker left out takes the one at its capture time between the kept ones
+// (frame_selection.h).
+std::vector<Pose> DistinctFramePoses(const SparseReconstruction& sparse,
+                                     const DistinctFrames& distinct) {
+  const std::vector<int>& kept = sparse.feature_stats.kept_frames;
+  if (kept.empty() || sparse.feature_stats.left_out.empty()) return sparse.state.poses;
+  std::vector<double> kept_times;
+  for (const int i : kept) kept_times.push_back(distinct.Time(i));
+  std::vector<Pose> poses;
+  for (int i = 0, k = 0; i < distinct.burst.size(); ++i) {
+    if (k < static_cast<int>(kept.size()) && kept[k] == i)
+      poses.push_back(sparse.state.poses[k++]);
+    else
+      poses.push_back(PoseAtTime(kept_times, sparse.state.poses, distinct.Time(i)));
+  }
+  return poses;
+}
+
+// The frames the tracker left out (GridedFeatureOptions::max_frame_track_loss),
+// by the caller's index (with the frames that repeat them), each warned of.
+void RecordUntrackedFrames(const SparseReconstruction& tracked, const DistinctFrames& distinct,
+                           Result* result) {
+  const GridedFeatureStats& stats = tracked.feature_stats;
+  if (stats.left_out.empty()) return;
+  nlohmann::json frames = nlohmann::json::array();
+  std::string listed;
+  for (const GridedFeatureStats::LeftOut& left : stats.left_out)
+    for (size_t i = 0; i < distinct.stage_index.size(); ++i) {
+      if (distinct.stage_index[i] != left.frame) continue;
+      frames.push_back({{"frame", i},
+                        {"tracks_without", left.tracks_without},
+                        {"tracks_with", left.tracks_with},
+                        {"pose", "interpolated"}});
+      listed += (listed.empty() ? "" : ", ") + std::to_string(i) + " (tracks " +
+                std::to_string(left.tracks_without) + " -> " + std::to_string(left.tracks_with) +
+                ")";
+    }
+  result->extra["untracked_frames"] = frames;
+  result->warnings.push_back(
+      std::to_string(frames.size()) + " frame" + (frames.size() > 1 ? "s" : "") +
+      " left out: the tracker lost most tracks there (blur or a jolt); keeping each would have "
+      "cut the tracks every other frame shares, frame " +
+      listed + "; the pose of a frame left out is interpolated in time, and its image is not used");
+}
 
 // A per-stage-frame list as the caller's frames see it (a repeat shows its
 // original's value).
@@ -280,8 +325,8 @@ void RecordSparseWarnings(const Burst& burst, const SparseReconstruction& sparse
 // original's), adjustment, tracks and timings, and its sparse_detail.
 void RecordSparseDetail(const Burst& burst, const SparseReconstruction& sparse,
                         const DistinctFrames& distinct, Result* result) {
-  for (int i = 0; i < burst.size(); ++i)
-    result->poses.push_back(sparse.state.poses[distinct.stage_index[i]]);
+  const std::vector<Pose> poses = DistinctFramePoses(sparse, distinct);
+  for (int i = 0; i < burst.size(); ++i) result->poses.push_back(poses[distinct.stage_index[i]]);
   result->bundle_adjustment = sparse.bundle_adjustment;
   result->bundle_adjustment.runs = sparse.runs;
   result->features =
@@ -385,12 +430,19 @@ PipelineOutput RunPipeline(const Burst& burst, const PipelineOptions& given,
     RecordRepeatedFrames(distinct, &result);
     Burst compensated = distinct.burst;
     CompensateBurstExposure(burst, distinct, options, &compensated, &sparse_options, &result);
+    SparseReconstruction tracked =
+        TrackForSparse(compensated.gray, compensated.reference(), sparse_options);
+    RecordUntrackedFrames(tracked, distinct, &result);
+    // The later stages see the frames the tracks run through.
+    if (!tracked.feature_stats.left_out.empty())
+      compensated = SelectFrames(compensated, tracked.feature_stats.kept_frames);
     std::optional<DenseFramesMaker> frames_maker;
     std::optional<SharedWork> frames_work;
     if (options.run_dense)
       StartDenseFrames(compensated, options.dense, &frames_maker, &frames_work);
-    output.sparse = ReconstructSparse(compensated.gray, compensated.reference(), sparse_options,
-                                      frames_work ? &*frames_work : nullptr);
+    output.sparse =
+        ReconstructTracked(std::move(tracked), compensated.width(), compensated.height(),
+                           sparse_options, frames_work ? &*frames_work : nullptr);
     const SparseReconstruction& sparse = *output.sparse;
     RecordCalibrationDetail(sparse, sparse_options, &result);
     RecordSparseWarnings(burst, sparse, sparse_options, &result);

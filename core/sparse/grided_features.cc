@@ -30,6 +30,12 @@ void GridedFeatureOptions::Check() const {
   if (!(max_forward_backward_fraction >= 0.0))
     throw std::invalid_argument("max_forward_backward_fraction must be >= 0");
   if (!(min_shape_px >= 0.0)) throw std::invalid_argument("min_shape_px must be >= 0");
+  if (!(max_frame_track_loss > 0.0 && max_frame_track_loss <= 1.0))
+    throw std::invalid_argument("max_frame_track_loss must be in (0, 1], got " +
+                                std::to_string(max_frame_track_loss));
+  if (!(min_frame_share >= 0.0 && min_frame_share <= 1.0))
+    throw std::invalid_argument("min_frame_share must be in [0, 1], got " +
+                                std::to_string(min_frame_share));
   alignment.Check();
 }
 
@@ -129,6 +135,60 @@ std::array<float, 4> PatchShape(const cv::Matx33d& H, cv::Point2f corner) {
           static_cast<float>((H(1, 1) * Z - Y * H(2, 1)) / z2)};
 }
 
+std::vector<GridedFeatureStats::LeftOut> FramesToLeaveOut(
+    const std::vector<std::vector<uchar>>& reached, int reference,
+    const GridedFeatureOptions& options) {
+  const int n = static_cast<int>(reached.size());
+  const int m = n > 0 ? static_cast<int>(reached[0].size()) : 0;
+  const int min_frames =
+      std::min(n, std::max(3, static_cast<int>(std::ceil(options.min_frame_share * n - 1e-9))));
+  std::vector<uchar> shared = reached[reference], kept(n, 0);
+  kept[reference] = 1;
+  const auto count = [&](int frame) {  // the shared tracks that reach `frame`
+    int c = 0;
+    for (int j = 0; j < m; ++j) c += shared[j] && reached[frame][j];
+    return c;
+  };
+  const auto keep = [&](int frame) {
+    for (int j = 0; j < m; ++j) shared[j] = shared[j] && reached[frame][j];
+    kept[frame] = 1;
+  };
+  const auto keeps_enough = [&](int frame) {
+    const int before = static_cast<int>(std::count(shared.begin(), shared.end(), 1));
+    return count(frame) >= (1.0 - options.max_frame_track_loss) * before;
+  };
+  // The frames most tracks reach first, the nearer the reference the earlier
+  // among equals.
+  std::vector<int> order;
+  for (int i = 0; i < n; ++i)
+    if (i != reference) order.push_back(i);
+  std::vector<int> reach(n);
+  for (int i = 0; i < n; ++i)
+    reach[i] = static_cast<int>(std::count(reached[i].begin(), reached[i].end(), 1));
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+    return reach[a] != reach[b] ? reach[a] > reach[b]
+                                : std::abs(a - reference) < std::abs(b - reference);
+  });
+  for (const int i : order)
+    if (keeps_enough(i)) keep(i);
+  // Too few frames: the ones that keep the most tracks join, one at a time;
+  // then every frame left out that now keeps enough of what remains.
+  for (int frames = static_cast<int>(std::count(kept.begin(), kept.end(), 1)); frames < min_frames;
+       ++frames) {
+    int best = -1, best_count = -1;
+    for (const int i : order)
+      if (!kept[i] && count(i) > best_count) best = i, best_count = count(i);
+    keep(best);
+  }
+  for (const int i : order)
+    if (!kept[i] && keeps_enough(i)) keep(i);
+  const int tracks = static_cast<int>(std::count(shared.begin(), shared.end(), 1));
+  std::vector<GridedFeatureStats::LeftOut> left_out;
+  for (int i = 0; i < n; ++i)
+    if (!kept[i]) left_out.push_back({i, tracks, count(i)});
+  return left_out;
+}
+
 FeatureTracks TrackGridedFeatures(const std::vector<cv::Mat>& frames, int reference,
                                   const GridedFeatureOptions& options, GridedFeatureStats* stats) {
   CV_Assert(!frames.empty() && reference >= 0 && reference < static_cast<int>(frames.size()));
@@ -190,9 +250,6 @@ FeatureTracks TrackGridedFeatures(const std::vector<cv::Mat>& frames, int refere
     ReportProgress(options.progress, "features", ++tracked_frames + 1, steps);
   }
 
-  std::vector<uchar> tracked(m, 1);
-  for (int j = 0; j < m; ++j)
-    for (int i = 0; i < n; ++i) tracked[j] = tracked[j] && valid[i][j];
   // Each frame's motion as the homography that fits KLT's matches: its
   // Jacobian at a corner is how that corner's patch turned and sheared.
   std::vector<std::optional<cv::Matx33d>> motion(n);
@@ -201,35 +258,47 @@ FeatureTracks TrackGridedFeatures(const std::vector<cv::Mat>& frames, int refere
       if (i != reference) motion[i] = FitFrameMotion(corners, positions[i], valid[i]);
   if (options.gain_bias && m > 0) {
     // Track by track, so that each reference patch is prepared once for all
-    // of its frames; only the tracks KLT kept in every frame.
+    // of its frames; every match KLT kept, so that a frame that loses the
+    // track does not hide the frames that keep it (FramesToLeaveOut).
     GainBiasAlignmentOptions alignment = options.alignment;
     alignment.window = options.klt_window;
     const GainBiasAligner aligner(ref, alignment);
     cv::parallel_for_(cv::Range(0, m), [&](const cv::Range& range) {
       GainBiasAligner::Patch patch;
       for (int j = range.start; j < range.end; ++j) {
-        if (!tracked[j]) continue;
-        tracked[j] = aligner.Prepare(corners[j], &patch);
-        for (int i = 0; i < n && tracked[j]; ++i)
-          if (i != reference) {
-            const std::optional<std::array<float, 4>> shape =
-                motion[i] ? std::optional(PatchShape(*motion[i], corners[j])) : std::nullopt;
-            tracked[j] = shape && ShapeMovesTheWindow(*shape, options)
-                             ? aligner.Align(patch, frames[i], shape->data(), &positions[i][j])
-                             : aligner.Align(patch, frames[i], &positions[i][j]);
-          }
+        const bool prepared = aligner.Prepare(corners[j], &patch);
+        for (int i = 0; i < n; ++i) {
+          if (!valid[i][j] || i == reference) continue;
+          const std::optional<std::array<float, 4>> shape =
+              motion[i] ? std::optional(PatchShape(*motion[i], corners[j])) : std::nullopt;
+          valid[i][j] =
+              prepared && (shape && ShapeMovesTheWindow(*shape, options)
+                               ? aligner.Align(patch, frames[i], shape->data(), &positions[i][j])
+                               : aligner.Align(patch, frames[i], &positions[i][j]));
+        }
+        if (!prepared) valid[reference][j] = 0;
       }
     });
   }
+  std::vector<GridedFeatureStats::LeftOut> left_out = FramesToLeaveOut(valid, reference, options);
+  std::vector<int> kept_frames;
+  for (int i = 0; i < n; ++i)
+    if (std::none_of(left_out.begin(), left_out.end(),
+                     [i](const GridedFeatureStats::LeftOut& l) { return l.frame == i; }))
+      kept_frames.push_back(i);
   std::vector<int> kept;
   for (int j = 0; j < m; ++j)
-    if (tracked[j]) kept.push_back(j);
+    if (std::all_of(kept_frames.begin(), kept_frames.end(), [&](int i) { return valid[i][j]; }))
+      kept.push_back(j);
   FeatureTracks tracks;
-  tracks.reference = reference;
-  tracks.pixels.assign(n, Eigen::Matrix2Xd(2, kept.size()));
-  for (int i = 0; i < n; ++i)
+  tracks.reference = static_cast<int>(std::find(kept_frames.begin(), kept_frames.end(), reference) -
+                                      kept_frames.begin());
+  for (const int i : kept_frames) {
+    Eigen::Matrix2Xd pixels(2, kept.size());
     for (size_t k = 0; k < kept.size(); ++k)
-      tracks.pixels[i].col(k) << positions[i][kept[k]].x, positions[i][kept[k]].y;
+      pixels.col(k) << positions[i][kept[k]].x, positions[i][kept[k]].y;
+    tracks.pixels.push_back(std::move(pixels));
+  }
   if (stats) {
     stats->cells = ((ref.cols + cell - 1) / cell) * ((ref.rows + cell - 1) / cell);
     stats->corners = m;
@@ -237,6 +306,8 @@ FeatureTracks TrackGridedFeatures(const std::vector<cv::Mat>& frames, int refere
     stats->reached.clear();
     for (int i = 0; i < n; ++i)
       stats->reached.push_back(static_cast<int>(std::count(valid[i].begin(), valid[i].end(), 1)));
+    stats->kept_frames = kept_frames;
+    stats->left_out = std::move(left_out);
   }
   return tracks;
 }

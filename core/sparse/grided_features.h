@@ -61,6 +61,19 @@ struct GridedFeatureOptions {
   // against a translation (a roll of 0.5 deg moves them 0.09 px).
   double min_shape_px = 0.1;
   GainBiasAlignmentOptions alignment;
+  // A frame is left out of the tracks where keeping it would lose more than
+  // this share of the tracks that every other frame keeps: one frame of blur
+  // or a jolt then costs that frame, not the burst. Hand-held real bursts
+  // lose their tracks at one end or both (tum_fr1_rpy: 4-25 of 90 tracks
+  // reach a window's end frames). Two thirds, not one half: the poses' noise
+  // grows as one over the root of the tracks, 1.7x with a third of them,
+  // more than an end frame's share of the baseline gives back; at one half a
+  // window whose first frame kept 43 of 87 tracks lost its depth (24.9 ->
+  // 287 % AbsRel) and a generated 320x240 burst five of ten frames
+  // (docs/experiments/141-frames-left-out.md). 1: no frame is left out.
+  double max_frame_track_loss = 2.0 / 3.0;
+  // ... while at least this share of the frames (and 3) stay.
+  double min_frame_share = 0.5;
   // Hears "features" after the detection and after each tracked frame.
   ProgressCallback progress;
 
@@ -86,17 +99,45 @@ struct GridedFeatureStats {
   int corners = 0;  // cells with a corner strong enough to track
   int tracks = 0;   // corners tracked to every frame and passing the check
   // Per frame: the corners KLT found there and kept through the
-  // forward-backward check (the reference: every corner), before a track
-  // needs all frames. A frame far below the others is the one that loses
-  // the tracks (blur, a jolt).
+  // forward-backward check and the realignment (the reference: every corner
+  // whose patch could be prepared), before a track needs all frames. A frame far below the others
+  // is the one that loses the tracks (blur, a jolt).
   std::vector<int> reached;
+  // The frames the tracks run through (indices into the frames given,
+  // ascending, the reference among them): every frame but those left out.
+  std::vector<int> kept_frames;
+  // A frame left out (GridedFeatureOptions::max_frame_track_loss): the
+  // tracks the frames kept share, and those of them that reach it.
+  struct LeftOut {
+    int frame = 0;
+    int tracks_without = 0;
+    int tracks_with = 0;
+  };
+  std::vector<LeftOut> left_out;
 };
 
 // Detects one corner per cell of `frames[reference]` and tracks it to every
-// frame. Frames are 8-bit gray of one size. Tracks lost in any frame are dropped.
+// frame. Frames are 8-bit gray of one size. A frame that would cost most of
+// the tracks is left out (stats->left_out); the tracks returned run through
+// the other frames (stats->kept_frames, in that order, their reference the
+// given one's place among them), and a track lost in any of those is dropped.
 FeatureTracks TrackGridedFeatures(const std::vector<cv::Mat>& frames, int reference,
                                   const GridedFeatureOptions& options = {},
                                   GridedFeatureStats* stats = nullptr);
+
+// The frames to leave out given which tracks reached which frame
+// (reached[frame][track], after every check). Starting from the reference,
+// frames join in the order of how many tracks reach them (the nearer the
+// reference the earlier among equals), each unless it would cut the tracks
+// the frames kept so far share by more than options.max_frame_track_loss.
+// Where fewer than options.min_frame_share of the frames (and 3) are kept,
+// those that keep the most tracks join until there are; then each frame left
+// out joins if it keeps enough of what remains. Never the reference. Each
+// frame left out reports the tracks the kept frames share, and how many of
+// them reach it.
+std::vector<GridedFeatureStats::LeftOut> FramesToLeaveOut(
+    const std::vector<std::vector<uchar>>& reached, int reference,
+    const GridedFeatureOptions& options);
 
 // How the patch around `corner` maps into a frame whose motion is the
 // homography H: H's Jacobian at the corner, row-major (GainBiasAligner's

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <functional>
 #include <opencv2/imgproc.hpp>
 #include <set>
 
@@ -164,6 +165,104 @@ TEST(GridedFeatures, ForwardBackwardCheckDropsUntrackablePoints) {
   EXPECT_GT(tracks.num_tracks(), 10);
   // KLT can lock onto a chance match in the new texture; nearly all must go.
   EXPECT_LE(right, 4);
+}
+
+// A frame that shows something else (a jolt, a smear of blur) loses every
+// track: it is left out, and the burst keeps its tracks through the rest.
+TEST(GridedFeatures, AFrameThatLosesTheTracksIsLeftOut) {
+  const cv::Mat reference = Texture(640, 480, 2);
+  std::vector<cv::Mat> frames = {reference};
+  for (int i = 1; i < 6; ++i) frames.push_back(Shift(reference, 0.7 * i, -0.45 * i));
+  frames[4] = Texture(640, 480, 77);
+  GridedFeatureStats stats;
+  const FeatureTracks tracks = TrackGridedFeatures(frames, 0, {}, &stats);
+  ASSERT_EQ(stats.left_out.size(), 1u);
+  EXPECT_EQ(stats.left_out[0].frame, 4);
+  EXPECT_LE(stats.left_out[0].tracks_with, 4);
+  EXPECT_GT(stats.left_out[0].tracks_without, 0.9 * stats.corners);
+  EXPECT_EQ(stats.kept_frames, (std::vector<int>{0, 1, 2, 3, 5}));
+  EXPECT_EQ(tracks.num_frames(), 5);
+  EXPECT_EQ(tracks.reference, 0);
+  EXPECT_EQ(tracks.num_tracks(), stats.tracks);
+  EXPECT_EQ(stats.tracks, stats.left_out[0].tracks_without);
+  // The last frame kept is the burst's frame 5.
+  const Eigen::Vector2d d = tracks.pixels[4].col(0) - tracks.pixels[0].col(0);
+  EXPECT_NEAR(d.x(), 3.5, 0.1);
+  EXPECT_NEAR(d.y(), -2.25, 0.1);
+
+  GridedFeatureOptions keep_all;
+  keep_all.max_frame_track_loss = 1.0;
+  GridedFeatureStats all_stats;
+  EXPECT_EQ(TrackGridedFeatures(frames, 0, keep_all, &all_stats).num_frames(), 6);
+  EXPECT_TRUE(all_stats.left_out.empty());
+  EXPECT_LE(all_stats.tracks, 4);
+}
+
+// reached[frame][track] for `frames` x `tracks`, every track in every frame
+// but where `lost` says.
+std::vector<std::vector<uchar>> Reached(int frames, int tracks,
+                                        const std::function<bool(int, int)>& lost) {
+  std::vector<std::vector<uchar>> reached(frames, std::vector<uchar>(tracks, 1));
+  for (int i = 0; i < frames; ++i)
+    for (int j = 0; j < tracks; ++j) reached[i][j] = !lost(i, j);
+  return reached;
+}
+
+TEST(FramesToLeaveOut, BothEndsWhereEachLosesMostTracks) {
+  // Frame 0 loses tracks 0-74, frame 9 tracks 25-99: no track reaches all.
+  const auto reached =
+      Reached(10, 100, [](int i, int j) { return (i == 0 && j < 75) || (i == 9 && j >= 25); });
+  const auto left_out = FramesToLeaveOut(reached, 5, {});
+  ASSERT_EQ(left_out.size(), 2u);
+  EXPECT_EQ(left_out[0].frame, 0);
+  EXPECT_EQ(left_out[0].tracks_without, 100);
+  EXPECT_EQ(left_out[0].tracks_with, 25);
+  EXPECT_EQ(left_out[1].frame, 9);
+  EXPECT_EQ(left_out[1].tracks_with, 25);
+}
+
+TEST(FramesToLeaveOut, FramesThatLoseTheSameTracksGoTogether) {
+  // The last two frames (a smear at the burst's end) lose the same 90 %.
+  const auto reached = Reached(10, 100, [](int i, int j) { return i >= 8 && j >= 10; });
+  const auto left_out = FramesToLeaveOut(reached, 5, {});
+  ASSERT_EQ(left_out.size(), 2u);
+  EXPECT_EQ(left_out[0].frame, 8);
+  EXPECT_EQ(left_out[1].frame, 9);
+  EXPECT_EQ(left_out[1].tracks_without, 100);
+  EXPECT_EQ(left_out[1].tracks_with, 10);
+}
+
+TEST(FramesToLeaveOut, AFrameThatLosesLessThanTheBoundStays) {
+  // Frame 3 keeps 35 of 100 tracks: more than a third.
+  const auto reached = Reached(10, 100, [](int i, int j) { return i == 3 && j < 65; });
+  EXPECT_TRUE(FramesToLeaveOut(reached, 5, {}).empty());
+  GridedFeatureOptions stricter;
+  stricter.max_frame_track_loss = 0.5;
+  const auto left_out = FramesToLeaveOut(reached, 5, stricter);
+  ASSERT_EQ(left_out.size(), 1u);
+  EXPECT_EQ(left_out[0].frame, 3);
+}
+
+TEST(FramesToLeaveOut, NeverTheReferenceNorBelowTheFramesKept) {
+  // Every frame but the reference (2) loses ten tracks of its own: each
+  // keeps at least half of what the frames before it share.
+  const auto chain = Reached(6, 60, [](int i, int j) { return i != 2 && j / 10 == i; });
+  EXPECT_TRUE(FramesToLeaveOut(chain, 2, {}).empty());
+  GridedFeatureOptions options;
+  options.max_frame_track_loss = 0.1;
+  // Frames 0, 1, 3, 4, 5 lose the same 50 tracks: leaving some out frees
+  // nothing while 3 frames must stay, so none is.
+  const auto lost_most = Reached(6, 60, [](int i, int j) { return i != 2 && j >= 10; });
+  EXPECT_TRUE(FramesToLeaveOut(lost_most, 2, options).empty());
+  // 3 frames stay at least: the reference and the two nearest it.
+  options.min_frame_share = 0.0;
+  const auto left_out = FramesToLeaveOut(chain, 2, options);
+  ASSERT_EQ(left_out.size(), 3u);
+  EXPECT_EQ(left_out[0].frame, 0);
+  EXPECT_EQ(left_out[1].frame, 4);
+  EXPECT_EQ(left_out[2].frame, 5);
+  options.max_frame_track_loss = 1.0;
+  EXPECT_TRUE(FramesToLeaveOut(chain, 2, options).empty());
 }
 
 }  // namespace

@@ -8,6 +8,11 @@ namespace dfsm {
 
 const std::vector<SparseLayerInfo>& SparseLayers() {
   static const std::vector<SparseLayerInfo> layers = {
+      {SparseLayer::kFramesLeftOut, "frames-left-out",
+       "a frame that would cut the tracks the others share by more than the bound",
+       "the frames used (fewer), the tracks (more)", "features.max_frame_track_loss",
+       [](const SparseOptions& o) { return o.features.max_frame_track_loss < 1.0; },
+       [](SparseOptions* o) { o->features.max_frame_track_loss = 1.0; }},
       {SparseLayer::kFocalStarts, "focal-starts",
        "self-calibration with the rank-1 start: each focal start after the first, probed",
        "the solution, where its truncated cost over every track is clearly lower", "focal_starts",

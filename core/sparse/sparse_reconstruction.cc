@@ -53,9 +53,14 @@ ReconstructionError TooFewTracks(const cv::Mat& reference, const SparseReconstru
   std::string reached;
   for (size_t i = 0; i < stats.reached.size(); ++i)
     reached += (i ? ", " : "") + std::to_string(stats.reached[i]);
+  const std::string left_out = stats.left_out.empty()
+                                   ? ""
+                                   : " (through the " + std::to_string(stats.kept_frames.size()) +
+                                         " frames kept; " + std::to_string(stats.left_out.size()) +
+                                         " left out)";
   return ReconstructionError("too few tracks: " + std::to_string(stats.tracks) + " of " +
-                             std::to_string(stats.corners) + " corners survived tracking" + need +
-                             ": motion too large or blur" + measured +
+                             std::to_string(stats.corners) + " corners survived tracking" +
+                             left_out + need + ": motion too large or blur" + measured +
                              "; corners that reached each frame: " + reached);
 }
 
@@ -570,8 +575,8 @@ SparseReconstruction AdjustTracked(SparseReconstruction tracked, int width, int 
 
 }  // namespace
 
-SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int reference,
-                                       const SparseOptions& options, SharedWork* beside) {
+SparseReconstruction TrackForSparse(const std::vector<cv::Mat>& frames, int reference,
+                                    const SparseOptions& options) {
   if (frames.size() < 3)
     throw ReconstructionError("a burst needs at least 3 frames, got " +
                               std::to_string(frames.size()));
@@ -584,8 +589,28 @@ SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int r
   timer.Lap("features");
   if (tracked.tracks.num_tracks() < options.min_tracks)
     throw TooFewTracks(frames[reference], tracked, options);
-  const int width = frames[reference].cols, height = frames[reference].rows;
-  return AdjustTracked(std::move(tracked), width, height, options, beside);
+  return tracked;
+}
+
+SparseReconstruction ReconstructTracked(SparseReconstruction tracked, int width, int height,
+                                        const SparseOptions& options, SharedWork* beside) {
+  const GridedFeatureStats& stats = tracked.feature_stats;
+  if (stats.left_out.empty())
+    return AdjustTracked(std::move(tracked), width, height, options, beside);
+  // The frames kept are no longer consecutive: the rolling shutter's path
+  // between neighbours spans the frames left out (io/frame_times.h).
+  SparseOptions kept_options = options;
+  kept_options.frame_times.clear();
+  for (const int i : stats.kept_frames)
+    kept_options.frame_times.push_back(options.frame_times.empty() ? static_cast<double>(i)
+                                                                   : options.frame_times.at(i));
+  return AdjustTracked(std::move(tracked), width, height, kept_options, beside);
+}
+
+SparseReconstruction ReconstructSparse(const std::vector<cv::Mat>& frames, int reference,
+                                       const SparseOptions& options, SharedWork* beside) {
+  return ReconstructTracked(TrackForSparse(frames, reference, options), frames[reference].cols,
+                            frames[reference].rows, options, beside);
 }
 
 SparseReconstruction ReconstructFromTracks(FeatureTracks tracks, int width, int height,

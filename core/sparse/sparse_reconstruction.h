@@ -300,6 +300,23 @@ struct SparseReconstruction {
   bool DroppedLensTerms() const;
 };
 
+// The method's step 1 alone (TrackGridedFeatures): the tracks, their
+// feature_stats and the "features" lap. Frames the tracker left out
+// (feature_stats.left_out) are not in the tracks; every later step sees the
+// frames of feature_stats.kept_frames. Throws ReconstructionError where too
+// few tracks remain, std::invalid_argument for options out of range.
+SparseReconstruction TrackForSparse(const std::vector<cv::Mat>& gray_frames, int reference,
+                                    const SparseOptions& options = {});
+
+// Every step after the tracking, on TrackForSparse's result; `options` as
+// given to it (frame_times of every frame given: the kept ones are taken).
+// `beside` as for ReconstructSparse.
+SparseReconstruction ReconstructTracked(SparseReconstruction tracked, int width, int height,
+                                        const SparseOptions& options = {},
+                                        SharedWork* beside = nullptr);
+
+// Both: TrackForSparse, then ReconstructTracked. The poses are those of
+// feature_stats.kept_frames.
 // Throws ReconstructionError for bursts that cannot be reconstructed.
 // `beside` (may be null): pieces of the caller's work that do not depend on
 // this stage, handed in to fill a core the stage leaves idle: the probes'

@@ -125,6 +125,7 @@ SweepOutcome RunSweepBurst(const SynthOptions& settings, const SparseOptions& op
     outcome.distortion_sigma_px = sparse.uncertainty.distortion_sigma_px;
     outcome.quality = CalibrationQualityName(sparse.verdict.quality);
     outcome.reasons = sparse.verdict.reasons;
+    outcome.frames_left_out = static_cast<int>(sparse.feature_stats.left_out.size());
   } catch (const ReconstructionError& e) {
     outcome.error = e.what();
   }
@@ -154,7 +155,8 @@ nlohmann::json ToJson(const SweepOutcome& o) {
     j["error"] = o.error;
     return j;
   }
-  j.update({{"f_error_percent", o.f_error_percent},
+  j.update({{"frames_left_out", o.frames_left_out},
+            {"f_error_percent", o.f_error_percent},
             {"sigma_f_percent", o.sigma_f_percent},
             {"distortion_error_px", o.distortion_error_px},
             {"distortion_sigma_px", o.distortion_sigma_px},

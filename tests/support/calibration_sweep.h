@@ -65,6 +65,7 @@ struct SweepOutcome {
   std::string quality;
   std::vector<std::string> reasons;
   double sparse_ms = 0.0;
+  int frames_left_out = 0;  // by the tracker (GridedFeatureStats::left_out)
 
   // |f error| <= 2 sigma_f, distortion error <= 2 sigma (0 sigma: false).
   bool f_within_2_sigma() const;
