@@ -60,6 +60,7 @@ struct DepthSweepOutcome {
   DepthEvaluation measured, filled;
   bool confirmed = false;
   nlohmann::json depth_check;  // result.json's, whole
+  std::string depth_quality;   // result.json's depth_verdict.quality
   // result.json's sparse_detail (tracks tracked, inliers, ...) and which
   // start won (bundle_adjustment.from_self_calibration).
   nlohmann::json sparse_detail;
@@ -114,6 +115,7 @@ DepthSweepOutcome RunDepthSweepBurst(const SynthOptions& settings, const std::st
   const nlohmann::json& check = output.result.extra.at("depth_check");
   outcome.confirmed = check.at("confirmed").get<bool>();
   outcome.depth_check = check;
+  outcome.depth_quality = output.result.extra.at("depth_verdict").at("quality").get<std::string>();
   outcome.sparse_detail = output.result.extra.at("sparse_detail");
   outcome.sparse_detail["from_self_calibration"] =
       output.result.bundle_adjustment.from_self_calibration;
@@ -136,6 +138,7 @@ nlohmann::json ToJson(const DepthSweepOutcome& o) {
   j["confirmed"] = o.confirmed;
   j["relief_sigma"] = o.depth_check.at("relief_sigma");
   j["depth_check"] = o.depth_check;
+  j["depth_quality"] = o.depth_quality;
   j["sparse_detail"] = o.sparse_detail;
   j["quality"] = o.quality;
   j["warnings"] = o.warnings;

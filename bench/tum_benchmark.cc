@@ -119,13 +119,13 @@ int main(int argc, char** argv) {
       known.fit_rms_error_px, TumSequence::kWidth, TumSequence::kHeight, sequence.width(),
       sequence.height());
   struct Row {
-    int first;
+    int first = 0;
     std::string mode;
     DepthEvaluation score, constant, filled;
     double f = 0.0;
     std::string quality;
-    double disagreement = 0.0;  // the depth check's median, without ground truth
-    bool confirmed = false;
+    double disagreement = 0.0;   // the depth check's median, without ground truth
+    std::string verdict;         // result.json's depth_verdict.quality
     double relief_sigma = -1.0;  // the depth check's: the camera's noise on the relief
     std::string known_fit;       // "fits" | "does not fit" | "" (no calibration checked)
     bool ok = false;
@@ -150,8 +150,10 @@ int main(int argc, char** argv) {
         options.sparse.known = fixed;
       }
       const PipelineOutput output = RunPipeline(burst, options);
-      Row row{first, mode, {}, EvaluateDepth(constant, truth, cv::Mat()), {}, 0.0, "", 0.0,
-              false, -1.0, ""};
+      Row row;
+      row.first = first;
+      row.mode = mode;
+      row.constant = EvaluateDepth(constant, truth, cv::Mat());
       nlohmann::json line = {{"first", first}, {"frames", frames}, {"mode", mode}};
       if (output.result.ok && output.dense) {
         row.ok = true;
@@ -164,7 +166,9 @@ int main(int argc, char** argv) {
         row.quality = output.result.calibration_detail.value("quality", "");
         const nlohmann::json check = output.result.extra.value("depth_check", nlohmann::json());
         row.disagreement = check.value("median_disagreement", 0.0);
-        row.confirmed = check.value("confirmed", false);
+        row.verdict = output.result.extra.value("depth_verdict", nlohmann::json::object())
+                          .value("quality", "");
+        line["depth_verdict"] = output.result.extra.value("depth_verdict", nlohmann::json());
         row.relief_sigma = check.value("relief_sigma", -1.0);
         const nlohmann::json fit =
             output.result.calibration_detail.value("known_fit", nlohmann::json());
@@ -226,18 +230,19 @@ int main(int argc, char** argv) {
         100.0 * r.score.abs_rel, 100.0 * r.score.within_5_percent,
         100.0 * r.score.within_25_percent, 100.0 * r.score.coverage, 100.0 * r.filled.abs_rel,
         100.0 * r.filled.within_25_percent, 100.0 * r.filled.coverage, 100.0 * r.constant.abs_rel,
-        r.confirmed ? "confirmed" : "warned", 100.0 * r.disagreement, 100.0 * r.relief_sigma,
+        r.verdict.c_str(), 100.0 * r.disagreement, 100.0 * r.relief_sigma,
         r.known_fit.empty() ? "-" : r.known_fit.c_str(), r.frames_left_out);
   }
   // Over the windows with a result: a failed window has no score to count.
   for (const std::string mode : {"known", "self"}) {
     std::vector<double> abs_rel, filled, filled_within_25;
-    int windows = 0, better = 0;
+    int windows = 0, better = 0, worse_unflagged = 0;
     for (const Row& r : rows) {
       if (r.mode != mode) continue;
       ++windows;
       if (r.ok) {
         better += r.score.abs_rel < r.constant.abs_rel;
+        worse_unflagged += r.score.abs_rel >= r.constant.abs_rel && r.verdict != "unreliable";
         abs_rel.push_back(r.score.abs_rel);
         filled.push_back(r.filled.abs_rel);
         filled_within_25.push_back(r.filled.within_25_percent);
@@ -245,10 +250,12 @@ int main(int argc, char** argv) {
     }
     if (!abs_rel.empty())
       std::printf(
-          "median, %s: %zu of %d windows with a result, %d better than a constant; AbsRel %.1f "
-          "%%; filled: AbsRel %.1f %%, within 25 %% %.1f %%\n",
-          mode.c_str(), abs_rel.size(), windows, better, 100.0 * WindowMedian(abs_rel),
-          100.0 * WindowMedian(filled), 100.0 * WindowMedian(filled_within_25));
+          "median, %s: %zu of %d windows with a result, %d better than a constant, %d not "
+          "better and not unreliable; AbsRel %.1f %%; filled: AbsRel %.1f %%, within 25 %% "
+          "%.1f %%\n",
+          mode.c_str(), abs_rel.size(), windows, better, worse_unflagged,
+          100.0 * WindowMedian(abs_rel), 100.0 * WindowMedian(filled),
+          100.0 * WindowMedian(filled_within_25));
   }
   return 0;
 }

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <nlohmann/json.hpp>
+#include <stdexcept>
 
 #include "core/dense/inverse_depth_lattice.h"
 #include "core/sparse/fixed_text.h"
@@ -36,10 +37,31 @@ void SharesAtRangeEnds(const DenseDepth& dense, double* nearest, double* farthes
   *farthest = static_cast<double>(far) / measured;
 }
 
+// The verdict on the map as a whole (DepthCheckOptions::unreliable_relief).
+void JudgeAsAWhole(const DepthCheckOptions& options, DepthCheck* check) {
+  std::vector<std::string>& reasons = check->unreliable_reasons;
+  if (check->relief_sigma >= options.unreliable_relief)
+    reasons.push_back("the camera's uncertainty leaves the relief uncertain by " +
+                      Percent(check->relief_sigma));
+  if (check->lens_relief_shift >= options.unreliable_relief)
+    reasons.push_back("the relief moves by " + Percent(check->lens_relief_shift) +
+                      " with the lens model");
+  if (check->median_disagreement >= options.unreliable_relief)
+    reasons.push_back("the map disagrees with the tracks by a median of " +
+                      Percent(check->median_disagreement));
+  const double at_end = std::max(check->at_nearest_plane, check->at_farthest_plane);
+  if (at_end >= options.unreliable_range_end_fraction)
+    reasons.push_back(Percent(at_end) + " of the measured pixels sit at an end of the swept range");
+  check->quality = !reasons.empty()     ? DepthQuality::kUnreliable
+                   : check->Confirmed() ? DepthQuality::kConfirmed
+                                        : DepthQuality::kUncertain;
+}
+
 }  // namespace
 
 DepthCheck CheckDepthAgainstTracks(const SparseReconstruction& sparse, const DenseDepth& dense,
                                    const DepthCheckOptions& options) {
+  options.Check();
   DepthCheck check;
   const FeatureTracks& tracks = sparse.tracks;
   std::vector<double> disagreement;
@@ -110,7 +132,33 @@ DepthCheck CheckDepthAgainstTracks(const SparseReconstruction& sparse, const Den
   if (dense.valid_fraction < options.min_valid_fraction)
     check.warnings.push_back("depth sparse: " + Percent(dense.valid_fraction) +
                              " of the pixels have a depth");
+  JudgeAsAWhole(options, &check);
   return check;
+}
+
+const char* DepthQualityName(DepthQuality quality) {
+  switch (quality) {
+    case DepthQuality::kConfirmed:
+      return "confirmed";
+    case DepthQuality::kUncertain:
+      return "uncertain";
+    case DepthQuality::kUnreliable:
+      return "unreliable";
+  }
+  return "unknown";
+}
+
+void DepthCheckOptions::Check() const {
+  if (!(unreliable_relief > 0.0))
+    throw std::invalid_argument("unreliable_relief must be > 0, got " +
+                                std::to_string(unreliable_relief));
+  if (!(unreliable_range_end_fraction > 0.0 && unreliable_range_end_fraction <= 1.0))
+    throw std::invalid_argument("unreliable_range_end_fraction must be in (0, 1], got " +
+                                std::to_string(unreliable_range_end_fraction));
+}
+
+nlohmann::json DepthVerdictJson(const DepthCheck& check) {
+  return {{"quality", DepthQualityName(check.quality)}, {"reasons", check.unreliable_reasons}};
 }
 
 nlohmann::json ToJson(const DepthCheck& check) {

@@ -57,7 +57,31 @@ struct DepthCheckOptions {
   // range toward the camera once (DenseOptions::range_extension_share); this
   // warns of what is left at either end after it.
   double max_range_end_fraction = 0.03;
+
+  // The map is likely wrong as a whole (DepthQuality::kUnreliable) where the
+  // relief's sigma, its shift with the lens model or the map's median
+  // disagreement with the tracks reaches unreliable_relief, where
+  // unreliable_range_end_fraction of its pixels sit at one end of the swept
+  // range, and wherever a known calibration does not fit the burst.
+  // docs/experiments/142-depth-verdict.md: on TUM fr1/rpy every window worse
+  // than a constant depth but one (20.0 against 19.0 %) reaches one of these;
+  // on the generator's phone depth sweep the two maps off by more than 15 %
+  // do and no other.
+  double unreliable_relief = 0.25;
+  double unreliable_range_end_fraction = 0.25;
+
+  // Throws std::invalid_argument naming the option out of range.
+  void Check() const;
 };
+
+// How far a depth map can be vouched for as a whole.
+enum class DepthQuality {
+  kConfirmed,   // agrees with the tracks; nothing upstream doubts the geometry
+  kUncertain,   // a warning applies, but none that makes the whole map suspect
+  kUnreliable,  // likely wrong as a whole: flattened, exaggerated or inverted
+};
+
+const char* DepthQualityName(DepthQuality quality);
 
 struct DepthCheck {
   int tracks = 0;                    // inlier tracks
@@ -89,6 +113,9 @@ struct DepthCheck {
   // already warns; the check only withholds `confirmed`.
   bool estimated_camera_used = true;
   std::vector<std::string> warnings;  // empty: nothing to say
+  DepthQuality quality = DepthQuality::kUncertain;
+  // Why the map is kUnreliable (empty otherwise), each with its measure.
+  std::vector<std::string> unreliable_reasons;
 
   // The map agrees with the tracks and nothing upstream doubts the geometry
   // they were placed in.
@@ -101,5 +128,8 @@ DepthCheck CheckDepthAgainstTracks(const SparseReconstruction& sparse, const Den
                                    const DepthCheckOptions& options = {});
 
 nlohmann::json ToJson(const DepthCheck& check);
+
+// result.json's "depth_verdict": {"quality", "reasons"}.
+nlohmann::json DepthVerdictJson(const DepthCheck& check);
 
 }  // namespace dfsm

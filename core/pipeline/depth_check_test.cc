@@ -163,5 +163,54 @@ TEST(DepthCheck, AKnownCalibrationThatDoesNotFitWithholdsConfirmation) {
   EXPECT_FALSE(json.at("confirmed").get<bool>());
 }
 
+// The verdict on the map as a whole: confirmed where nothing warns, uncertain
+// where a warning applies, unreliable from a quarter of relief uncertainty,
+// relief shift, disagreement or pixels at a range end, each reason with its
+// measure.
+TEST(DepthCheck, AMapLikelyWrongAsAWholeIsUnreliableWithItsReasons) {
+  AgreeingBurst burst;
+  DepthCheck check = CheckDepthAgainstTracks(burst.sparse, burst.dense);
+  EXPECT_EQ(check.quality, DepthQuality::kConfirmed);
+  EXPECT_TRUE(check.unreliable_reasons.empty());
+
+  burst.sparse.uncertainty.relief_sigma = 0.12;
+  check = CheckDepthAgainstTracks(burst.sparse, burst.dense);
+  EXPECT_EQ(check.quality, DepthQuality::kUncertain);
+  EXPECT_TRUE(check.unreliable_reasons.empty());
+
+  burst.sparse.uncertainty.relief_sigma = 0.26;
+  burst.sparse.lens_relief_shift = 0.4;
+  check = CheckDepthAgainstTracks(burst.sparse, burst.dense);
+  EXPECT_EQ(check.quality, DepthQuality::kUnreliable);
+  ASSERT_EQ(check.unreliable_reasons.size(), 2u);
+  EXPECT_NE(check.unreliable_reasons[0].find("relief uncertain by 26 %"), std::string::npos)
+      << check.unreliable_reasons[0];
+  EXPECT_NE(check.unreliable_reasons[1].find("moves by 40 %"), std::string::npos)
+      << check.unreliable_reasons[1];
+  const nlohmann::json verdict = DepthVerdictJson(check);
+  EXPECT_EQ(verdict.at("quality"), "unreliable");
+  EXPECT_EQ(verdict.at("reasons").size(), 2u);
+
+  // A map that disagrees with its tracks by a median of a third.
+  AgreeingBurst far;
+  far.dense.depth.setTo(3.0f);
+  check = CheckDepthAgainstTracks(far.sparse, far.dense);
+  EXPECT_EQ(check.quality, DepthQuality::kUnreliable);
+  ASSERT_EQ(check.unreliable_reasons.size(), 1u);
+  EXPECT_NE(check.unreliable_reasons[0].find("disagrees with the tracks by a median of 33 %"),
+            std::string::npos)
+      << check.unreliable_reasons[0];
+
+  // A known calibration that does not fit withholds confirmation only.
+  AgreeingBurst known;
+  known.sparse.known_fit.emplace();
+  known.sparse.known_fit->fits = false;
+  EXPECT_EQ(CheckDepthAgainstTracks(known.sparse, known.dense).quality, DepthQuality::kUncertain);
+
+  DepthCheckOptions bad;
+  bad.unreliable_range_end_fraction = 0.0;
+  EXPECT_THROW(CheckDepthAgainstTracks(burst.sparse, burst.dense, bad), std::invalid_argument);
+}
+
 }  // namespace
 }  // namespace dfsm

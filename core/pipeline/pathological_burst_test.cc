@@ -163,6 +163,7 @@ TEST(PathologicalBurst, AFrameTheTrackerLosesIsLeftOutNotTheBurst) {
   EXPECT_TRUE(warned);
   EXPECT_EQ(output.result.extra.at("sparse_detail").at("reached_per_frame").size(),
             static_cast<size_t>(kFrames));
+  EXPECT_TRUE(output.result.extra.at("depth_verdict").contains("quality"));
 }
 
 TEST(PathologicalBurst, AGoodBurstStillSucceeds) {
@@ -170,6 +171,9 @@ TEST(PathologicalBurst, AGoodBurstStillSucceeds) {
   options.dense.planes = 32;
   const PipelineOutput output = RunPipeline(ToBurst(Generated()), options);
   EXPECT_TRUE(output.result.ok) << output.result.error;
+  // A generated burst that tracks cleanly: its map is not suspect as a whole.
+  EXPECT_NE(output.result.extra.at("depth_verdict").at("quality"), "unreliable")
+      << output.result.extra.at("depth_verdict").dump();
 }
 
 }  // namespace

@@ -394,6 +394,14 @@ void RunDenseStage(const Burst& compensated, const SparseReconstruction& sparse,
   result.extra["dense_timings_ms"] = dense_timings;
   const DepthCheck check = CheckDepthAgainstTracks(sparse, *output->dense);
   result.extra["depth_check"] = ToJson(check);
+  result.extra["depth_verdict"] = DepthVerdictJson(check);
+  // First of the depth's warnings: the one a client acts on.
+  if (check.quality == DepthQuality::kUnreliable) {
+    std::string reasons;
+    for (const std::string& reason : check.unreliable_reasons)
+      reasons += (reasons.empty() ? "" : "; ") + reason;
+    result.warnings.push_back("depth unreliable: likely wrong as a whole (" + reasons + ")");
+  }
   result.warnings.insert(result.warnings.end(), check.warnings.begin(), check.warnings.end());
 }
 
