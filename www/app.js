@@ -647,7 +647,11 @@ async function openResult(id) {
 
 function renderSummary(job, res) {
   const parts = [];
+  // The verdict on the depth map as a whole: "unreliable" is a map likely flattened or inverted.
+  if (res.depth_verdict && res.depth_verdict.quality) parts.push(`depth ${res.depth_verdict.quality}`);
   if (res.input) parts.push(`${res.input.frames} frames of ${res.input.width}x${res.input.height}`);
+  if (res.untracked_frames && res.untracked_frames.length)
+    parts.push(`${res.untracked_frames.length} frame${res.untracked_frames.length > 1 ? 's' : ''} left out (lost by the tracker)`);
   // What the burst's motion gave: its parallax, and the precision of the focal length it measured.
   const parallax = res.parallax || {};
   if (typeof parallax.median_px === 'number')
