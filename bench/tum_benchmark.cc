@@ -174,6 +174,9 @@ int main(int argc, char** argv) {
             output.result.calibration_detail.value("known_fit", nlohmann::json());
         if (fit.is_object()) row.known_fit = fit.value("fits", true) ? "fits" : "does not fit";
         line["depth_check"] = check;
+        line["frame_sharpness"] = output.result.extra.value("frame_sharpness", nlohmann::json());
+        line["untracked_frames"] =
+            output.result.extra.value("untracked_frames", nlohmann::json::array());
         line["warnings"] = output.result.warnings;
         line["known_fit"] = fit;
         line.update({{"depth", ToJson(row.score)},

@@ -19,6 +19,7 @@
 #include "core/parallel/shared_work.h"
 #include "core/pipeline/depth_check.h"
 #include "core/pipeline/frame_selection.h"
+#include "core/pipeline/frame_sharpness.h"
 #include "core/pipeline/repeated_frames.h"
 #include "core/sparse/parallax.h"
 
@@ -122,6 +123,16 @@ std::vector<Pose> DistinctFramePoses(const SparseReconstruction& sparse,
       poses.push_back(PoseAtTime(kept_times, sparse.state.poses, distinct.Time(i)));
   }
   return poses;
+}
+
+// Each caller's frame's sharpness against the burst's sharpest
+// (frame_sharpness.h), on the reference's brightness.
+void RecordFrameSharpness(const Burst& compensated, const DistinctFrames& distinct,
+                          Result* result) {
+  const std::vector<double> sharpness = RelativeSharpness(compensated.gray);
+  nlohmann::json list = nlohmann::json::array();
+  for (const int stage : distinct.stage_index) list.push_back(sharpness[stage]);
+  result->extra["frame_sharpness"] = list;
 }
 
 // The frames the tracker left out (GridedFeatureOptions::max_frame_track_loss),
@@ -438,6 +449,7 @@ PipelineOutput RunPipeline(const Burst& burst, const PipelineOptions& given,
     RecordRepeatedFrames(distinct, &result);
     Burst compensated = distinct.burst;
     CompensateBurstExposure(burst, distinct, options, &compensated, &sparse_options, &result);
+    RecordFrameSharpness(compensated, distinct, &result);
     SparseReconstruction tracked =
         TrackForSparse(compensated.gray, compensated.reference(), sparse_options);
     RecordUntrackedFrames(tracked, distinct, &result);
