@@ -117,6 +117,7 @@ DepthSweepOutcome RunDepthSweepBurst(const SynthOptions& settings, const std::st
   outcome.depth_check = check;
   outcome.depth_quality = output.result.extra.at("depth_verdict").at("quality").get<std::string>();
   outcome.sparse_detail = output.result.extra.at("sparse_detail");
+  outcome.sparse_detail["parallax"] = output.result.extra.at("parallax");
   outcome.sparse_detail["from_self_calibration"] =
       output.result.bundle_adjustment.from_self_calibration;
   outcome.quality = output.result.calibration_detail.value("quality", "");

@@ -175,6 +175,7 @@ int main(int argc, char** argv) {
         if (fit.is_object()) row.known_fit = fit.value("fits", true) ? "fits" : "does not fit";
         line["depth_check"] = check;
         line["frame_sharpness"] = output.result.extra.value("frame_sharpness", nlohmann::json());
+        line["parallax"] = output.result.extra.value("parallax", nlohmann::json());
         line["untracked_frames"] =
             output.result.extra.value("untracked_frames", nlohmann::json::array());
         line["warnings"] = output.result.warnings;
