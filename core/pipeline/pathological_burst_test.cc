@@ -166,6 +166,29 @@ TEST(PathologicalBurst, AFrameTheTrackerLosesIsLeftOutNotTheBurst) {
   EXPECT_TRUE(output.result.extra.at("depth_verdict").contains("quality"));
 }
 
+// A repeat and a frame the tracker loses in one burst: each is left out for
+// its own reason, and the frame that repeats a lost frame is listed with it.
+TEST(PathologicalBurst, ARepeatOfALostFrameIsListedWithIt) {
+  Burst burst = ToBurst(Generated());
+  cv::filter2D(burst.gray[5], burst.gray[5], -1, cv::Mat::ones(1, 25, CV_32F) / 25.0);
+  burst.gray[6] = burst.gray[5].clone();  // the driver handed out frame 5 twice
+  burst.gray[2] = burst.gray[1].clone();
+  PipelineOptions options;
+  options.dense.planes = 32;
+  const PipelineOutput output = RunPipeline(burst, options);
+  ASSERT_TRUE(output.result.ok) << output.result.error;
+  const nlohmann::json& repeated = output.result.extra.at("repeated_frames");
+  ASSERT_EQ(repeated.size(), 2u) << repeated.dump();
+  const nlohmann::json& untracked = output.result.extra.at("untracked_frames");
+  ASSERT_EQ(untracked.size(), 2u) << untracked.dump();
+  EXPECT_EQ(untracked[0]["frame"], 5);
+  EXPECT_EQ(untracked[1]["frame"], 6);
+  ASSERT_EQ(output.result.poses.size(), static_cast<size_t>(kFrames));
+  // A repeat shows its original's pose, interpolated or not.
+  EXPECT_TRUE(output.result.poses[6].R.isApprox(output.result.poses[5].R));
+  EXPECT_TRUE(output.result.poses[2].T.isApprox(output.result.poses[1].T));
+}
+
 TEST(PathologicalBurst, AGoodBurstStillSucceeds) {
   PipelineOptions options;
   options.dense.planes = 32;
