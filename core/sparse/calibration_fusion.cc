@@ -506,4 +506,31 @@ KnownCalibration FusedCalibrationPrior(const CameraModel& fused, double sigma_f_
   return known;
 }
 
+std::optional<CalibrationSample> FusionSampleOf(const SparseReconstruction& sparse,
+                                                const std::string& job, std::string* why) {
+  const std::optional<CameraModel> debiased = sparse.DebiasedCamera();
+  if (!debiased) {
+    *why = std::string("not estimated from the burst (") +
+           CalibrationSourceName(sparse.calibration_used) + ")";
+    return std::nullopt;
+  }
+  const CalibrationUncertainty& uncertainty =
+      sparse.self_estimate ? sparse.self_estimate->uncertainty : sparse.uncertainty;
+  if (!uncertainty.available) {
+    *why = "no uncertainty: " + uncertainty.unavailable_reason;
+    return std::nullopt;
+  }
+  const CalibrationVerdict& verdict =
+      sparse.self_estimate ? sparse.self_estimate->verdict : sparse.verdict;
+  if (verdict.quality == CalibrationQuality::kDegenerate) {
+    *why = "degenerate (" + verdict.reasons.front() + ")";
+    return std::nullopt;
+  }
+  CalibrationSample sample;
+  sample.camera = *debiased;
+  sample.covariance = uncertainty.covariance;
+  sample.job = job;
+  return sample;
+}
+
 }  // namespace dfsm

@@ -60,6 +60,16 @@ struct CalibrationSample {  // one burst's estimate
   int64_t time_ms = 0;
 };
 
+struct SparseReconstruction;  // core/sparse/sparse_reconstruction.h
+
+// The sample a fusion takes of one burst's sparse stage: the burst's own
+// calibration (beside a known prior where there was one), less the bias its
+// tracks' noise gave it (the fusion averages the bursts' noise out, their
+// bias it would keep: core/sparse/bootstrap_bias.h). Nullopt where the burst
+// did not estimate the camera, has no uncertainty or is degenerate, with why.
+std::optional<CalibrationSample> FusionSampleOf(const SparseReconstruction& sparse,
+                                                const std::string& job, std::string* why);
+
 struct CalibrationFusionOptions {
   double consistency_probability = 0.999;  // chi-square (3 dof) gate: 16.27 at 0.999
   int min_bursts_for_reliable = 3;

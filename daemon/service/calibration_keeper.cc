@@ -100,34 +100,19 @@ std::string CalibrationKeeper::Record(const std::string& job, const JobOptions& 
   if (!FromCaptureCamera(options))
     return "not fused: an upload feeds the camera's calibration only when its request says it "
            "comes from the capture camera (camera=capture)";
-  CalibrationSample sample;
-  // Each burst's camera less the bias its tracks' noise gave it: the fusion
-  // averages the bursts' noise out, their bias it would keep
-  // (core/sparse/bootstrap_bias.h). The burst's own calibration: beside a
-  // known prior where there is one, else where the burst kept it.
-  const std::optional<CameraModel> debiased = sparse.DebiasedCamera();
-  if (!debiased)
-    return std::string("not estimated from the burst (") +
-           CalibrationSourceName(sparse.calibration_used) + ")";
-  const CalibrationUncertainty& uncertainty =
-      sparse.self_estimate ? sparse.self_estimate->uncertainty : sparse.uncertainty;
-  if (!uncertainty.available) return "no uncertainty";
-  sample.camera = *debiased;
-  sample.covariance = uncertainty.covariance;
-  const CalibrationVerdict* verdict =
-      sparse.self_estimate ? &sparse.self_estimate->verdict : &sparse.verdict;
-  if (verdict->quality == CalibrationQuality::kDegenerate) return "degenerate: not fused";
-  sample.job = job;
-  sample.time_ms = time_ms;
+  std::string why;
+  std::optional<CalibrationSample> sample = FusionSampleOf(sparse, job, &why);
+  if (!sample) return "not fused: " + why;
+  sample->time_ms = time_ms;
   std::lock_guard<std::mutex> lock(mutex_);
-  const std::string key = Key(sample.camera.width, sample.camera.height);
+  const std::string key = Key(sample->camera.width, sample->camera.height);
   std::unique_ptr<CalibrationFusion>& fusion = fusions_[key];
   if (!fusion) fusion = std::make_unique<CalibrationFusion>();
   for (const CalibrationFusion::HistoryEntry& entry : fusion->history()) {
     if (entry.job == job) return "already counted: the job ran again after an interruption";
   }
   std::string reason;
-  const FusionOutcome outcome = fusion->Add(sample, &reason);
+  const FusionOutcome outcome = fusion->Add(*sample, &reason);
   current_ = key;
   std::string said = FusionOutcomeName(outcome) + (reason.empty() ? "" : ": " + reason);
   try {

@@ -1,86 +1,75 @@
 // dfsm calibrate BURST... --out DIR: the calibration of one camera from several
-// of its bursts, as dfsmd fuses it (core/sparse/calibration_fusion.h): each
-// burst calibrated alone, with its uncertainty and verdict, then fused by
-// information weight; a burst inconsistent with the fusion is left out as an
-// outlier, two in a row restart it (the camera changed).
+// of its bursts. Each burst's sparse stage runs alone first (its tracks, its
+// own solution, its own verdict); then either the joint adjustment
+// (core/sparse/joint_adjustment.h, the default: the camera shared by one
+// problem over every burst's tracks, which a burst too weak to calibrate alone
+// still informs) or the fusion dfsmd keeps over days
+// (core/sparse/calibration_fusion.h: each usable burst's estimate weighed by
+// its information).
 #include <cstdio>
 #include <nlohmann/json.hpp>
+#include <optional>
 
 #include "core/export/calibration_export.h"
 #include "core/io/file_util.h"
 #include "core/sparse/calibration_fusion.h"
+#include "core/sparse/joint_adjustment.h"
 #include "core/sparse/sparse_reconstruction.h"
 #include "tools/dfsm/command.h"
 #include "tools/dfsm/command_line.h"
 
 namespace dfsm::tools {
+namespace {
 
-int RunCalibrateCommand(const Args& args) {
-  CLI::App app("Calibrates one camera from several of its bursts, as dfsmd fuses them.",
-               "dfsm calibrate");
-  app.footer(
-      "Bursts must share one image size. Exit status: 0 a fused calibration was written, "
-      "1 no burst could be fused, 2 usage.");
+enum class CalibrateMethod { kJoint, kFusion };
+
+struct CalibrateInputs {
   std::vector<std::string> bursts;
-  std::string out_dir, rolling_shutter = kDefaultRollingShutter;
+  std::filesystem::path out_dir;
   ReadBurstOptions read_options;
-  app.add_option("BURST", bursts, "dfsm-burst/1 directories of one camera")->required();
-  app.add_option("--out", out_dir,
-                 "written: calibration.json and calibration.yaml of the fused camera (as 'dfsm "
-                 "process' writes them) and fusion.json (the fusion's state, sigma, and each "
-                 "burst's estimate and outcome)")
-      ->required();
-  app.add_option("--frames", read_options.max_frames,
-                 "use N frames of each burst, centred on its reference (0: all)")
-      ->check(FrameCount());
-  app.add_option("--rolling-shutter", rolling_shutter,
-                 "global | estimate | R: the sensor's readout, as for 'dfsm process'")
-      ->capture_default_str();
-  if (const auto status = ParseCommandLine(app, args)) return *status;
   SparseOptions sparse_options;
-  try {
-    sparse_options.rolling_shutter = ParseRollingShutter(rolling_shutter);
-  } catch (const std::invalid_argument& e) {
-    throw UsageError(std::string("--rolling-shutter: ") + e.what());
-  }
+};
 
+// One burst's sparse stage, alone; nullopt where it fails, with why. Prints
+// the burst's own calibration (the line the caller ends).
+std::optional<SparseReconstruction> CalibrateAlone(const std::string& burst_dir,
+                                                   const CalibrateInputs& inputs,
+                                                   std::string* failure) {
+  try {
+    const Burst burst = ReadBurst(burst_dir, inputs.read_options);
+    SparseReconstruction sparse =
+        ReconstructSparse(burst.gray, burst.reference(), inputs.sparse_options);
+    const CameraModel& camera = sparse.state.camera;
+    std::printf("%s: f %.2f px (sigma %.2f %%), k1 %.5f, k2 %.5f, %s", burst_dir.c_str(), camera.f,
+                sparse.uncertainty.available ? sparse.uncertainty.sigma_f_percent(camera.f) : 0.0,
+                camera.k1, camera.k2, CalibrationQualityName(sparse.verdict.quality));
+    return sparse;
+  } catch (const BurstError& e) {
+    std::printf("%s: unreadable", burst_dir.c_str());
+    *failure = e.what();
+  } catch (const ReconstructionError& e) {
+    std::printf("%s: failed", burst_dir.c_str());
+    *failure = e.what();
+  }
+  return std::nullopt;
+}
+
+int RunFusion(const CalibrateInputs& inputs) {
   CalibrationFusion fusion;
-  for (const std::string& burst_dir : bursts) {
+  for (const std::string& burst_dir : inputs.bursts) {
     std::string outcome;
-    try {
-      const Burst burst = ReadBurst(burst_dir, read_options);
-      const SparseReconstruction sparse =
-          ReconstructSparse(burst.gray, burst.reference(), sparse_options);
-      const CameraModel& camera = sparse.state.camera;
-      std::printf("%s: f %.2f px (sigma %.2f %%), k1 %.5f, k2 %.5f, %s", burst_dir.c_str(),
-                  camera.f,
-                  sparse.uncertainty.available ? sparse.uncertainty.sigma_f_percent(camera.f) : 0.0,
-                  camera.k1, camera.k2, CalibrationQualityName(sparse.verdict.quality));
-      if (sparse.calibration_used != CalibrationSource::kSelf) {
-        outcome = std::string("not fused: ") + CalibrationSourceName(sparse.calibration_used);
-      } else if (!sparse.uncertainty.available) {
-        outcome = "not fused: " + sparse.uncertainty.unavailable_reason;
-      } else if (sparse.verdict.quality == CalibrationQuality::kDegenerate) {
-        outcome = "not fused: degenerate (" + sparse.verdict.reasons.front() + ")";
-      } else {
-        // Less the bias its tracks' noise gave it: fused, the bursts' noise
-        // averages out, their bias would not (core/sparse/bootstrap_bias.h).
-        CalibrationSample sample;
-        sample.camera = sparse.DebiasedCamera().value_or(camera);
-        if (sample.camera.f != camera.f)
-          std::printf(", less its noise bias f %.2f px", sample.camera.f);
-        sample.covariance = sparse.uncertainty.covariance;
-        sample.job = burst_dir;
-        std::string reason;
-        outcome = FusionOutcomeName(fusion.Add(sample, &reason));
-        if (!reason.empty()) outcome += ": " + reason;
-      }
-    } catch (const BurstError& e) {
-      std::printf("%s: unreadable", burst_dir.c_str());
-      outcome = std::string("not fused: ") + e.what();
-    } catch (const ReconstructionError& e) {
-      std::printf("%s: failed", burst_dir.c_str());
-      outcome = std::string("not fused: ") + e.what();
+    const std::optional<SparseReconstruction> sparse = CalibrateAlone(burst_dir, inputs, &outcome);
+    if (!sparse) {
+      outcome = "not fused: " + outcome;
+    } else if (const std::optional<CalibrationSample> sample =
+                   FusionSampleOf(*sparse, burst_dir, &outcome)) {
+      if (sample->camera.f != sparse->state.camera.f)
+        std::printf(", less its noise bias f %.2f px", sample->camera.f);
+      std::string reason;
+      outcome = FusionOutcomeName(fusion.Add(*sample, &reason));
+      if (!reason.empty()) outcome += ": " + reason;
+    } else {
+      outcome = "not fused: " + outcome;
     }
     std::printf(" -> %s\n", outcome.c_str());
   }
@@ -88,10 +77,9 @@ int RunCalibrateCommand(const Args& args) {
     std::fprintf(stderr, "dfsm calibrate: no burst could be fused\n");
     return 1;
   }
-  std::filesystem::create_directories(out_dir);
-  WriteCalibrationFiles(out_dir, fusion.camera());
-  WriteFileAtomically(std::filesystem::path(out_dir) / "fusion.json",
-                      fusion.ToJson().dump(2) + "\n");
+  std::filesystem::create_directories(inputs.out_dir);
+  WriteCalibrationFiles(inputs.out_dir, fusion.camera());
+  WriteFileAtomically(inputs.out_dir / "fusion.json", fusion.ToJson().dump(2) + "\n");
   const CameraModel fused = fusion.camera();
   std::printf(
       "fused       f %.2f px (sigma %.2f %%), k1 %.5f, k2 %.5f, distortion sigma %.2f px, "
@@ -99,6 +87,143 @@ int RunCalibrateCommand(const Args& args) {
       fused.f, fusion.sigma_f_percent(), fused.k1, fused.k2, fusion.distortion_sigma_px(),
       fusion.bursts(), fusion.reliable() ? "reliable" : "not yet reliable");
   return 0;
+}
+
+// A burst's entry of joint.json before the joint adjustment: its own
+// calibration, or why it could not take part.
+nlohmann::json OwnCalibrationJson(const std::string& burst_dir, const SparseReconstruction* sparse,
+                                  const std::string& failure) {
+  nlohmann::json entry = {{"burst", burst_dir}};
+  if (!sparse) {
+    entry["outcome"] = "failed";
+    entry["reason"] = failure;
+    return entry;
+  }
+  const CameraModel& camera = sparse->state.camera;
+  entry["own"] = {{"camera", ToJson(camera)},
+                  {"uncertainty", ToJson(sparse->uncertainty, camera.f)},
+                  {"verdict", ToJson(sparse->verdict)},
+                  {"tracks", CountUsed(sparse->inliers)}};
+  entry["frames"] = sparse->feature_stats.kept_frames;
+  return entry;
+}
+
+void PrintJoint(const JointCalibration& joint, const std::vector<JointBurst>& bursts) {
+  for (size_t k = 0; k < bursts.size(); ++k)
+    std::printf("%s: %s (disagreement %.1f)\n", bursts[k].name.c_str(),
+                JointOutcomeName(joint.bursts[k].outcome), joint.bursts[k].disagreement);
+  const CameraModel& camera = joint.camera;
+  std::printf(
+      "joint       f %.2f px (sigma %.2f %%), k1 %.5f, k2 %.5f, distortion sigma %.2f px, "
+      "%d of %zu bursts, %s\n",
+      camera.f, joint.uncertainty.available ? joint.uncertainty.sigma_f_percent(camera.f) : 0.0,
+      camera.k1, camera.k2, joint.uncertainty.distortion_sigma_px, joint.Joined(), bursts.size(),
+      CalibrationQualityName(joint.verdict.quality));
+  for (const std::string& reason : joint.verdict.reasons)
+    std::printf("            %s\n", reason.c_str());
+}
+
+nlohmann::json JointJson(const JointCalibration& joint, const std::vector<JointBurst>& bursts,
+                         std::vector<nlohmann::json> entries, const std::vector<int>& entry_of) {
+  for (size_t k = 0; k < bursts.size(); ++k) {
+    nlohmann::json& entry = entries[entry_of[k]];
+    const JointBurstResult& result = joint.bursts[k];
+    entry["outcome"] = JointOutcomeName(result.outcome);
+    entry["disagreement"] = result.disagreement;
+    if (result.outcome != JointOutcome::kJoined) continue;
+    entry["tracks"] = result.tracks;
+    entry["rms_reprojection_px"] = result.rms_reprojection_px;
+    entry["poses"] = nlohmann::json::array();
+    for (const Pose& pose : result.poses) entry["poses"].push_back(ToJson(pose));
+  }
+  return {{"camera", ToJson(joint.camera)},
+          {"readout", joint.readout},
+          {"uncertainty", ToJson(joint.uncertainty, joint.camera.f)},
+          {"verdict", ToJson(joint.verdict)},
+          {"bursts_joined", joint.Joined()},
+          {"start_f", joint.start_f},
+          {"iterations", joint.iterations},
+          {"converged", joint.converged},
+          {"rms_reprojection_px", joint.rms_reprojection_px},
+          {"bursts", entries}};
+}
+
+int RunJoint(const CalibrateInputs& inputs) {
+  std::vector<JointBurst> bursts;
+  std::vector<nlohmann::json> entries;
+  std::vector<int> entry_of;  // each joint burst's entry
+  for (const std::string& burst_dir : inputs.bursts) {
+    std::string failure;
+    const std::optional<SparseReconstruction> sparse = CalibrateAlone(burst_dir, inputs, &failure);
+    // Its tracks only are kept: memory stays one burst's frames at a time.
+    entries.push_back(OwnCalibrationJson(burst_dir, sparse ? &*sparse : nullptr, failure));
+    if (!sparse) {
+      std::printf(" -> not joined: %s\n", failure.c_str());
+    } else if (sparse->calibration_used != CalibrationSource::kSelf) {
+      // A fallback's camera is not the burst's estimate: its tracks still join.
+      std::printf(" (%s)\n", CalibrationSourceName(sparse->calibration_used));
+    } else {
+      std::printf("\n");
+    }
+    if (!sparse) continue;
+    entry_of.push_back(static_cast<int>(entries.size()) - 1);
+    bursts.push_back(JointBurstOf(burst_dir, *sparse));
+  }
+  if (bursts.empty()) {
+    std::fprintf(stderr, "dfsm calibrate: no burst could be read and reconstructed\n");
+    return 1;
+  }
+  JointCalibration joint;
+  try {
+    joint = AdjustJointly(bursts, JointOptionsFor(inputs.sparse_options));
+  } catch (const ReconstructionError& e) {
+    std::fprintf(stderr, "dfsm calibrate: %s\n", e.what());
+    return 1;
+  }
+  PrintJoint(joint, bursts);
+  std::filesystem::create_directories(inputs.out_dir);
+  WriteCalibrationFiles(inputs.out_dir, joint.camera);
+  WriteFileAtomically(inputs.out_dir / "joint.json",
+                      JointJson(joint, bursts, std::move(entries), entry_of).dump(2) + "\n");
+  return 0;
+}
+
+}  // namespace
+
+int RunCalibrateCommand(const Args& args) {
+  CLI::App app("Calibrates one camera from several of its bursts.", "dfsm calibrate");
+  app.footer(
+      "Bursts must share one image size. Exit status: 0 a calibration was written, 1 none could "
+      "be made (no burst usable, or fewer than two agreeing), 2 usage.");
+  CalibrateInputs inputs;
+  std::string out_dir, rolling_shutter = kDefaultRollingShutter, method = "joint";
+  app.add_option("BURST", inputs.bursts, "dfsm-burst/1 directories of one camera")->required();
+  app.add_option("--out", out_dir,
+                 "written: calibration.json and calibration.yaml of the camera (as 'dfsm process' "
+                 "writes them) and joint.json (the shared camera with its sigma and verdict, and "
+                 "each burst's own calibration, outcome and poses) or, with --method fusion, "
+                 "fusion.json")
+      ->required();
+  app.add_option("--method", method,
+                 "joint: one adjustment over every burst's tracks, the camera shared (bursts "
+                 "that disagree with it are left out); fusion: each usable burst's estimate "
+                 "weighed by its information, as dfsmd keeps it over days")
+      ->check(CLI::IsMember({"joint", "fusion"}))
+      ->capture_default_str();
+  app.add_option("--frames", inputs.read_options.max_frames,
+                 "use N frames of each burst, centred on its reference (0: all)")
+      ->check(FrameCount());
+  app.add_option("--rolling-shutter", rolling_shutter,
+                 "global | estimate | R: the sensor's readout, as for 'dfsm process'")
+      ->capture_default_str();
+  if (const auto status = ParseCommandLine(app, args)) return *status;
+  inputs.out_dir = out_dir;
+  try {
+    inputs.sparse_options.rolling_shutter = ParseRollingShutter(rolling_shutter);
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(std::string("--rolling-shutter: ") + e.what());
+  }
+  return method == "joint" ? RunJoint(inputs) : RunFusion(inputs);
 }
 
 }  // namespace dfsm::tools

@@ -1,0 +1,193 @@
+// One camera's bursts calibrated three ways, side by side: each alone, fused
+// by information weight (core/sparse/calibration_fusion.h, as dfsmd keeps its
+// camera) and adjusted jointly (core/sparse/joint_adjustment.h, dfsm
+// calibrate's default). One JSON line per burst, then one per method, each
+// scored against the true camera.
+//   joint_calibration --dataset DIR [--start K] [--step S] [--frames N]
+//                     [--downscale D] [--calibration FILE] [--consistency P]
+//       windows of a TUM sequence (as tum_benchmark reads them), scored
+//       against the published calibration;
+//   joint_calibration BURST...
+//       dfsm-burst/1 directories with ground_truth.json (dfsm synth writes
+//       them), scored against each one's camera (the first burst's for the
+//       fused and joint ones).
+// --consistency P: JointAdjustmentOptions::consistency_probability.
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <functional>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "bench/report_options.h"
+#include "bench/tum_sequence.h"
+#include "core/io/ground_truth.h"
+#include "core/sparse/calibration_fusion.h"
+#include "core/sparse/joint_adjustment.h"
+#include "core/sparse/sparse_reconstruction.h"
+
+namespace dfsm {
+namespace {
+
+double Milliseconds(std::chrono::steady_clock::time_point since) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - since)
+      .count();
+}
+
+double FocalErrorPercent(const CameraModel& camera, const CameraModel& truth) {
+  return 100.0 * (camera.f - truth.f) / truth.f;
+}
+
+struct Input {
+  std::string name;
+  std::function<Burst()> read;
+  CameraModel truth;
+};
+
+int Run(const std::vector<Input>& inputs, double consistency_probability) {
+  const SparseOptions options;
+  CalibrationFusion fusion;
+  std::vector<JointBurst> bursts;
+  double alone_ms = 0.0;
+  for (const Input& input : inputs) {
+    nlohmann::json line = {{"burst", input.name}};
+    const auto start = std::chrono::steady_clock::now();
+    try {
+      const Burst burst = input.read();
+      const SparseReconstruction sparse = ReconstructSparse(burst.gray, burst.reference(), options);
+      const double ms = Milliseconds(start);
+      alone_ms += ms;
+      const CameraModel& camera = sparse.state.camera;
+      line["f"] = camera.f;
+      line["f_error_percent"] = FocalErrorPercent(camera, input.truth);
+      line["sigma_f_percent"] =
+          sparse.uncertainty.available ? sparse.uncertainty.sigma_f_percent(camera.f) : -1.0;
+      line["verdict"] = CalibrationQualityName(sparse.verdict.quality);
+      line["tracks"] = CountUsed(sparse.inliers);
+      line["readout"] = sparse.state.readout;
+      line["k1"] = camera.k1;
+      line["k2"] = camera.k2;
+      line["sparse_ms"] = ms;
+      std::string why;
+      if (const std::optional<CalibrationSample> sample =
+              FusionSampleOf(sparse, input.name, &why)) {
+        std::string reason;
+        line["fusion"] = FusionOutcomeName(fusion.Add(*sample, &reason));
+      } else {
+        line["fusion"] = "not fused: " + why;
+      }
+      bursts.push_back(JointBurstOf(input.name, sparse));
+    } catch (const std::exception& e) {
+      line["failed"] = e.what();
+    }
+    std::printf("%s\n", line.dump().c_str());
+    std::fflush(stdout);
+  }
+  const CameraModel& truth = inputs.front().truth;
+  nlohmann::json fused = {{"method", "fusion"}, {"bursts", inputs.size()}};
+  if (fusion.empty()) {
+    fused["failed"] = "no burst could be fused";
+  } else {
+    fused["f"] = fusion.camera().f;
+    fused["f_error_percent"] = FocalErrorPercent(fusion.camera(), truth);
+    fused["sigma_f_percent"] = fusion.sigma_f_percent();
+    fused["distortion_error_px"] = MeanDistortionError(fusion.camera(), truth);
+    fused["fused"] = fusion.bursts();
+    fused["reliable"] = fusion.reliable();
+  }
+  std::printf("%s\n", fused.dump().c_str());
+  nlohmann::json joint_line = {{"method", "joint"}, {"bursts", inputs.size()}};
+  const auto start = std::chrono::steady_clock::now();
+  try {
+    JointAdjustmentOptions joint_options = JointOptionsFor(options);
+    if (consistency_probability > 0.0)
+      joint_options.consistency_probability = consistency_probability;
+    const JointCalibration joint = AdjustJointly(bursts, joint_options);
+    joint_line["f"] = joint.camera.f;
+    joint_line["f_error_percent"] = FocalErrorPercent(joint.camera, truth);
+    joint_line["sigma_f_percent"] =
+        joint.uncertainty.available ? joint.uncertainty.sigma_f_percent(joint.camera.f) : -1.0;
+    joint_line["distortion_error_px"] = MeanDistortionError(joint.camera, truth);
+    joint_line["distortion_sigma_px"] = joint.uncertainty.distortion_sigma_px;
+    joint_line["verdict"] = ToJson(joint.verdict);
+    joint_line["joined"] = joint.Joined();
+    nlohmann::json disagreements = nlohmann::json::array();
+    for (const JointBurstResult& result : joint.bursts)
+      disagreements.push_back(result.disagreement);
+    joint_line["disagreements"] = disagreements;
+    joint_line["readout"] = joint.readout;
+    joint_line["fitted_f"] = joint.fitted_camera.f;
+    joint_line["bias_f"] = joint.bias ? joint.bias->f : 0.0;
+    joint_line["iterations"] = joint.iterations;
+  } catch (const std::exception& e) {
+    joint_line["failed"] = e.what();
+  }
+  joint_line["joint_ms"] = Milliseconds(start);
+  joint_line["alone_ms"] = alone_ms;
+  std::printf("%s\n", joint_line.dump().c_str());
+  return 0;
+}
+
+}  // namespace
+}  // namespace dfsm
+
+int main(int argc, char** argv) {
+  using namespace dfsm;
+  std::string dataset, calibration_file = TumFreiburg1CalibrationFile();
+  int frames = 10, step = 12, start = 1, downscale = 1;
+  double consistency_probability = 0.0;  // the option's default
+  std::vector<std::string> burst_dirs;
+  try {
+    for (int i = 1; i < argc; ++i) {
+      const std::string option = argv[i];
+      if (option.rfind("--", 0) != 0) {
+        burst_dirs.push_back(option);
+        continue;
+      }
+      if (i + 1 >= argc) throw std::invalid_argument(option + " needs a value");
+      const char* value = argv[++i];
+      if (option == "--dataset")
+        dataset = value;
+      else if (option == "--frames")
+        frames = WholeNumber("--frames", value, 3);
+      else if (option == "--step")
+        step = WholeNumber("--step", value, 1);
+      else if (option == "--start")
+        start = WholeNumber("--start", value, 0);
+      else if (option == "--downscale")
+        downscale = WholeNumber("--downscale", value, 1);
+      else if (option == "--calibration")
+        calibration_file = value;
+      else if (option == "--consistency")
+        consistency_probability = PositiveNumber("--consistency", value);
+      else
+        throw std::invalid_argument("unknown option " + option +
+                                    " (see the comment at the top of bench/joint_calibration.cc)");
+    }
+    if (dataset.empty() == burst_dirs.empty())
+      throw std::invalid_argument("give either --dataset DIR or burst directories");
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "joint_calibration: %s\n", e.what());
+    return 2;
+  }
+  std::vector<Input> inputs;
+  std::optional<TumSequence> sequence;
+  if (!dataset.empty()) {
+    sequence.emplace(dataset, downscale);
+    if (sequence->empty()) {
+      std::fprintf(stderr, "joint_calibration: no TUM sequence at %s\n", dataset.c_str());
+      return 77;
+    }
+    const CameraModel truth = sequence->ReadCalibration(calibration_file).camera;
+    for (int first = start; first + frames <= sequence->frames(); first += step)
+      inputs.push_back({"window " + std::to_string(first),
+                        [&sequence, first, frames] { return sequence->Window(first, frames); },
+                        truth});
+  } else {
+    for (const std::string& dir : burst_dirs)
+      inputs.push_back({dir, [dir] { return ReadBurst(dir); }, ReadGroundTruth(dir).camera});
+  }
+  return Run(inputs, consistency_probability);
+}

@@ -1,0 +1,465 @@
+#include "core/sparse/joint_adjustment.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <opencv2/core/utility.hpp>
+#include <stdexcept>
+#include <string>
+
+#include "core/sparse/adjustment_problem.h"
+#include "core/sparse/calibration_fusion.h"
+#include "core/sparse/sparse_reconstruction.h"
+
+namespace dfsm {
+
+const char* JointOutcomeName(JointOutcome outcome) {
+  return outcome == JointOutcome::kJoined ? "joined" : "disagrees";
+}
+
+int JointCalibration::Joined() const {
+  return static_cast<int>(std::count_if(bursts.begin(), bursts.end(), [](const auto& burst) {
+    return burst.outcome == JointOutcome::kJoined;
+  }));
+}
+
+JointBurst JointBurstOf(const std::string& name, const SparseReconstruction& sparse) {
+  JointBurst burst;
+  burst.name = name;
+  burst.tracks = sparse.tracks;
+  burst.tracks.weights.clear();
+  burst.use = sparse.inliers;
+  burst.state = sparse.state;
+  burst.noise_px = sparse.uncertainty.residual_sigma_px;
+  if (sparse.uncertainty.available)
+    burst.sigma_f_percent = sparse.uncertainty.sigma_f_percent(sparse.state.camera.f);
+  return burst;
+}
+
+JointAdjustmentOptions JointOptionsFor(const SparseOptions& sparse) {
+  JointAdjustmentOptions options;
+  options.bundle_adjustment = sparse.bundle_adjustment;
+  options.bundle_adjustment.estimate_readout =
+      sparse.rolling_shutter.mode == RollingShutterOptions::Mode::kEstimate;
+  options.quality = sparse.quality;
+  options.bootstrap = sparse.bootstrap;
+  return options;
+}
+
+void JointAdjustmentOptions::Check() const {
+  bundle_adjustment.Check();
+  quality.Check();
+  if (bundle_adjustment.fix_intrinsics)
+    throw std::invalid_argument(
+        "bundle_adjustment.fix_intrinsics: a joint calibration estimates "
+        "the camera");
+  if (!(consistency_probability > 0.0 && consistency_probability < 1.0))
+    throw std::invalid_argument("consistency_probability must be in (0, 1)");
+  if (min_bursts < 1) throw std::invalid_argument("min_bursts must be >= 1");
+  if (max_starts < 1) throw std::invalid_argument("max_starts must be >= 1");
+  if (profile_iterations < 1) throw std::invalid_argument("profile_iterations must be >= 1");
+  bootstrap.Check();
+}
+
+namespace {
+
+// A burst's cost under intrinsics held fixed: its poses and inverse depths
+// (and the readout, where estimated) re-minimised, without the priors
+// (constant under held intrinsics, they would only shift the cost). The
+// readout trades against a tilt of the scene (docs/experiments/114), so a
+// burst's own readout may differ from the shared one without another
+// camera: it is not tested.
+BundleAdjustmentOptions ProfileOptions(const JointAdjustmentOptions& options) {
+  BundleAdjustmentOptions profile = options.bundle_adjustment;
+  profile.fix_intrinsics = true;
+  profile.max_iterations = options.profile_iterations;
+  profile.log_f_prior_sigma = 0.0;
+  profile.lens_k_prior_sigma = 0.0;
+  profile.known_f_sigma_percent = 0.0;
+  return profile;
+}
+
+struct Profile {
+  SparseState state;
+  double cost = std::numeric_limits<double>::infinity();
+};
+
+Profile ProfileUnder(const JointBurst& burst, const CameraModel& camera, double readout,
+                     const BundleAdjustmentOptions& profile_options) {
+  Profile profile{burst.state};
+  profile.state.camera.f = camera.f;
+  profile.state.camera.k1 = camera.k1;
+  profile.state.camera.k2 = camera.k2;
+  profile.state.readout = readout;
+  profile.cost =
+      RunBundleAdjustment(burst.tracks, burst.use, &profile.state, profile_options).final_cost;
+  return profile;
+}
+
+// The bursts taking part in one round, and their states as the round leaves
+// them.
+struct Round {
+  std::vector<int> active;  // indices into the bursts
+  std::vector<SparseState> states;
+  CameraModel camera;
+  double readout = 0.0;
+};
+
+// The start: of the active bursts' own cameras (the most certain first, at
+// most max_starts), the one under which the active bursts' profile costs sum
+// lowest; each burst's profile state under it.
+void ChooseStart(const std::vector<JointBurst>& bursts, const JointAdjustmentOptions& options,
+                 Round* round) {
+  std::vector<int> candidates = round->active;
+  std::stable_sort(candidates.begin(), candidates.end(), [&](int a, int b) {
+    const auto key = [&](int k) {
+      return bursts[k].sigma_f_percent > 0.0 ? bursts[k].sigma_f_percent
+                                             : std::numeric_limits<double>::infinity();
+    };
+    return key(a) < key(b);
+  });
+  if (static_cast<int>(candidates.size()) > options.max_starts)
+    candidates.resize(options.max_starts);
+  // One readout for every start: the bursts' median (they share the sensor).
+  std::vector<double> readouts;
+  for (const int k : round->active) readouts.push_back(bursts[k].state.readout);
+  std::nth_element(readouts.begin(), readouts.begin() + readouts.size() / 2, readouts.end());
+  round->readout = readouts[readouts.size() / 2];
+  const BundleAdjustmentOptions profile_options = ProfileOptions(options);
+  double best = std::numeric_limits<double>::infinity();
+  for (const int c : candidates) {
+    const CameraModel& camera = bursts[c].state.camera;
+    std::vector<SparseState> states;
+    double total = 0.0;
+    for (const int k : round->active) {
+      Profile profile = ProfileUnder(bursts[k], camera, round->readout, profile_options);
+      total += profile.cost;
+      states.push_back(std::move(profile.state));
+    }
+    if (total < best) {
+      best = total;
+      round->camera = camera;
+      round->states = std::move(states);
+    }
+  }
+}
+
+// The joint problem over one round's bursts: their residuals, each burst's
+// gauge, the shared camera.
+class JointProblem {
+ public:
+  JointProblem(const std::vector<JointBurst>& bursts, const JointAdjustmentOptions& options,
+               Round* round)
+      : bursts_(bursts),
+        options_(options.bundle_adjustment),
+        round_(round),
+        huber_(options_.huber_px),
+        problem_(ProblemOptions()),
+        ordering_(new ceres::ParameterBlockOrdering) {
+    intrinsics_[0] = round->camera.f;
+    intrinsics_[1] = round->camera.k1;
+    intrinsics_[2] = round->camera.k2;
+    readout_ = round->readout;
+    const bool rolling = readout_ != 0.0 || options_.estimate_readout;
+    const size_t count = round->active.size();
+    poses_.resize(count);
+    blocks_.resize(count);
+    for (size_t b = 0; b < count; ++b) {
+      const JointBurst& burst = bursts_[round->active[b]];
+      SparseState& state = round->states[b];
+      for (const Pose& pose : state.poses) poses_[b].push_back(ToParameters(pose));
+      reprojections_.push_back(std::make_unique<Reprojection>(burst.tracks, burst.state.camera,
+                                                              rolling, burst.state.frame_times));
+      const AdjustmentParameters parameters = Parameters(b);
+      AddReprojectionResiduals(burst.tracks, burst.use, *reprojections_[b], parameters, &huber_,
+                               &weighted_losses_, &problem_, ordering_, &blocks_[b]);
+      anchors_.push_back(FixBurstGauge(burst.tracks, burst.use, parameters, &problem_, ordering_));
+    }
+    AddIntrinsicsPriors(round->camera, options_, intrinsics_, &problem_, &prior_);
+    ConstrainCamera(options_, rolling, intrinsics_, &readout_, &problem_, ordering_);
+  }
+
+  ceres::Solver::Summary Solve() {
+    const ceres::LinearSolverType solver =
+        ceres::IsSparseLinearAlgebraLibraryTypeAvailable(ceres::SUITE_SPARSE) &&
+                round_->active.size() > 1
+            ? ceres::SPARSE_SCHUR
+            : ceres::DENSE_SCHUR;
+    // The shared camera is weakly observed, and the joint cost is large: one
+    // sigma of f moves it by about one part in its residual count, and the
+    // steps along f are small. One burst's relative tolerance would stop
+    // the joint problem short of its minimum.
+    BundleAdjustmentOptions solve = options_;
+    solve.function_tolerance =
+        std::min(options_.function_tolerance, 1e-4 / problem_.NumResiduals());
+    const ceres::Solver::Summary summary = SolveAdjustment(solve, ordering_, &problem_, solver);
+    round_->camera.f = intrinsics_[0];
+    round_->camera.k1 = intrinsics_[1];
+    round_->camera.k2 = intrinsics_[2];
+    round_->readout = readout_;
+    for (size_t b = 0; b < round_->active.size(); ++b) {
+      SparseState& state = round_->states[b];
+      state.camera.f = intrinsics_[0];
+      state.camera.k1 = intrinsics_[1];
+      state.camera.k2 = intrinsics_[2];
+      state.readout = readout_;
+      const int reference = bursts_[round_->active[b]].tracks.reference;
+      for (size_t i = 0; i < state.poses.size(); ++i)
+        state.poses[i] = static_cast<int>(i) == reference ? Pose{} : FromParameters(poses_[b][i]);
+    }
+    return summary;
+  }
+
+  // The marginal covariance of the shared intrinsics (and readout) at the
+  // solution, from the joint problem's jacobians.
+  CalibrationUncertainty Uncertainty() {
+    std::vector<double*> poses, depths;
+    std::vector<ceres::ResidualBlockId> reprojection;
+    for (size_t b = 0; b < round_->active.size(); ++b) {
+      const FeatureTracks& tracks = bursts_[round_->active[b]].tracks;
+      for (int i = 0; i < tracks.num_frames(); ++i)
+        if (i != tracks.reference) poses.push_back(poses_[b][i].data());
+    }
+    for (size_t b = 0; b < round_->active.size(); ++b) {
+      const std::vector<bool>& use = bursts_[round_->active[b]].use;
+      std::vector<double>& inverse_depths = round_->states[b].inverse_depths;
+      for (size_t j = 0; j < inverse_depths.size(); ++j)
+        if (use[j] && static_cast<int>(j) != anchors_[b]) depths.push_back(&inverse_depths[j]);
+      reprojection.insert(reprojection.end(), blocks_[b].reprojection.begin(),
+                          blocks_[b].reprojection.end());
+    }
+    AdjustmentJacobians jacobians =
+        EvaluateJacobians(&problem_, intrinsics_, poses, &readout_, depths, reprojection, prior_);
+    int first_track = 0;
+    for (size_t b = 0; b < round_->active.size(); ++b) {
+      const FeatureTracks& tracks = bursts_[round_->active[b]].tracks;
+      AddReferenceJacobians(tracks, *reprojections_[b], Parameters(b), blocks_[b], first_track,
+                            &jacobians);
+      const std::vector<double>& inverse_depths = round_->states[b].inverse_depths;
+      jacobians.inverse_depths.insert(jacobians.inverse_depths.end(), inverse_depths.begin(),
+                                      inverse_depths.end());
+      first_track += tracks.num_tracks();
+    }
+    jacobians.noise_inflation = UncertaintyInflation(options_, round_->camera);
+    CalibrationUncertainty uncertainty = MarginalIntrinsicsCovariance(jacobians);
+    uncertainty.wide_angle_factor = WideAngleFactor(options_, round_->camera);
+    PropagateToDistortion(round_->camera, &uncertainty);
+    return uncertainty;
+  }
+
+ private:
+  static ceres::Problem::Options ProblemOptions() {
+    ceres::Problem::Options options;
+    options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+    return options;
+  }
+  AdjustmentParameters Parameters(size_t b) {
+    return {intrinsics_, &poses_[b], &round_->states[b].inverse_depths, &readout_};
+  }
+
+  const std::vector<JointBurst>& bursts_;
+  const BundleAdjustmentOptions options_;
+  Round* round_;
+  double intrinsics_[3];
+  double readout_ = 0.0;
+  std::vector<std::vector<std::array<double, 6>>> poses_;  // per burst, per frame
+  std::vector<std::unique_ptr<Reprojection>> reprojections_;
+  std::vector<AdjustmentResidualBlocks> blocks_;
+  std::vector<ceres::ResidualBlockId> prior_;
+  std::vector<int> anchors_;
+  ceres::HuberLoss huber_;
+  // Declared before the problem, which uses them to its end.
+  std::vector<std::unique_ptr<ceres::ScaledLoss>> weighted_losses_;
+  ceres::Problem problem_;
+  ceres::ParameterBlockOrdering* ordering_;  // the solver takes it
+};
+
+double RmsOverUsed(const FeatureTracks& tracks, const std::vector<bool>& use,
+                   const SparseState& state, double* sum_sq, int* count) {
+  const std::vector<double> errors = TrackReprojectionErrors(tracks, state);
+  double burst_sum = 0.0;
+  int burst_count = 0;
+  for (size_t j = 0; j < errors.size(); ++j)
+    if (use[j]) burst_sum += errors[j] * errors[j], ++burst_count;
+  *sum_sq += burst_sum;
+  *count += burst_count;
+  return burst_count > 0 ? std::sqrt(burst_sum / burst_count) : 0.0;
+}
+
+}  // namespace
+
+namespace {
+
+// The round's bias from the tracks' noise where it matters (as
+// MeasureBiasIfItMatters decides for one burst, on the joint sigma_f before
+// its inflation): every active burst's tracks replaced by ones its solution
+// explains plus noise as large as its residuals, all adjusted jointly again
+// from the solution; the replicas' mean camera less the solution's. The
+// replicas run on OpenCV's pool, each single-threaded.
+std::optional<IntrinsicsBias> JointBias(const std::vector<JointBurst>& bursts,
+                                        const JointAdjustmentOptions& options, const Round& round,
+                                        const CalibrationUncertainty& uncertainty) {
+  const BootstrapBiasOptions& bootstrap = options.bootstrap;
+  if (bootstrap.replicas == 0 || !uncertainty.available) return std::nullopt;
+  const double sigma_f_noise = uncertainty.sigma_f_px() / uncertainty.inflation;
+  if (!(100.0 * sigma_f_noise / round.camera.f >= bootstrap.min_sigma_f_percent))
+    return std::nullopt;
+  std::vector<FeatureTracks> explained;
+  std::vector<double> noise;
+  for (size_t b = 0; b < round.active.size(); ++b) {
+    const JointBurst& burst = bursts[round.active[b]];
+    explained.push_back(ExplainedTracks(burst.tracks, burst.use, round.states[b]));
+    noise.push_back(
+        ResidualNoisePx(burst.tracks, burst.use, round.states[b], options.bundle_adjustment));
+  }
+  JointAdjustmentOptions replica_options = options;
+  replica_options.bundle_adjustment.num_threads = 1;  // the replicas share the pool instead
+  std::vector<Round> replicas(bootstrap.replicas, round);
+  std::vector<char> solved(bootstrap.replicas, 0);
+  cv::parallel_for_(cv::Range(0, bootstrap.replicas), [&](const cv::Range& range) {
+    for (int r = range.start; r < range.end; ++r) {
+      std::vector<JointBurst> replica(bursts.size());
+      for (size_t b = 0; b < round.active.size(); ++b) {
+        const JointBurst& burst = bursts[round.active[b]];
+        JointBurst& copy = replica[round.active[b]];
+        copy.tracks = ReplicaTracks(explained[b], burst.use, noise[b],
+                                    bootstrap.seed + 7919 * r + 104729 * b);
+        copy.use = burst.use;
+        copy.state = burst.state;
+      }
+      JointProblem problem(replica, replica_options, &replicas[r]);
+      const ceres::Solver::Summary summary = problem.Solve();
+      solved[r] = std::isfinite(summary.final_cost) && replicas[r].camera.f > 0.0;
+    }
+  });
+  IntrinsicsBias bias;
+  for (int r = 0; r < bootstrap.replicas; ++r) {
+    if (!solved[r]) continue;
+    ++bias.replicas;
+    bias.f += replicas[r].camera.f - round.camera.f;
+    bias.k1 += replicas[r].camera.k1 - round.camera.k1;
+    bias.k2 += replicas[r].camera.k2 - round.camera.k2;
+    bias.readout += replicas[r].readout - round.readout;
+  }
+  if (bias.replicas > 0) {
+    bias.f /= bias.replicas;
+    bias.k1 /= bias.replicas;
+    bias.k2 /= bias.replicas;
+    bias.readout /= bias.replicas;
+  }
+  bias.sigma_f_noise_px = sigma_f_noise;
+  bias.usable = 2 * bias.replicas >= bootstrap.replicas &&
+                std::abs(bias.f) <= bootstrap.max_correction_percent / 100.0 * round.camera.f;
+  return bias;
+}
+
+// Twice the rise of each active burst's cost from its own camera to the
+// round's, in units of its inflated noise variance.
+std::vector<double> Disagreements(const std::vector<JointBurst>& bursts,
+                                  const JointAdjustmentOptions& options, const Round& round,
+                                  double joint_noise_px, std::vector<double>* own_costs) {
+  const BundleAdjustmentOptions profile_options = ProfileOptions(options);
+  const double inflation = UncertaintyInflation(options.bundle_adjustment, round.camera);
+  std::vector<double> disagreements;
+  for (const int k : round.active) {
+    const JointBurst& burst = bursts[k];
+    if (std::isinf((*own_costs)[k]))
+      (*own_costs)[k] =
+          ProfileUnder(burst, burst.state.camera, burst.state.readout, profile_options).cost;
+    const double joint_cost =
+        ProfileUnder(burst, round.camera, round.readout, profile_options).cost;
+    const double noise = (burst.noise_px > 0.0 ? burst.noise_px : joint_noise_px) * inflation;
+    disagreements.push_back(2.0 * (joint_cost - (*own_costs)[k]) / (noise * noise));
+  }
+  return disagreements;
+}
+
+// The verdict on the shared camera: as one burst's, on the joined bursts'
+// evidence, and not reliable where as many bursts disagree as agree.
+CalibrationVerdict JudgeJointly(const std::vector<JointBurst>& bursts,
+                                const JointAdjustmentOptions& options,
+                                const JointCalibration& joint) {
+  CalibrationEvidence evidence;
+  std::vector<double> motions;
+  for (size_t k = 0; k < bursts.size(); ++k) {
+    if (joint.bursts[k].outcome != JointOutcome::kJoined) continue;
+    evidence.tracks += joint.bursts[k].tracks;
+    motions.push_back(bursts[k].tracks.MedianMaxDisplacement());
+  }
+  std::nth_element(motions.begin(), motions.begin() + motions.size() / 2, motions.end());
+  evidence.median_track_motion_px = motions[motions.size() / 2];
+  evidence.rms_reprojection_px = joint.rms_reprojection_px;
+  CalibrationVerdict verdict =
+      JudgeCalibration(joint.camera, joint.uncertainty, evidence, options.quality);
+  const int joined = joint.Joined();
+  const int left_out = static_cast<int>(bursts.size()) - joined;
+  if (left_out > 0) {
+    verdict.reasons.push_back(std::to_string(left_out) + " of " + std::to_string(bursts.size()) +
+                              " bursts disagree with the shared camera and were left out "
+                              "(another camera, or a changed zoom or focus?)");
+    if (left_out >= joined && verdict.quality == CalibrationQuality::kReliable)
+      verdict.quality = CalibrationQuality::kUncertain;
+  }
+  return verdict;
+}
+
+}  // namespace
+
+JointCalibration AdjustJointly(const std::vector<JointBurst>& bursts,
+                               const JointAdjustmentOptions& options) {
+  options.Check();
+  for (const JointBurst& burst : bursts)
+    if (burst.state.camera.width != bursts.front().state.camera.width ||
+        burst.state.camera.height != bursts.front().state.camera.height)
+      throw ReconstructionError("joint calibration: bursts of different image sizes (" +
+                                bursts.front().name + " and " + burst.name +
+                                "): one camera's bursts share one size");
+  JointCalibration joint;
+  joint.bursts.resize(bursts.size());
+  Round round;
+  for (size_t k = 0; k < bursts.size(); ++k) round.active.push_back(static_cast<int>(k));
+  std::vector<double> own_costs(bursts.size(), std::numeric_limits<double>::infinity());
+  const double max_disagreement = ChiSquareQuantile(options.consistency_probability, 3);
+  while (true) {
+    if (static_cast<int>(round.active.size()) < options.min_bursts)
+      throw ReconstructionError("joint calibration: " + std::to_string(round.active.size()) +
+                                " of " + std::to_string(bursts.size()) +
+                                " bursts agree, fewer than " + std::to_string(options.min_bursts));
+    ChooseStart(bursts, options, &round);
+    joint.start_f = round.camera.f;
+    JointProblem problem(bursts, options, &round);
+    const ceres::Solver::Summary summary = problem.Solve();
+    joint.iterations = summary.num_successful_steps + summary.num_unsuccessful_steps;
+    joint.converged = summary.termination_type == ceres::CONVERGENCE;
+    joint.uncertainty = problem.Uncertainty();
+    const std::vector<double> disagreements =
+        Disagreements(bursts, options, round, joint.uncertainty.residual_sigma_px, &own_costs);
+    const auto worst = std::max_element(disagreements.begin(), disagreements.end());
+    for (size_t b = 0; b < round.active.size(); ++b)
+      joint.bursts[round.active[b]].disagreement = disagreements[b];
+    if (*worst <= max_disagreement) break;
+    const size_t left_out = worst - disagreements.begin();
+    joint.bursts[round.active[left_out]].outcome = JointOutcome::kDisagrees;
+    round.active.erase(round.active.begin() + left_out);
+  }
+  joint.fitted_camera = round.camera;
+  joint.bias = JointBias(bursts, options, round, joint.uncertainty);
+  joint.camera = Debiased(round.camera, joint.bias);
+  joint.readout = round.readout;
+  double sum_sq = 0.0;
+  int count = 0;
+  for (size_t b = 0; b < round.active.size(); ++b) {
+    const JointBurst& burst = bursts[round.active[b]];
+    JointBurstResult& result = joint.bursts[round.active[b]];
+    result.poses = round.states[b].poses;
+    result.tracks = CountUsed(burst.use);
+    result.rms_reprojection_px =
+        RmsOverUsed(burst.tracks, burst.use, round.states[b], &sum_sq, &count);
+  }
+  joint.rms_reprojection_px = count > 0 ? std::sqrt(sum_sq / count) : 0.0;
+  joint.verdict = JudgeJointly(bursts, options, joint);
+  return joint;
+}
+
+}  // namespace dfsm

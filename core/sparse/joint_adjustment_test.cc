@@ -1,0 +1,147 @@
+#include "core/sparse/joint_adjustment.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "tests/support/track_simulator.h"
+
+namespace dfsm {
+namespace {
+
+// Bursts of one 640x480 camera (f `f`), seeds from `first_seed`, each through
+// the whole sparse stage alone (a global shutter, as simulated).
+std::vector<JointBurst> BurstsOfOneCamera(double f, double k1, int count, uint64_t first_seed,
+                                          double rotation_deg, double noise_px,
+                                          std::vector<SparseReconstruction>* alone = nullptr) {
+  std::vector<JointBurst> bursts;
+  for (int b = 0; b < count; ++b) {
+    TrackSimulatorOptions simulate;
+    simulate.width = 640;
+    simulate.height = 480;
+    simulate.tracks = 150;
+    simulate.f = f;
+    simulate.k1 = k1;
+    simulate.rotation_deg = rotation_deg;
+    simulate.noise_px = noise_px;
+    simulate.seed = first_seed + b;
+    const TrackSimulation sim = SimulateTracks(simulate);
+    SparseOptions options;
+    options.rolling_shutter.mode = RollingShutterOptions::Mode::kGlobal;
+    const SparseReconstruction sparse = ReconstructFromTracks(sim.tracks, 640, 480, options);
+    if (alone) alone->push_back(sparse);
+    bursts.push_back(JointBurstOf("burst " + std::to_string(first_seed + b), sparse));
+  }
+  return bursts;
+}
+
+JointAdjustmentOptions GlobalShutter() {
+  SparseOptions sparse;
+  sparse.rolling_shutter.mode = RollingShutterOptions::Mode::kGlobal;
+  return JointOptionsFor(sparse);
+}
+
+double SigmaF(const CalibrationUncertainty& uncertainty, const CameraModel& camera) {
+  return uncertainty.available ? uncertainty.sigma_f_percent(camera.f) : 100.0;
+}
+
+// Bursts too weak to calibrate the camera alone (a degree of tremor, 0.1 px
+// of tracking noise at VGA: most are degenerate, sigma_f 6-11 %) share it in
+// one problem: the joint camera is within its 2 sigma of the truth, and
+// that sigma is below every burst's own.
+TEST(JointAdjustment, RecoversTheCameraOfBurstsTooWeakAlone) {
+  std::vector<SparseReconstruction> alone;
+  const std::vector<JointBurst> bursts = BurstsOfOneCamera(704.0, -0.06, 5, 1, 1.0, 0.1, &alone);
+  int degenerate = 0;
+  double smallest_sigma = 100.0;
+  for (const SparseReconstruction& sparse : alone) {
+    degenerate += sparse.verdict.quality == CalibrationQuality::kDegenerate;
+    smallest_sigma = std::min(smallest_sigma, SigmaF(sparse.uncertainty, sparse.state.camera));
+  }
+  EXPECT_GE(degenerate, 3);
+  const JointCalibration joint = AdjustJointly(bursts, GlobalShutter());
+  EXPECT_EQ(joint.Joined(), 5);
+  const double sigma = SigmaF(joint.uncertainty, joint.camera);
+  EXPECT_LT(sigma, smallest_sigma);
+  EXPECT_LE(std::abs(joint.camera.f - 704.0), 2.0 * sigma / 100.0 * joint.camera.f)
+      << "joint f " << joint.camera.f << ", sigma " << sigma << " %";
+  EXPECT_NE(joint.verdict.quality, CalibrationQuality::kDegenerate);
+  // The bias the tracks' noise gave the fit was measured and taken off.
+  ASSERT_TRUE(joint.bias.has_value());
+  EXPECT_TRUE(joint.bias->usable);
+  EXPECT_GT(joint.fitted_camera.f, joint.camera.f);
+  for (const JointBurstResult& burst : joint.bursts) EXPECT_EQ(burst.poses.size(), 10u);
+}
+
+// Bursts of another camera of the same size (f 560 against 704) are found
+// and left out, not averaged in: the shared camera is the majority's.
+TEST(JointAdjustment, LeavesOutTheBurstsOfAnotherCamera) {
+  std::vector<JointBurst> bursts = BurstsOfOneCamera(704.0, -0.06, 4, 11, 1.0, 0.05);
+  for (JointBurst& other : BurstsOfOneCamera(560.0, -0.12, 2, 21, 1.0, 0.05))
+    bursts.push_back(std::move(other));
+  const JointCalibration joint = AdjustJointly(bursts, GlobalShutter());
+  for (int b = 0; b < 6; ++b)
+    EXPECT_EQ(joint.bursts[b].outcome, b < 4 ? JointOutcome::kJoined : JointOutcome::kDisagrees)
+        << "burst " << b << ", disagreement " << joint.bursts[b].disagreement;
+  const double sigma = SigmaF(joint.uncertainty, joint.camera);
+  EXPECT_LE(std::abs(joint.camera.f - 704.0), 2.0 * sigma / 100.0 * joint.camera.f)
+      << "joint f " << joint.camera.f << ", sigma " << sigma << " %";
+  ASSERT_FALSE(joint.verdict.reasons.empty());
+  EXPECT_NE(joint.verdict.reasons.back().find("2 of 6 bursts disagree"), std::string::npos)
+      << joint.verdict.reasons.back();
+}
+
+// Where fewer bursts than min_bursts agree there is no joint camera.
+TEST(JointAdjustment, TwoBurstsOfTwoCamerasGiveNoCamera) {
+  std::vector<JointBurst> bursts = BurstsOfOneCamera(704.0, -0.06, 1, 11, 1.0, 0.05);
+  bursts.push_back(BurstsOfOneCamera(560.0, -0.12, 1, 21, 1.0, 0.05).front());
+  try {
+    AdjustJointly(bursts, GlobalShutter());
+    ADD_FAILURE() << "two cameras' bursts gave one camera";
+  } catch (const ReconstructionError& e) {
+    EXPECT_NE(std::string(e.what()).find("1 of 2 bursts agree"), std::string::npos) << e.what();
+  }
+}
+
+TEST(JointAdjustment, RefusesBurstsOfDifferentSizes) {
+  std::vector<JointBurst> bursts = BurstsOfOneCamera(704.0, -0.06, 2, 11, 1.0, 0.05);
+  bursts[1].state.camera.width = 320;
+  try {
+    AdjustJointly(bursts, GlobalShutter());
+    ADD_FAILURE() << "bursts of two sizes were adjusted jointly";
+  } catch (const ReconstructionError& e) {
+    EXPECT_NE(std::string(e.what()).find("different image sizes"), std::string::npos) << e.what();
+  }
+}
+
+TEST(JointAdjustmentOptions, AnOptionOutOfItsRangeIsRefusedByName) {
+  const std::vector<std::pair<std::string, void (*)(JointAdjustmentOptions*)>> cases = {
+      {"consistency_probability",
+       [](JointAdjustmentOptions* o) { o->consistency_probability = 1; }},
+      {"min_bursts", [](JointAdjustmentOptions* o) { o->min_bursts = 0; }},
+      {"max_starts", [](JointAdjustmentOptions* o) { o->max_starts = 0; }},
+      {"profile_iterations", [](JointAdjustmentOptions* o) { o->profile_iterations = 0; }},
+      {"fix_intrinsics",
+       [](JointAdjustmentOptions* o) { o->bundle_adjustment.fix_intrinsics = true; }},
+      {"distortion_terms",
+       [](JointAdjustmentOptions* o) { o->bundle_adjustment.distortion_terms = 3; }},
+      {"replicas", [](JointAdjustmentOptions* o) { o->bootstrap.replicas = -1; }},
+  };
+  for (const auto& [name, spoil] : cases) {
+    JointAdjustmentOptions options;
+    spoil(&options);
+    try {
+      options.Check();
+      ADD_FAILURE() << name << " out of range was not refused";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(name), std::string::npos) << name << ": " << e.what();
+    }
+  }
+}
+
+}  // namespace
+}  // namespace dfsm

@@ -1,0 +1,36 @@
+#!/bin/sh
+# dfsm calibrate over bursts of one camera, one burst of another camera of the
+# same size and a burst that cannot be read: the joint calibration keeps the
+# camera's bursts, leaves the other camera's out as disagreeing and names the
+# unreadable one; the fusion runs on the same bursts; no usable burst is exit
+# 1 with the reason. Usage: calibrate_test.sh DFSM WORKDIR
+set -eu
+dfsm="$1" work="$2"
+rm -rf "$work" && mkdir -p "$work"
+synth() { "$dfsm" synth --width 320 --height 240 --rotation 2 --supersampling 1 "$@" >/dev/null; }
+for seed in 1 2 3; do synth --out "$work/camera-$seed" --seed "$seed"; done
+synth --out "$work/other" --seed 9 --f 250 --k1 -0.12
+fail() { echo "FAIL: $1"; cat "$work/log"; exit 1; }
+"$dfsm" calibrate "$work"/camera-* "$work/other" "$work/missing" --out "$work/joint" >"$work/log" 2>&1 ||
+  fail "the joint calibration exited $?"
+joint="$work/joint/joint.json"
+for file in calibration.json calibration.yaml joint.json; do
+  [ -s "$work/joint/$file" ] || fail "no $file"
+done
+[ "$(grep -c '"outcome": "joined"' "$joint")" -eq 3 ] || fail "the camera's 3 bursts did not all join"
+[ "$(grep -c '"outcome": "disagrees"' "$joint")" -eq 1 ] || fail "the other camera was not left out"
+grep -q '"outcome": "failed"' "$joint" || fail "the unreadable burst is not listed"
+grep -q "missing: not a directory" "$joint" || fail "the unreadable burst's reason is missing"
+grep -q "1 of 4 bursts disagree" "$work/log" || fail "the disagreement is not said"
+# The joint focal length within 5 % of the camera's 352 px (1.1 x 320).
+f=$(sed -n 's/^joint *f \([0-9.]*\) px.*/\1/p' "$work/log")
+awk -v f="$f" 'BEGIN { exit !(f > 334.4 && f < 369.6) }' || fail "joint f $f px, not within 5 % of 352"
+"$dfsm" calibrate "$work"/camera-* --method fusion --out "$work/fused" >"$work/log" 2>&1 ||
+  fail "the fusion exited $?"
+[ -s "$work/fused/fusion.json" ] || fail "no fusion.json"
+if "$dfsm" calibrate "$work/missing" --out "$work/none" >"$work/log" 2>&1; then
+  fail "no usable burst gave a calibration"
+fi
+grep -q "no burst could be read and reconstructed" "$work/log" || fail "no reason given"
+echo "PASS: joint calibration f $f px from 3 bursts, the other camera left out, the unreadable named"
+rm -rf "$work"
