@@ -118,6 +118,7 @@ int Run(const std::vector<Input>& inputs, double consistency_probability) {
       disagreements.push_back(result.disagreement);
     joint_line["disagreements"] = disagreements;
     joint_line["readout"] = joint.readout;
+    joint_line["dispersion"] = joint.dispersion;
     joint_line["fitted_f"] = joint.fitted_camera.f;
     joint_line["bias_f"] = joint.bias ? joint.bias->f : 0.0;
     joint_line["iterations"] = joint.iterations;

@@ -58,6 +58,8 @@ void JointAdjustmentOptions::Check() const {
     throw std::invalid_argument("consistency_probability must be in (0, 1)");
   if (min_bursts < 1) throw std::invalid_argument("min_bursts must be >= 1");
   if (max_starts < 1) throw std::invalid_argument("max_starts must be >= 1");
+  if (min_bursts_for_dispersion < 3)
+    throw std::invalid_argument("min_bursts_for_dispersion must be >= 3");
   if (profile_iterations < 1) throw std::invalid_argument("profile_iterations must be >= 1");
   bootstrap.Check();
 }
@@ -104,6 +106,7 @@ struct Round {
   std::vector<SparseState> states;
   CameraModel camera;
   double readout = 0.0;
+  double start_f = 0.0;  // the chosen start's
 };
 
 // The start: of the active bursts' own cameras (the most certain first, at
@@ -140,6 +143,7 @@ void ChooseStart(const std::vector<JointBurst>& bursts, const JointAdjustmentOpt
     if (total < best) {
       best = total;
       round->camera = camera;
+      round->start_f = camera.f;
       round->states = std::move(states);
     }
   }
@@ -354,25 +358,61 @@ std::optional<IntrinsicsBias> JointBias(const std::vector<JointBurst>& bursts,
   return bias;
 }
 
-// Twice the rise of each active burst's cost from its own camera to the
-// round's, in units of its inflated noise variance.
-std::vector<double> Disagreements(const std::vector<JointBurst>& bursts,
-                                  const JointAdjustmentOptions& options, const Round& round,
-                                  double joint_noise_px, std::vector<double>* own_costs) {
+// Twice the rise of burst k's cost from its own camera to `camera`, in
+// units of its inflated noise variance (raw: before any dispersion).
+double Disagreement(const std::vector<JointBurst>& bursts, int k,
+                    const JointAdjustmentOptions& options, const CameraModel& camera,
+                    double readout, double joint_noise_px, std::vector<double>* own_costs) {
   const BundleAdjustmentOptions profile_options = ProfileOptions(options);
-  const double inflation = UncertaintyInflation(options.bundle_adjustment, round.camera);
-  std::vector<double> disagreements;
-  for (const int k : round.active) {
-    const JointBurst& burst = bursts[k];
-    if (std::isinf((*own_costs)[k]))
-      (*own_costs)[k] =
-          ProfileUnder(burst, burst.state.camera, burst.state.readout, profile_options).cost;
-    const double joint_cost =
-        ProfileUnder(burst, round.camera, round.readout, profile_options).cost;
-    const double noise = (burst.noise_px > 0.0 ? burst.noise_px : joint_noise_px) * inflation;
-    disagreements.push_back(2.0 * (joint_cost - (*own_costs)[k]) / (noise * noise));
-  }
-  return disagreements;
+  const JointBurst& burst = bursts[k];
+  if (std::isinf((*own_costs)[k]))
+    (*own_costs)[k] =
+        ProfileUnder(burst, burst.state.camera, burst.state.readout, profile_options).cost;
+  const double joint_cost = ProfileUnder(burst, camera, readout, profile_options).cost;
+  const double noise = (burst.noise_px > 0.0 ? burst.noise_px : joint_noise_px) *
+                       UncertaintyInflation(options.bundle_adjustment, camera);
+  return 2.0 * (joint_cost - (*own_costs)[k]) / (noise * noise);
+}
+
+// One round solved: its bursts adjusted jointly from the best start, the
+// covariance of the shared camera, and each burst's raw disagreement with it.
+struct SolvedRound {
+  Round round;
+  CalibrationUncertainty uncertainty;
+  ceres::Solver::Summary summary;
+  std::vector<double> disagreements;  // raw, per active burst
+};
+
+SolvedRound SolveRound(const std::vector<JointBurst>& bursts, const JointAdjustmentOptions& options,
+                       std::vector<int> active, std::vector<double>* own_costs) {
+  SolvedRound solved;
+  solved.round.active = std::move(active);
+  ChooseStart(bursts, options, &solved.round);
+  JointProblem problem(bursts, options, &solved.round);
+  solved.summary = problem.Solve();
+  solved.uncertainty = problem.Uncertainty();
+  for (const int k : solved.round.active)
+    solved.disagreements.push_back(Disagreement(bursts, k, options, solved.round.camera,
+                                                solved.round.readout,
+                                                solved.uncertainty.residual_sigma_px, own_costs));
+  return solved;
+}
+
+// How much more the bursts of this round disagree than their noise says, all
+// of them alike: the median disagreement over chi-square(3)'s median (at
+// least 1), where enough bursts take part for one that disagrees alone not
+// to move the median. Real bursts share model errors that the generator's
+// do not (a lens with more terms than the model, a rolling shutter that is
+// not linear in the row), and every burst's own optimum then moves by more
+// than its noise; scaled by the median, the test leaves out a burst that
+// disagrees with the others, not every burst of an imperfect model.
+double Dispersion(const std::vector<double>& disagreements, const JointAdjustmentOptions& options) {
+  if (static_cast<int>(disagreements.size()) < options.min_bursts_for_dispersion) return 1.0;
+  std::vector<double> sorted = disagreements;
+  std::sort(sorted.begin(), sorted.end());
+  const size_t n = sorted.size();
+  const double median = n % 2 ? sorted[n / 2] : 0.5 * (sorted[n / 2 - 1] + sorted[n / 2]);
+  return std::max(1.0, median / ChiSquareQuantile(0.5, 3));
 }
 
 // The verdict on the shared camera: as one burst's, on the joined bursts'
@@ -417,34 +457,64 @@ JointCalibration AdjustJointly(const std::vector<JointBurst>& bursts,
                                 "): one camera's bursts share one size");
   JointCalibration joint;
   joint.bursts.resize(bursts.size());
-  Round round;
-  for (size_t k = 0; k < bursts.size(); ++k) round.active.push_back(static_cast<int>(k));
+  std::vector<int> all(bursts.size());
+  for (size_t k = 0; k < bursts.size(); ++k) all[k] = static_cast<int>(k);
   std::vector<double> own_costs(bursts.size(), std::numeric_limits<double>::infinity());
   const double max_disagreement = ChiSquareQuantile(options.consistency_probability, 3);
+  const auto require_enough = [&](size_t active) {
+    if (static_cast<int>(active) < options.min_bursts)
+      throw ReconstructionError("joint calibration: " + std::to_string(active) + " of " +
+                                std::to_string(bursts.size()) + " bursts agree, fewer than " +
+                                std::to_string(options.min_bursts));
+  };
+  require_enough(all.size());
+  SolvedRound current = SolveRound(bursts, options, all, &own_costs);
+  // The burst that disagrees most is tested against the others alone, its
+  // disagreement divided by theirs (Dispersion): a burst that pulled the
+  // joint camera towards itself cannot hide behind the scatter it caused.
   while (true) {
-    if (static_cast<int>(round.active.size()) < options.min_bursts)
-      throw ReconstructionError("joint calibration: " + std::to_string(round.active.size()) +
-                                " of " + std::to_string(bursts.size()) +
-                                " bursts agree, fewer than " + std::to_string(options.min_bursts));
-    ChooseStart(bursts, options, &round);
-    joint.start_f = round.camera.f;
-    JointProblem problem(bursts, options, &round);
-    const ceres::Solver::Summary summary = problem.Solve();
-    joint.iterations = summary.num_successful_steps + summary.num_unsuccessful_steps;
-    joint.converged = summary.termination_type == ceres::CONVERGENCE;
-    joint.uncertainty = problem.Uncertainty();
-    const std::vector<double> disagreements =
-        Disagreements(bursts, options, round, joint.uncertainty.residual_sigma_px, &own_costs);
-    const auto worst = std::max_element(disagreements.begin(), disagreements.end());
-    for (size_t b = 0; b < round.active.size(); ++b)
-      joint.bursts[round.active[b]].disagreement = disagreements[b];
-    if (*worst <= max_disagreement) break;
-    const size_t left_out = worst - disagreements.begin();
-    joint.bursts[round.active[left_out]].outcome = JointOutcome::kDisagrees;
-    round.active.erase(round.active.begin() + left_out);
+    const std::vector<double>& raw = current.disagreements;
+    const size_t worst = std::max_element(raw.begin(), raw.end()) - raw.begin();
+    if (raw[worst] <= max_disagreement) break;
+    std::vector<int> rest = current.round.active;
+    const int suspect = rest[worst];
+    rest.erase(rest.begin() + worst);
+    if (static_cast<int>(rest.size()) < options.min_bursts) {
+      joint.bursts[suspect].disagreement = raw[worst];
+      joint.bursts[suspect].outcome = JointOutcome::kDisagrees;
+      require_enough(rest.size());
+    }
+    SolvedRound without = SolveRound(bursts, options, rest, &own_costs);
+    const double disagreement =
+        Disagreement(bursts, suspect, options, without.round.camera, without.round.readout,
+                     without.uncertainty.residual_sigma_px, &own_costs) /
+        Dispersion(without.disagreements, options);
+    joint.bursts[suspect].disagreement = disagreement;
+    if (disagreement <= max_disagreement) break;
+    joint.bursts[suspect].outcome = JointOutcome::kDisagrees;
+    current = std::move(without);
   }
+  Round& round = current.round;
+  joint.start_f = round.start_f;
+  joint.iterations = current.summary.num_successful_steps + current.summary.num_unsuccessful_steps;
+  joint.converged = current.summary.termination_type == ceres::CONVERGENCE;
+  joint.uncertainty = current.uncertainty;
+  joint.dispersion = Dispersion(current.disagreements, options);
+  for (size_t b = 0; b < round.active.size(); ++b)
+    if (joint.bursts[round.active[b]].outcome == JointOutcome::kJoined)
+      joint.bursts[round.active[b]].disagreement = current.disagreements[b] / joint.dispersion;
   joint.fitted_camera = round.camera;
   joint.bias = JointBias(bursts, options, round, joint.uncertainty);
+  // Bursts that scatter more than their noise says scatter the shared camera
+  // as much: its covariance takes the dispersion (a quasi-likelihood's
+  // variance scale).
+  if (joint.uncertainty.available && joint.dispersion > 1.0) {
+    joint.uncertainty.covariance *= joint.dispersion;
+    joint.uncertainty.inflation *= std::sqrt(joint.dispersion);
+    if (joint.uncertainty.sigma_readout > 0.0)
+      joint.uncertainty.sigma_readout *= std::sqrt(joint.dispersion);
+    PropagateToDistortion(round.camera, &joint.uncertainty);
+  }
   joint.camera = Debiased(round.camera, joint.bias);
   joint.readout = round.readout;
   double sum_sq = 0.0;

@@ -60,6 +60,10 @@ struct JointAdjustmentOptions {
   double consistency_probability = 0.999;
   // Fewer bursts left agreeing: no joint calibration.
   int min_bursts = 2;
+  // With at least this many bursts in a round, the disagreements are first
+  // divided by their dispersion (JointCalibration::dispersion); with fewer,
+  // the median would follow a burst that disagrees.
+  int min_bursts_for_dispersion = 4;
   // The joint adjustment starts from the camera, among the bursts' own, that
   // fits all of them best; at most this many (the most certain first) are
   // tried.
@@ -88,9 +92,9 @@ const char* JointOutcomeName(JointOutcome outcome);  // "joined" | "disagrees"
 struct JointBurstResult {
   JointOutcome outcome = JointOutcome::kJoined;
   // 2 (C(joint camera) - C(own camera)) / (inflated noise variance), C the
-  // burst's cost re-minimised over its poses and inverse depths (the last
-  // test it took: a burst left out is tested against the camera of the
-  // round that left it out).
+  // burst's cost re-minimised over its poses and inverse depths, divided by
+  // the round's dispersion (the last test it took: a burst left out is
+  // tested against the camera of the round that left it out).
   double disagreement = 0.0;
   std::vector<Pose> poses;  // under the joint camera (joined bursts)
   double rms_reprojection_px = 0.0;
@@ -109,7 +113,11 @@ struct JointCalibration {
   CalibrationVerdict verdict;
   std::vector<JointBurstResult> bursts;  // in the order given
   double start_f = 0.0;                  // the chosen start's focal length
-  int iterations = 0;                    // of the final joint adjustment
+  // The last round's median disagreement over chi-square(3)'s median, at
+  // least 1: how much more than their noise says the bursts disagree, all
+  // alike (model error they share). Each burst's disagreement is divided by it.
+  double dispersion = 1.0;
+  int iterations = 0;  // of the final joint adjustment
   bool converged = false;
   double rms_reprojection_px = 0.0;
 

@@ -90,6 +90,8 @@ TEST(JointAdjustment, LeavesOutTheBurstsOfAnotherCamera) {
   const double sigma = SigmaF(joint.uncertainty, joint.camera);
   EXPECT_LE(std::abs(joint.camera.f - 704.0), 2.0 * sigma / 100.0 * joint.camera.f)
       << "joint f " << joint.camera.f << ", sigma " << sigma << " %";
+  // The camera's own bursts scatter as their noise says: no dispersion.
+  EXPECT_EQ(joint.dispersion, 1.0);
   ASSERT_FALSE(joint.verdict.reasons.empty());
   EXPECT_NE(joint.verdict.reasons.back().find("2 of 6 bursts disagree"), std::string::npos)
       << joint.verdict.reasons.back();
@@ -124,6 +126,8 @@ TEST(JointAdjustmentOptions, AnOptionOutOfItsRangeIsRefusedByName) {
        [](JointAdjustmentOptions* o) { o->consistency_probability = 1; }},
       {"min_bursts", [](JointAdjustmentOptions* o) { o->min_bursts = 0; }},
       {"max_starts", [](JointAdjustmentOptions* o) { o->max_starts = 0; }},
+      {"min_bursts_for_dispersion",
+       [](JointAdjustmentOptions* o) { o->min_bursts_for_dispersion = 2; }},
       {"profile_iterations", [](JointAdjustmentOptions* o) { o->profile_iterations = 0; }},
       {"fix_intrinsics",
        [](JointAdjustmentOptions* o) { o->bundle_adjustment.fix_intrinsics = true; }},
