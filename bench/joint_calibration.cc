@@ -7,6 +7,9 @@
 //                     [--downscale D] [--calibration FILE] [--consistency P]
 //       windows of a TUM sequence (as tum_benchmark reads them), scored
 //       against the published calibration;
+//   joint_calibration --sequence DIR [--start K] [--step S] [--frames N]
+//       windows of a folder (or glob) of images, the first of each its
+//       reference (a real clip without ground truth: not scored);
 //   joint_calibration BURST...
 //       dfsm-burst/1 directories with ground_truth.json (dfsm synth writes
 //       them), scored against each one's camera (the first burst's for the
@@ -24,6 +27,7 @@
 #include "bench/report_options.h"
 #include "bench/tum_sequence.h"
 #include "core/io/ground_truth.h"
+#include "core/io/image_sequence.h"
 #include "core/sparse/calibration_fusion.h"
 #include "core/sparse/joint_adjustment.h"
 #include "core/sparse/sparse_reconstruction.h"
@@ -43,8 +47,16 @@ double FocalErrorPercent(const CameraModel& camera, const CameraModel& truth) {
 struct Input {
   std::string name;
   std::function<Burst()> read;
-  CameraModel truth;
+  std::optional<CameraModel> truth;  // none: not scored
 };
+
+// The scores of `camera` against `truth`, where there is one.
+void Score(const CameraModel& camera, const std::optional<CameraModel>& truth,
+           nlohmann::json* line) {
+  if (!truth) return;
+  (*line)["f_error_percent"] = FocalErrorPercent(camera, *truth);
+  (*line)["distortion_error_px"] = MeanDistortionError(camera, *truth);
+}
 
 int Run(const std::vector<Input>& inputs, double consistency_probability) {
   const SparseOptions options;
@@ -61,7 +73,7 @@ int Run(const std::vector<Input>& inputs, double consistency_probability) {
       alone_ms += ms;
       const CameraModel& camera = sparse.state.camera;
       line["f"] = camera.f;
-      line["f_error_percent"] = FocalErrorPercent(camera, input.truth);
+      Score(camera, input.truth, &line);
       line["sigma_f_percent"] =
           sparse.uncertainty.available ? sparse.uncertainty.sigma_f_percent(camera.f) : -1.0;
       line["verdict"] = CalibrationQualityName(sparse.verdict.quality);
@@ -85,15 +97,14 @@ int Run(const std::vector<Input>& inputs, double consistency_probability) {
     std::printf("%s\n", line.dump().c_str());
     std::fflush(stdout);
   }
-  const CameraModel& truth = inputs.front().truth;
+  const std::optional<CameraModel>& truth = inputs.front().truth;
   nlohmann::json fused = {{"method", "fusion"}, {"bursts", inputs.size()}};
   if (fusion.empty()) {
     fused["failed"] = "no burst could be fused";
   } else {
     fused["f"] = fusion.camera().f;
-    fused["f_error_percent"] = FocalErrorPercent(fusion.camera(), truth);
+    Score(fusion.camera(), truth, &fused);
     fused["sigma_f_percent"] = fusion.sigma_f_percent();
-    fused["distortion_error_px"] = MeanDistortionError(fusion.camera(), truth);
     fused["fused"] = fusion.bursts();
     fused["reliable"] = fusion.reliable();
   }
@@ -106,10 +117,9 @@ int Run(const std::vector<Input>& inputs, double consistency_probability) {
       joint_options.consistency_probability = consistency_probability;
     const JointCalibration joint = AdjustJointly(bursts, joint_options);
     joint_line["f"] = joint.camera.f;
-    joint_line["f_error_percent"] = FocalErrorPercent(joint.camera, truth);
+    Score(joint.camera, truth, &joint_line);
     joint_line["sigma_f_percent"] =
         joint.uncertainty.available ? joint.uncertainty.sigma_f_percent(joint.camera.f) : -1.0;
-    joint_line["distortion_error_px"] = MeanDistortionError(joint.camera, truth);
     joint_line["distortion_sigma_px"] = joint.uncertainty.distortion_sigma_px;
     joint_line["verdict"] = ToJson(joint.verdict);
     joint_line["joined"] = joint.Joined();
@@ -136,7 +146,7 @@ int Run(const std::vector<Input>& inputs, double consistency_probability) {
 
 int main(int argc, char** argv) {
   using namespace dfsm;
-  std::string dataset, calibration_file = TumFreiburg1CalibrationFile();
+  std::string dataset, images, calibration_file = TumFreiburg1CalibrationFile();
   int frames = 10, step = 12, start = 1, downscale = 1;
   double consistency_probability = 0.0;  // the option's default
   std::vector<std::string> burst_dirs;
@@ -151,6 +161,8 @@ int main(int argc, char** argv) {
       const char* value = argv[++i];
       if (option == "--dataset")
         dataset = value;
+      else if (option == "--sequence")
+        images = value;
       else if (option == "--frames")
         frames = WholeNumber("--frames", value, 3);
       else if (option == "--step")
@@ -167,8 +179,8 @@ int main(int argc, char** argv) {
         throw std::invalid_argument("unknown option " + option +
                                     " (see the comment at the top of bench/joint_calibration.cc)");
     }
-    if (dataset.empty() == burst_dirs.empty())
-      throw std::invalid_argument("give either --dataset DIR or burst directories");
+    if (dataset.empty() + images.empty() + burst_dirs.empty() != 2)
+      throw std::invalid_argument("give one of --dataset DIR, --sequence DIR, burst directories");
   } catch (const std::exception& e) {
     std::fprintf(stderr, "joint_calibration: %s\n", e.what());
     return 2;
@@ -186,6 +198,18 @@ int main(int argc, char** argv) {
       inputs.push_back({"window " + std::to_string(first),
                         [&sequence, first, frames] { return sequence->Window(first, frames); },
                         truth});
+  } else if (!images.empty()) {
+    const int count = static_cast<int>(ListImageSequence(images).size());
+    for (int first = start; first + frames <= count; first += step)
+      inputs.push_back(
+          {"frames " + std::to_string(first) + "-" + std::to_string(first + frames - 1),
+           [images, first, frames] {
+             ImageSequenceOptions window;
+             window.start = first;
+             window.frames = frames;
+             return ReadImageSequence(images, window);
+           },
+           std::nullopt});
   } else {
     for (const std::string& dir : burst_dirs)
       inputs.push_back({dir, [dir] { return ReadBurst(dir); }, ReadGroundTruth(dir).camera});

@@ -56,10 +56,9 @@ void JointAdjustmentOptions::Check() const {
         "the camera");
   if (!(consistency_probability > 0.0 && consistency_probability < 1.0))
     throw std::invalid_argument("consistency_probability must be in (0, 1)");
-  if (min_bursts < 1) throw std::invalid_argument("min_bursts must be >= 1");
   if (max_starts < 1) throw std::invalid_argument("max_starts must be >= 1");
-  if (min_bursts_for_dispersion < 3)
-    throw std::invalid_argument("min_bursts_for_dispersion must be >= 3");
+  if (min_bursts_to_leave_out < 4)
+    throw std::invalid_argument("min_bursts_to_leave_out must be >= 4");
   if (profile_iterations < 1) throw std::invalid_argument("profile_iterations must be >= 1");
   bootstrap.Check();
 }
@@ -400,14 +399,12 @@ SolvedRound SolveRound(const std::vector<JointBurst>& bursts, const JointAdjustm
 
 // How much more the bursts of this round disagree than their noise says, all
 // of them alike: the median disagreement over chi-square(3)'s median (at
-// least 1), where enough bursts take part for one that disagrees alone not
-// to move the median. Real bursts share model errors that the generator's
+// least 1). Real bursts share model errors that the generator's
 // do not (a lens with more terms than the model, a rolling shutter that is
 // not linear in the row), and every burst's own optimum then moves by more
 // than its noise; scaled by the median, the test leaves out a burst that
 // disagrees with the others, not every burst of an imperfect model.
-double Dispersion(const std::vector<double>& disagreements, const JointAdjustmentOptions& options) {
-  if (static_cast<int>(disagreements.size()) < options.min_bursts_for_dispersion) return 1.0;
+double Dispersion(const std::vector<double>& disagreements) {
   std::vector<double> sorted = disagreements;
   std::sort(sorted.begin(), sorted.end());
   const size_t n = sorted.size();
@@ -434,6 +431,14 @@ CalibrationVerdict JudgeJointly(const std::vector<JointBurst>& bursts,
       JudgeCalibration(joint.camera, joint.uncertainty, evidence, options.quality);
   const int joined = joint.Joined();
   const int left_out = static_cast<int>(bursts.size()) - joined;
+  if (joint.undecided) {
+    verdict.reasons.push_back(
+        "the bursts disagree more than their noise allows, and " + std::to_string(joined) +
+        " are too few to tell which one is odd: another camera, a changed zoom or focus, or a "
+        "lens the model does not fit");
+    if (verdict.quality == CalibrationQuality::kReliable)
+      verdict.quality = CalibrationQuality::kUncertain;
+  }
   if (left_out > 0) {
     verdict.reasons.push_back(std::to_string(left_out) + " of " + std::to_string(bursts.size()) +
                               " bursts disagree with the shared camera and were left out "
@@ -461,45 +466,39 @@ JointCalibration AdjustJointly(const std::vector<JointBurst>& bursts,
   for (size_t k = 0; k < bursts.size(); ++k) all[k] = static_cast<int>(k);
   std::vector<double> own_costs(bursts.size(), std::numeric_limits<double>::infinity());
   const double max_disagreement = ChiSquareQuantile(options.consistency_probability, 3);
-  const auto require_enough = [&](size_t active) {
-    if (static_cast<int>(active) < options.min_bursts)
-      throw ReconstructionError("joint calibration: " + std::to_string(active) + " of " +
-                                std::to_string(bursts.size()) + " bursts agree, fewer than " +
-                                std::to_string(options.min_bursts));
-  };
-  require_enough(all.size());
+  if (bursts.empty()) throw ReconstructionError("joint calibration: no burst to adjust");
   SolvedRound current = SolveRound(bursts, options, all, &own_costs);
   // The burst that disagrees most is tested against the others alone, its
   // disagreement divided by theirs (Dispersion): a burst that pulled the
   // joint camera towards itself cannot hide behind the scatter it caused.
-  while (true) {
+  while (static_cast<int>(current.round.active.size()) >= options.min_bursts_to_leave_out) {
     const std::vector<double>& raw = current.disagreements;
     const size_t worst = std::max_element(raw.begin(), raw.end()) - raw.begin();
     if (raw[worst] <= max_disagreement) break;
     std::vector<int> rest = current.round.active;
     const int suspect = rest[worst];
     rest.erase(rest.begin() + worst);
-    if (static_cast<int>(rest.size()) < options.min_bursts) {
-      joint.bursts[suspect].disagreement = raw[worst];
-      joint.bursts[suspect].outcome = JointOutcome::kDisagrees;
-      require_enough(rest.size());
-    }
     SolvedRound without = SolveRound(bursts, options, rest, &own_costs);
     const double disagreement =
         Disagreement(bursts, suspect, options, without.round.camera, without.round.readout,
                      without.uncertainty.residual_sigma_px, &own_costs) /
-        Dispersion(without.disagreements, options);
+        Dispersion(without.disagreements);
     joint.bursts[suspect].disagreement = disagreement;
     if (disagreement <= max_disagreement) break;
     joint.bursts[suspect].outcome = JointOutcome::kDisagrees;
     current = std::move(without);
   }
+  const double largest_raw =
+      *std::max_element(current.disagreements.begin(), current.disagreements.end());
+  joint.undecided =
+      static_cast<int>(current.round.active.size()) < options.min_bursts_to_leave_out &&
+      largest_raw > max_disagreement;
   Round& round = current.round;
   joint.start_f = round.start_f;
   joint.iterations = current.summary.num_successful_steps + current.summary.num_unsuccessful_steps;
   joint.converged = current.summary.termination_type == ceres::CONVERGENCE;
   joint.uncertainty = current.uncertainty;
-  joint.dispersion = Dispersion(current.disagreements, options);
+  joint.dispersion = Dispersion(current.disagreements);
   for (size_t b = 0; b < round.active.size(); ++b)
     if (joint.bursts[round.active[b]].outcome == JointOutcome::kJoined)
       joint.bursts[round.active[b]].disagreement = current.disagreements[b] / joint.dispersion;

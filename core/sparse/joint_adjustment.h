@@ -58,12 +58,11 @@ struct JointAdjustmentOptions {
   // as the covariance takes it), exceeds the chi-square quantile of 3
   // degrees of freedom (f, k1, k2) at this probability, as the fusion's gate.
   double consistency_probability = 0.999;
-  // Fewer bursts left agreeing: no joint calibration.
-  int min_bursts = 2;
-  // With at least this many bursts in a round, the disagreements are first
-  // divided by their dispersion (JointCalibration::dispersion); with fewer,
-  // the median would follow a burst that disagrees.
-  int min_bursts_for_dispersion = 4;
+  // A burst is left out only from a round of at least this many: the others,
+  // at least 3, give the dispersion it is judged against. With fewer, a
+  // disagreement cannot say which burst is the odd one: it is said in the
+  // verdict, and every burst stays.
+  int min_bursts_to_leave_out = 4;
   // The joint adjustment starts from the camera, among the bursts' own, that
   // fits all of them best; at most this many (the most certain first) are
   // tried.
@@ -117,6 +116,9 @@ struct JointCalibration {
   // least 1: how much more than their noise says the bursts disagree, all
   // alike (model error they share). Each burst's disagreement is divided by it.
   double dispersion = 1.0;
+  // Fewer bursts than min_bursts_to_leave_out, and one disagreeing beyond
+  // the bound: every burst stayed, and the verdict says so.
+  bool undecided = false;
   int iterations = 0;  // of the final joint adjustment
   bool converged = false;
   double rms_reprojection_px = 0.0;
@@ -125,7 +127,7 @@ struct JointCalibration {
 };
 
 // Adjusts `bursts` (of one image size) jointly. Throws ReconstructionError
-// (sparse_reconstruction.h) where fewer than options.min_bursts agree.
+// (sparse_reconstruction.h) where there is none.
 JointCalibration AdjustJointly(const std::vector<JointBurst>& bursts,
                                const JointAdjustmentOptions& options = {});
 

@@ -97,16 +97,19 @@ TEST(JointAdjustment, LeavesOutTheBurstsOfAnotherCamera) {
       << joint.verdict.reasons.back();
 }
 
-// Where fewer bursts than min_bursts agree there is no joint camera.
-TEST(JointAdjustment, TwoBurstsOfTwoCamerasGiveNoCamera) {
+// Two bursts of two cameras cannot say which one is odd: both stay, and the
+// verdict says they disagree.
+TEST(JointAdjustment, TwoBurstsOfTwoCamerasAreSaidToDisagree) {
   std::vector<JointBurst> bursts = BurstsOfOneCamera(704.0, -0.06, 1, 11, 1.0, 0.05);
   bursts.push_back(BurstsOfOneCamera(560.0, -0.12, 1, 21, 1.0, 0.05).front());
-  try {
-    AdjustJointly(bursts, GlobalShutter());
-    ADD_FAILURE() << "two cameras' bursts gave one camera";
-  } catch (const ReconstructionError& e) {
-    EXPECT_NE(std::string(e.what()).find("1 of 2 bursts agree"), std::string::npos) << e.what();
-  }
+  const JointCalibration joint = AdjustJointly(bursts, GlobalShutter());
+  EXPECT_TRUE(joint.undecided);
+  EXPECT_EQ(joint.Joined(), 2);
+  EXPECT_NE(joint.verdict.quality, CalibrationQuality::kReliable);
+  ASSERT_FALSE(joint.verdict.reasons.empty());
+  EXPECT_NE(joint.verdict.reasons.back().find("too few to tell which one is odd"),
+            std::string::npos)
+      << joint.verdict.reasons.back();
 }
 
 TEST(JointAdjustment, RefusesBurstsOfDifferentSizes) {
@@ -124,10 +127,9 @@ TEST(JointAdjustmentOptions, AnOptionOutOfItsRangeIsRefusedByName) {
   const std::vector<std::pair<std::string, void (*)(JointAdjustmentOptions*)>> cases = {
       {"consistency_probability",
        [](JointAdjustmentOptions* o) { o->consistency_probability = 1; }},
-      {"min_bursts", [](JointAdjustmentOptions* o) { o->min_bursts = 0; }},
       {"max_starts", [](JointAdjustmentOptions* o) { o->max_starts = 0; }},
-      {"min_bursts_for_dispersion",
-       [](JointAdjustmentOptions* o) { o->min_bursts_for_dispersion = 2; }},
+      {"min_bursts_to_leave_out",
+       [](JointAdjustmentOptions* o) { o->min_bursts_to_leave_out = 3; }},
       {"profile_iterations", [](JointAdjustmentOptions* o) { o->profile_iterations = 0; }},
       {"fix_intrinsics",
        [](JointAdjustmentOptions* o) { o->bundle_adjustment.fix_intrinsics = true; }},
