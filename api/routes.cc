@@ -274,7 +274,10 @@ void GetCalibration(const ApiContext& context, httplib::Response& response) {
   // and the fusion of every job's estimate with its sigma and history.
   const std::optional<Job> job = context.store->LatestSucceeded();
   nlohmann::json body = nlohmann::json::object();
-  if (context.calibration) body["fused"] = context.calibration->Snapshot();
+  if (context.calibration) {
+    body["fused"] = context.calibration->Snapshot();
+    body["joint"] = context.calibration->JointSnapshot();
+  }
   if (!job) {
     // No calibration yet is the camera's state, not a missing resource.
     body["calibration"] = nullptr;
@@ -309,6 +312,27 @@ void DeleteCalibration(const ApiContext& context, httplib::Response& response) {
                       HideStateDirectory(e.what(), context.config->jobs.state_dir));
   }
   response.status = 204;
+}
+
+// The capture camera's joint calibration over its newest jobs' tracks, now
+// (it is also made after every calibration.joint_every jobs).
+void SolveJointCalibration(const ApiContext& context, httplib::Response& response) {
+  if (!context.calibration)
+    return SetProblem(response, 404, "no-fusion", "No camera calibration",
+                      "this daemon keeps no calibration across jobs");
+  try {
+    const std::optional<nlohmann::json> joint =
+        context.calibration->SolveJoint([&context](const std::string& id) {
+          return context.store->OutputDir(id) / service::kTracksFile;
+        });
+    if (!joint)
+      return SetProblem(response, 409, "joint-calibration-running", "A joint calibration runs",
+                        "a joint calibration of the camera is running; ask again when it ends");
+    SetJson(response, 200, context.calibration->JointSnapshot());
+  } catch (const std::exception& e) {
+    SetProblem(response, 409, "nothing-to-calibrate", "Nothing to calibrate from",
+               HideStateDirectory(e.what(), context.config->jobs.state_dir));
+  }
 }
 
 void GetCamera(const ApiContext& context, httplib::Response& response) {
@@ -525,6 +549,7 @@ const std::vector<ApiResource>& ApiResources() {
       {"/api/v1/camera", "GET, HEAD"},
       {"/api/v1/snapshot.jpg", "GET, HEAD"},
       {"/api/v1/calibration", "GET, HEAD, DELETE"},
+      {"/api/v1/calibration/solve", "POST"},
       {"/api/v1/captures", "POST"},
       {"/api/v1/jobs", "GET, HEAD, POST"},
       {"/api/v1/jobs/{id}", "GET, HEAD, DELETE"},
@@ -620,6 +645,10 @@ void RegisterRoutes(const ApiContext& context, HttpServer* http) {
                  BoundedBody(max_body, [c](const httplib::Request&, httplib::Response& r) {
                    DeleteCalibration(c, r);
                  }));
+  server->Post("/api/v1/calibration/solve",
+               BoundedBody(max_body, [c](const httplib::Request&, httplib::Response& r) {
+                 SolveJointCalibration(c, r);
+               }));
 
   RegisterBodyCatchAlls(max_body, server);
   server->set_error_handler(

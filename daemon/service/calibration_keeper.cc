@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "core/camera/camera_model.h"
 #include "core/export/calibration_import.h"
 #include "core/io/bounded_json.h"
 #include "core/io/file_util.h"
@@ -24,7 +25,8 @@ CalibrationKeeper::CalibrationKeeper(const CalibrationSection& config, std::stri
                                      const fs::path& state_dir)
     : config_(config),
       camera_(std::move(camera)),
-      path_(state_dir / "calibration" / "fusion.json") {
+      path_(state_dir / "calibration" / "fusion.json"),
+      joint_(state_dir, config.joint_bursts, config.joint_every) {
   if (!config_.file.empty()) {
     try {
       // The size comes from the file: jobs of another size calibrate alone.
@@ -81,6 +83,16 @@ bool CalibrationKeeper::ForJob(const JobOptions& options, int width, int height,
     return true;
   }
   if (config_.use_fused != "prior") return false;
+  // The joint calibration first: made from the tracks of several jobs, it
+  // observes the camera where single jobs could not.
+  if (const std::optional<nlohmann::json> joint = joint_.Reliable(Key(width, height))) {
+    *known = FusedCalibrationPrior(
+        CameraModelFromJson(joint->at("camera")), joint->at("sigma_f_percent").get<double>(),
+        joint->at("distortion_sigma_px").get<double>(),
+        "joint (" + std::to_string(joint->at("bursts_joined").get<int>()) + " bursts)");
+    known->check_fit = true;
+    return true;
+  }
   std::lock_guard<std::mutex> lock(mutex_);
   const auto found = fusions_.find(Key(width, height));
   if (found == fusions_.end()) return false;
@@ -124,6 +136,25 @@ std::string CalibrationKeeper::Record(const std::string& job, const JobOptions& 
   return said;
 }
 
+bool CalibrationKeeper::RememberTracks(const std::string& job, const JobOptions& options, int width,
+                                       int height) {
+  if (!FromCaptureCamera(options)) return false;
+  return joint_.Remember(Key(width, height), job);
+}
+
+std::optional<nlohmann::json> CalibrationKeeper::SolveJoint(
+    const JointCalibrations::TracksOf& tracks_of) {
+  const std::string key = joint_.current();
+  if (key.empty()) throw std::runtime_error("no job of the capture camera to calibrate from yet");
+  return joint_.TrySolve(key, tracks_of);
+}
+
+nlohmann::json CalibrationKeeper::JointSnapshot() const {
+  nlohmann::json snapshot = joint_.Snapshot(joint_.current());
+  snapshot["notes"] = joint_.notes();
+  return snapshot;
+}
+
 nlohmann::json CalibrationKeeper::Snapshot() const {
   std::lock_guard<std::mutex> lock(mutex_);
   const auto current = fusions_.find(current_);
@@ -147,6 +178,7 @@ void CalibrationKeeper::Reset() {
   std::lock_guard<std::mutex> lock(mutex_);
   for (auto& [key, fusion] : fusions_) fusion->Reset();
   Persist();
+  joint_.Reset();
 }
 
 void CalibrationKeeper::Persist() const {

@@ -24,11 +24,13 @@
 #include <memory>
 #include <mutex>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "daemon/service/config.h"
 #include "daemon/service/job.h"
+#include "daemon/service/joint_calibrations.h"
 
 namespace dfsm {
 struct CameraModel;
@@ -50,9 +52,10 @@ class CalibrationKeeper {
   ~CalibrationKeeper();
 
   // What a job of this size starts from, into *known: the configured file
-  // (its mode), else the camera's fusion at this size once reliable (as a
-  // prior with its own sigma, also self-calibrating so that the fusion gets
-  // the burst's own estimate). Both are checked against the burst (the sparse
+  // (its mode), else the camera's joint calibration at this size once
+  // reliable, else its fusion once reliable (each as a prior with its own
+  // sigma, also self-calibrating so that the fusion gets the burst's own
+  // estimate). Both are checked against the burst (the sparse
   // stage runs twice): a fusion may hold bursts of another camera that were
   // said to be this one's. False when the job calibrates alone: always for
   // options.calibration "self" and for bursts not of the capture camera.
@@ -66,11 +69,23 @@ class CalibrationKeeper {
   std::string Record(const std::string& job, const JobOptions& options, int64_t time_ms,
                      const SparseReconstruction& sparse);
 
+  // Remembers a job of the capture camera whose tracks file (tracks.cbor)
+  // its result holds, for the joint calibration of its size. True when one
+  // is due (calibration.joint_every). Never throws.
+  bool RememberTracks(const std::string& job, const JobOptions& options, int width, int height);
+  // The joint calibration of the size the newest remembered job had
+  // (JointCalibrations::TrySolve): nullopt while another runs; throws
+  // std::runtime_error where there is nothing to calibrate from.
+  std::optional<nlohmann::json> SolveJoint(const JointCalibrations::TracksOf& tracks_of);
+
   // GET /api/v1/calibration's "fused" member: the fusion the newest job of
   // the capture camera went to (its "key" names camera and size), with
   // "other_sizes" listing the camera's other fusions.
   nlohmann::json Snapshot() const;
-  // DELETE /api/v1/calibration: forget every fusion (the file stays). Throws
+  // GET /api/v1/calibration's "joint" member: JointCalibrations::Snapshot of
+  // the newest remembered job's size.
+  nlohmann::json JointSnapshot() const;
+  // DELETE /api/v1/calibration: forget every fusion and joint calibration (the file stays). Throws
   // std::runtime_error when the reset cannot be stored.
   void Reset();
 
@@ -88,6 +103,7 @@ class CalibrationKeeper {
   std::map<std::string, std::unique_ptr<CalibrationFusion>> fusions_;  // by Key()
   std::string current_;  // the key the newest recorded job went to
   std::vector<std::string> notes_;
+  JointCalibrations joint_;
 };
 
 // Whether a job's burst comes from the capture camera: captures always,

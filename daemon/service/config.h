@@ -99,6 +99,11 @@ struct CalibrationSection {
   // "prior": once the fused calibration is reliable, jobs without `file` use it
   // as a prior with its own sigma; "off": every job calibrates alone.
   std::string use_fused = "prior";
+  // The joint calibration (docs/daemon.md, Calibration): of the newest
+  // `joint_bursts` jobs of the capture camera at one size, made after every
+  // `joint_every` new ones (0: only on POST /api/v1/calibration/solve).
+  int joint_bursts = 8;
+  int joint_every = 4;
 };
 
 struct JobsSection {

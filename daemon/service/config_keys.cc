@@ -143,6 +143,11 @@ std::vector<ConfigKey> MakeKeys() {
            "fuse every job's calibration (GET/DELETE /api/v1/calibration)"),
       Text("calibration.use_fused", KeyType::kString, DFSM_MEMBER(calibration.use_fused),
            "prior: jobs use the fused calibration once reliable | off", {"prior", "off"}),
+      Key("calibration.joint_bursts", kInt, DFSM_MEMBER(calibration.joint_bursts), 1, 64,
+          "the newest jobs of the capture camera a joint calibration adjusts"),
+      Key("calibration.joint_every", kInt, DFSM_MEMBER(calibration.joint_every), 0, 10000,
+          "a joint calibration after this many new jobs (0: only on POST "
+          "/api/v1/calibration/solve)"),
       Text("jobs.state_dir", KeyType::kPath, DFSM_MEMBER(jobs.state_dir),
            "jobs, bursts and results (default $STATE_DIRECTORY or /var/lib/dfsmd)"),
       Key("jobs.workers", kInt, DFSM_MEMBER(jobs.workers), 1, 64, "pipeline jobs run at once"),

@@ -5,6 +5,7 @@
 
 #include "core/io/stage_timer.h"
 #include "core/pipeline/pipeline.h"
+#include "core/sparse/joint_burst_file.h"
 #include "daemon/log/log.h"
 
 namespace dfsm::service {
@@ -85,6 +86,9 @@ void JobProcessor::Process(const std::string& id, std::shared_ptr<const Burst> p
     const std::filesystem::path staged = store_->NewStagingDir();
     try {
       WritePipelineOutputs(staged, *burst, &output);
+      // What a later joint calibration of the camera reads of this job.
+      if (calibration_ && output.result.ok && output.sparse)
+        WriteJointBurst(staged / kTracksFile, JointBurstOf(id, *output.sparse));
       store_->CommitOutput(id, staged);
     } catch (const std::exception& e) {
       // A full disk must not stay full because of our own leftovers: without
@@ -99,8 +103,25 @@ void JobProcessor::Process(const std::string& id, std::shared_ptr<const Burst> p
     job.warnings = output.result.warnings;
     job.calibration_quality = output.result.calibration_detail.value("quality", "");
     Finish(&job, output.result.ok, output.result.error);
+    if (calibration_ && output.result.ok && output.sparse)
+      JoinCalibration(job, burst->width(), burst->height());
   } catch (const std::exception& e) {
     Finish(&job, false, e.what());
+  }
+}
+
+void JobProcessor::JoinCalibration(const Job& job, int width, int height) {
+  if (!calibration_->RememberTracks(job.id, job.options, width, height)) return;
+  try {
+    const std::optional<nlohmann::json> joint = calibration_->SolveJoint(
+        [this](const std::string& id) { return store_->OutputDir(id) / kTracksFile; });
+    if (!joint) return;  // one runs already (POST /api/v1/calibration/solve)
+    log::Info("joint calibration after job " + job.id + ": f " +
+              std::to_string(joint->at("camera").value("fx", 0.0)) + " px from " +
+              std::to_string(joint->at("bursts_joined").get<int>()) + " jobs, " +
+              joint->at("verdict").value("quality", ""));
+  } catch (const std::exception& e) {
+    log::Warning("joint calibration after job " + job.id + ": " + e.what());
   }
 }
 

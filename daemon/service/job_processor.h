@@ -44,6 +44,9 @@ class JobProcessor {
  private:
   void Finish(Job* job, bool ok, const std::string& error);
   // Teaches progress_ the laps of a job that succeeded.
+  // Remembers a successful job's tracks for the camera's joint calibration,
+  // and makes one where it is due (CalibrationKeeper::RememberTracks).
+  void JoinCalibration(const Job& job, int width, int height);
   void LearnShares(double loading_ms, const PipelineOutput& output, double writing_ms);
 
   JobStore* store_;

@@ -1,7 +1,9 @@
 // The real dfsmd calibrating one camera over several of its bursts: each job's
 // own estimate is fused (GET /api/v1/calibration "fused"), the fused sigma
 // falls as bursts arrive and the fused camera nears the truth, the fusion
-// survives a restart, and DELETE resets it. Uploads feed it only when they
+// survives a restart, and DELETE resets it. The joint calibration over the
+// jobs' tracks is made after every calibration.joint_every jobs and on POST
+// /api/v1/calibration/solve. Uploads feed it only when they
 // say they come from the capture camera (camera=capture).
 #include <gtest/gtest.h>
 #include <signal.h>
@@ -128,6 +130,26 @@ TEST_F(DfsmdCalibrationTest, FusesTheBurstsOfOneCameraAndKeepsItAcrossARestart) 
   ASSERT_EQ(fused["other_sizes"].size(), 1u) << fused.dump(2);
   EXPECT_NE(fused["other_sizes"][0].value("key", "").find("320x240"), std::string::npos);
 
+  // The joint calibration was made after the fourth 640x480 job
+  // (calibration.joint_every); made again on request, it holds all five.
+  const json made = calibration["joint"];
+  EXPECT_NE(made.value("key", "").find("640x480"), std::string::npos) << made.dump(2);
+  ASSERT_FALSE(made["result"].is_null()) << made.dump(2);
+  EXPECT_EQ(made["result"]["bursts"].size(), 4u) << made.dump(2);
+  const auto solved = client.Post("/api/v1/calibration/solve", "{}", "application/json");
+  ASSERT_TRUE(solved);
+  ASSERT_EQ(solved->status, 200) << solved->body;
+  const json joint = json::parse(solved->body);
+  EXPECT_EQ(joint["jobs"].size(), static_cast<size_t>(kBursts)) << joint.dump(2);
+  const json& result = joint["result"];
+  std::cout << "joint: " << result["bursts_joined"] << " of " << result["bursts"].size()
+            << " bursts, f " << result["camera"]["fx"] << " (truth " << truth_f_ << "), sigma_f "
+            << result["sigma_f_percent"] << " %, " << result["verdict"]["quality"] << "\n";
+  EXPECT_GE(result["bursts_joined"].get<int>(), kBursts - 1) << result.dump(2);
+  const double joint_error =
+      100.0 * std::abs(result["camera"]["fx"].get<double>() - truth_f_) / truth_f_;
+  EXPECT_LE(joint_error, 2.0 * result["sigma_f_percent"].get<double>()) << result.dump(2);
+
   // The fusion is stored: a restart keeps it.
   EXPECT_EQ(daemon->Stop(SIGTERM), 0) << daemon->Log();
   daemon = Start(dir / "state");
@@ -135,6 +157,8 @@ TEST_F(DfsmdCalibrationTest, FusesTheBurstsOfOneCameraAndKeepsItAcrossARestart) 
   const json again = json::parse(restarted.Get("/api/v1/calibration")->body)["fused"];
   EXPECT_EQ(again["bursts"], fused["bursts"]);
   EXPECT_EQ(again["camera"]["fx"], fused["camera"]["fx"]);
+  const json joint_again = json::parse(restarted.Get("/api/v1/calibration")->body)["joint"];
+  EXPECT_EQ(joint_again["result"]["camera"], result["camera"]) << joint_again.dump(2);
 
   // DELETE forgets it (the history stays).
   const auto reset = restarted.Delete("/api/v1/calibration");
@@ -142,6 +166,7 @@ TEST_F(DfsmdCalibrationTest, FusesTheBurstsOfOneCameraAndKeepsItAcrossARestart) 
   EXPECT_EQ(reset->status, 204) << reset->body;
   const json after = json::parse(restarted.Get("/api/v1/calibration")->body)["fused"];
   EXPECT_TRUE(after.value("empty", false)) << after.dump(2);
+  EXPECT_TRUE(json::parse(restarted.Get("/api/v1/calibration")->body)["joint"]["result"].is_null());
   EXPECT_EQ(daemon->Stop(SIGTERM), 0) << daemon->Log();
 }
 
