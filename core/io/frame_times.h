@@ -21,6 +21,12 @@ namespace dfsm {
 // frames are taken as consecutive, as the pipeline always did).
 std::vector<double> CaptureTimes(const BurstManifest& manifest);
 
+// Frame `frame`'s capture time: times[frame], or its place in the burst
+// where `times` is empty (consecutive frames).
+inline double CaptureTime(const std::vector<double>& times, int frame) {
+  return times.empty() ? static_cast<double>(frame) : times.at(frame);
+}
+
 // The frames missing between the first and the last of `times` (0 for empty).
 int MissingFrames(const std::vector<double>& times);
 

@@ -95,9 +95,6 @@ struct DistinctFrames {
       for (int i = 0; i < all.size(); ++i)
         if (repeats[i] < 0) times.push_back(static_cast<double>(i));
   }
-  // The capture time of `burst`'s frame i: its place where the manifest says
-  // nothing of time.
-  double Time(int i) const { return times.empty() ? static_cast<double>(i) : times[i]; }
 
   Burst burst;  // what the stages see
   // Per caller's frame: its (or its original's) index in `burst`.
@@ -108,19 +105,18 @@ struct DistinctFrames {
 
 // The sparse stage's pose of each of `distinct.burst`'s frames: a frame the
 // tracker left out takes the one at its capture time between the kept ones
-// (frame_selection.h).
+// (frame_selection.h), whose times the sparse state holds.
 std::vector<Pose> DistinctFramePoses(const SparseReconstruction& sparse,
                                      const DistinctFrames& distinct) {
   const std::vector<int>& kept = sparse.feature_stats.kept_frames;
   if (kept.empty() || sparse.feature_stats.left_out.empty()) return sparse.state.poses;
-  std::vector<double> kept_times;
-  for (const int i : kept) kept_times.push_back(distinct.Time(i));
+  const std::vector<double>& kept_times = sparse.state.frame_times;
   std::vector<Pose> poses;
   for (int i = 0, k = 0; i < distinct.burst.size(); ++i) {
     if (k < static_cast<int>(kept.size()) && kept[k] == i)
       poses.push_back(sparse.state.poses[k++]);
     else
-      poses.push_back(PoseAtTime(kept_times, sparse.state.poses, distinct.Time(i)));
+      poses.push_back(PoseAtTime(kept_times, sparse.state.poses, CaptureTime(distinct.times, i)));
   }
   return poses;
 }

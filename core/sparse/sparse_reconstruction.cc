@@ -8,6 +8,7 @@
 #include <optional>
 
 #include "core/camera/rolling_shutter.h"
+#include "core/io/frame_times.h"
 #include "core/io/stage_timer.h"
 #include "core/parallel/parallel_for.h"
 #include "core/sparse/adjustment_starts.h"
@@ -602,8 +603,7 @@ SparseReconstruction ReconstructTracked(SparseReconstruction tracked, int width,
   SparseOptions kept_options = options;
   kept_options.frame_times.clear();
   for (const int i : stats.kept_frames)
-    kept_options.frame_times.push_back(options.frame_times.empty() ? static_cast<double>(i)
-                                                                   : options.frame_times.at(i));
+    kept_options.frame_times.push_back(CaptureTime(options.frame_times, i));
   return AdjustTracked(std::move(tracked), width, height, kept_options, beside);
 }
 
