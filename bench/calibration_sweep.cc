@@ -4,6 +4,8 @@
 //   calibration_sweep [--bursts N] [--seed S] [--no-weak-prior]
 //                     [--field-of-view normal|wide] (f 0.8-1.5 or 0.55-0.8 x
 //                     the longer side) [--only I] (burst I of the sweep alone)
+//                     [--motion tremor|rotation] (0.25-2 deg and 3-10 mm, or
+//                     rotation-dominant 1-6 deg and 1-10 mm)
 //                     [--focal-starts F1,F2,...] (SparseOptions::focal_starts)
 //                     [--without LAYER,...] (sparse layers off: core/sparse/sparse_layers.h)
 #include "tests/support/calibration_sweep.h"
@@ -30,6 +32,7 @@ int main(int argc, char** argv) {
   double cell_scale = 1.0;  // feature cell against the default (0.5: four times the cells)
   int only = -1;            // every burst
   std::string field_of_view = "normal";
+  std::string motion = "tremor";
   std::string camera = "ideal";  // camera effects preset of the generated bursts
   try {
     for (int i = 1; i < argc; ++i) {
@@ -50,6 +53,8 @@ int main(int argc, char** argv) {
         camera = argv[++i];
       else if (!std::strcmp(argv[i], "--field-of-view") && i + 1 < argc)
         field_of_view = argv[++i];
+      else if (!std::strcmp(argv[i], "--motion") && i + 1 < argc)
+        motion = argv[++i];
       else if (!std::strcmp(argv[i], "--only") && i + 1 < argc)
         only = WholeNumber("--only", argv[++i], 0);
       else if (!std::strcmp(argv[i], "--focal-starts") && i + 1 < argc) {
@@ -72,6 +77,7 @@ int main(int argc, char** argv) {
                      "[--cell-scale S]\n"
                      "                         [--camera ideal|webcam|phone]\n"
                      "                         [--field-of-view normal|wide] [--only I]\n"
+                     "                         [--motion tremor|rotation]\n"
                      "                         [--focal-starts F1,F2,...] [--without LAYER,...]\n");
         return 2;
       }
@@ -82,14 +88,16 @@ int main(int argc, char** argv) {
   }
   std::vector<SweepOutcome> outcomes;
   SweepFieldOfView lens;
+  SweepMotion hand;
   try {
     lens = ParseSweepFieldOfView(field_of_view);
+    hand = ParseSweepMotion(motion);
   } catch (const std::invalid_argument& e) {
-    std::fprintf(stderr, "--field-of-view: %s\n", e.what());
+    std::fprintf(stderr, "calibration_sweep: %s\n", e.what());
     return 2;
   }
   std::vector<SynthOptions> sweep =
-      CalibrationSweepSettings(bursts, seed, lens, CameraEffects::Preset(camera));
+      CalibrationSweepSettings(bursts, seed, lens, CameraEffects::Preset(camera), hand);
   if (only >= static_cast<int>(sweep.size())) {
     std::fprintf(stderr, "--only %d: the sweep has %zu bursts (0-%zu)\n", only, sweep.size(),
                  sweep.size() - 1);

@@ -8,7 +8,9 @@
 // a depth called confirmed is one to trust (docs/experiments/228-depth-sweep.md).
 // One JSON line per burst, then the summary line and the docs table.
 //   depth_sweep [--bursts N] [--seed S] [--camera ideal|webcam|phone]
-//               [--field-of-view normal|wide] [--only I [--keep DIR]] (DIR/burst,
+//               [--field-of-view normal|wide] [--motion tremor|rotation]
+//               (tremor 0.25-2 deg and 3-10 mm, or rotation-dominant 1-6 deg
+//               and 1-10 mm) [--only I [--keep DIR]] (DIR/burst,
 //               DIR/result: the burst and its result, for dfsm evaluate)
 //   depth_sweep --defaults N [--camera ...]: instead of the sweep, the camera
 //               preset at the generator's default strengths, seeds 1-N at every
@@ -231,7 +233,7 @@ int main(int argc, char** argv) {
   int bursts = 64, only = -1, defaults = 0;
   bool defaults_given = false, sweep_option_given = false;
   uint64_t seed = 1;
-  std::string camera = "phone", field_of_view = "normal", keep;
+  std::string camera = "phone", field_of_view = "normal", motion = "tremor", keep;
   PipelineOptions pipeline;
   std::optional<KnownCalibrationMode> known;
   bool fused = false, exif = false;
@@ -248,6 +250,9 @@ int main(int argc, char** argv) {
       } else if (!std::strcmp(argv[i], "--field-of-view") && i + 1 < argc) {
         sweep_option_given = true;
         field_of_view = argv[++i];
+      } else if (!std::strcmp(argv[i], "--motion") && i + 1 < argc) {
+        sweep_option_given = true;
+        motion = argv[++i];
       } else if (!std::strcmp(argv[i], "--defaults") && i + 1 < argc) {
         defaults = WholeNumber("--defaults", argv[++i], 1);
         defaults_given = true;
@@ -270,7 +275,8 @@ int main(int argc, char** argv) {
         std::fprintf(
             stderr,
             "usage: depth_sweep [--bursts N] [--seed S] [--camera ideal|webcam|phone]\n"
-            "                   [--field-of-view normal|wide] [--only I [--keep DIR]]\n"
+            "                   [--field-of-view normal|wide] [--motion tremor|rotation]\n"
+            "                   [--only I [--keep DIR]]\n"
             "                   [--reweight-rounds N] [--known prior|fixed|fused] [--exif]\n"
             "                   [--without LAYER,...]\n"
             "       depth_sweep --defaults N [--camera ...] [--only I [--keep DIR]]\n"
@@ -285,7 +291,7 @@ int main(int argc, char** argv) {
   if (defaults_given && sweep_option_given) {
     std::fprintf(stderr,
                  "--defaults N: N seeds per size, N >= 1, without --bursts, --seed or "
-                 "--field-of-view (those choose the sweep's bursts)\n");
+                 "--field-of-view or --motion (those choose the sweep's bursts)\n");
     return 2;
   }
   std::vector<SynthOptions> sweep;
@@ -294,7 +300,7 @@ int main(int argc, char** argv) {
       sweep = DefaultStrengthSettings(defaults, camera);
     else
       sweep = CalibrationSweepSettings(bursts, seed, ParseSweepFieldOfView(field_of_view),
-                                       CameraEffects::Preset(camera));
+                                       CameraEffects::Preset(camera), ParseSweepMotion(motion));
   } catch (const std::invalid_argument& e) {
     std::fprintf(stderr, "%s\n", e.what());
     return 2;
@@ -326,7 +332,7 @@ int main(int argc, char** argv) {
     if (!group.empty())
       PrintRow(std::to_string(size.width) + "x" + std::to_string(size.height), group);
   }
-  for (const double tremor : SweepTremors()) {
+  for (const double tremor : SweepTremors(ParseSweepMotion(motion))) {
     std::vector<DepthSweepOutcome> group;
     for (const DepthSweepOutcome& o : outcomes)
       if (o.settings.rotation_deg == tremor) group.push_back(o);

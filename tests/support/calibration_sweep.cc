@@ -21,9 +21,16 @@ const std::vector<SweepSize>& SweepSizes() {
   return sizes;
 }
 
-const std::vector<double>& SweepTremors() {
+SweepMotion ParseSweepMotion(const std::string& name) {
+  if (name == "tremor") return SweepMotion::kTremor;
+  if (name == "rotation") return SweepMotion::kRotation;
+  throw std::invalid_argument("motion '" + name + "': expected tremor or rotation");
+}
+
+const std::vector<double>& SweepTremors(SweepMotion motion) {
   static const std::vector<double> tremors = {0.25, 0.5, 1.0, 2.0};
-  return tremors;
+  static const std::vector<double> rotations = {1.0, 2.0, 4.0, 6.0};
+  return motion == SweepMotion::kRotation ? rotations : tremors;
 }
 
 std::vector<SynthOptions> DefaultStrengthSettings(int seeds, const std::string& camera) {
@@ -46,7 +53,8 @@ std::vector<SynthOptions> DefaultStrengthSettings(int seeds, const std::string& 
 
 std::vector<SynthOptions> CalibrationSweepSettings(int count, uint64_t seed,
                                                    SweepFieldOfView field_of_view,
-                                                   const CameraEffects& effects) {
+                                                   const CameraEffects& effects,
+                                                   SweepMotion motion) {
   // f over the longer side; the normal range is the one the sweep always had,
   // the wide one ends where it begins.
   constexpr double kNormalLow = 0.8, kNormalHigh = 1.5, kWideLow = 0.55;
@@ -54,7 +62,10 @@ std::vector<SynthOptions> CalibrationSweepSettings(int count, uint64_t seed,
   const double f_low = wide ? kWideLow : kNormalLow;
   const double f_high = wide ? kNormalLow : kNormalHigh;
   const std::vector<SweepSize>& sizes = SweepSizes();
-  const std::vector<double>& tremors = SweepTremors();
+  const std::vector<double>& tremors = SweepTremors(motion);
+  // Baselines in metres: the range's low end and width.
+  const double baseline_low = motion == SweepMotion::kRotation ? 0.001 : 0.003;
+  const double baseline_width = motion == SweepMotion::kRotation ? 0.009 : 0.007;
   std::mt19937_64 random(seed);
   std::mt19937_64 redraw(seed + 0x9e3779b97f4a7c15ull);
   std::uniform_real_distribution<double> uniform(0.0, 1.0);
@@ -64,7 +75,7 @@ std::vector<SynthOptions> CalibrationSweepSettings(int count, uint64_t seed,
     options.width = sizes[i % sizes.size()].width;
     options.height = sizes[i % sizes.size()].height;
     options.rotation_deg = tremors[(i / sizes.size()) % tremors.size()];
-    options.baseline = 0.003 + 0.007 * uniform(random);
+    options.baseline = baseline_low + baseline_width * uniform(random);
     // k1 -0.3..0.3 and k2 of the opposite sign, up to a third of its size (as
     // fitted real lenses tend to have) at the normal range's widest lens, f
     // 0.8 x; a wider lens gets the same shift of its corner (k1 r^2, k2 r^4

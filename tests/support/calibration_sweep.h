@@ -24,6 +24,12 @@ enum class SweepFieldOfView {
 };
 SweepFieldOfView ParseSweepFieldOfView(const std::string& name);  // "normal", "wide"
 
+// The hand motion a sweep draws: tremor (0.25-2 deg over the burst, 3-10 mm
+// of baseline), or rotation-dominant (1-6 deg, 1-10 mm: the regime of real
+// hand-held windows such as ../shared/data/tum_fr1_rpy).
+enum class SweepMotion { kTremor, kRotation };
+SweepMotion ParseSweepMotion(const std::string& name);  // "tremor", "rotation"
+
 // The frame sizes the sweeps cycle through, smallest first.
 struct SweepSize {
   int width = 0, height = 0;
@@ -31,7 +37,7 @@ struct SweepSize {
 const std::vector<SweepSize>& SweepSizes();
 // The tremors (largest rotation against the reference, degrees) the sweeps
 // cycle through, smallest first.
-const std::vector<double>& SweepTremors();
+const std::vector<double>& SweepTremors(SweepMotion motion = SweepMotion::kTremor);
 
 // The generator at its default strengths (SynthOptions' defaults) with the
 // effects and JPEG quality of the camera preset `camera` (CameraEffects::
@@ -44,10 +50,11 @@ std::vector<SynthOptions> DefaultStrengthSettings(int seeds, const std::string& 
 // The settings of burst `index` of a sweep of `count`: every resolution and
 // tremor appears equally often, the rest is drawn from `seed` (deterministic;
 // the field of view changes the focal lengths and the lens, not the other
+// draws; the motion changes the tremors and the baselines' range, not the
 // draws). `effects` go into every burst; a lens their k3 would fold is redrawn.
 std::vector<SynthOptions> CalibrationSweepSettings(
     int count, uint64_t seed = 1, SweepFieldOfView field_of_view = SweepFieldOfView::kNormal,
-    const CameraEffects& effects = {});
+    const CameraEffects& effects = {}, SweepMotion motion = SweepMotion::kTremor);
 
 struct SweepOutcome {
   SynthOptions settings;

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <set>
 #include <stdexcept>
 
 #include "tests/support/calibration_sweep.h"
@@ -69,6 +70,33 @@ TEST(CalibrationSweepSettings, ABarrelLensThatFoldsBeforeTheCornerIsRefused) {
   EXPECT_THROW(SynthesizeBurst(s), std::invalid_argument);
   s.k1 = -0.1;
   EXPECT_TRUE(RenderedLensIsInvertible(s));
+}
+
+// The rotation-dominant sweep turns the hand 1-6 deg over 1-10 mm; every
+// other draw is the tremor sweep's.
+TEST(CalibrationSweepSettings, RotationDominantMotionTurnsMoreOverLess) {
+  const CameraEffects effects = CameraEffects::Preset("phone");
+  const std::vector<SynthOptions> rotation =
+      CalibrationSweepSettings(64, 3, SweepFieldOfView::kNormal, effects, SweepMotion::kRotation);
+  const std::vector<SynthOptions> tremor =
+      CalibrationSweepSettings(64, 3, SweepFieldOfView::kNormal, effects);
+  double smallest = 1.0, largest = 0.0;
+  std::set<double> turns;
+  for (size_t i = 0; i < rotation.size(); ++i) {
+    turns.insert(rotation[i].rotation_deg);
+    smallest = std::min(smallest, rotation[i].baseline);
+    largest = std::max(largest, rotation[i].baseline);
+    EXPECT_EQ(rotation[i].f, tremor[i].f);
+    EXPECT_EQ(rotation[i].k1, tremor[i].k1);
+    EXPECT_EQ(rotation[i].width, tremor[i].width);
+  }
+  EXPECT_EQ(turns, (std::set<double>{1.0, 2.0, 4.0, 6.0}));
+  EXPECT_GE(smallest, 0.001);
+  EXPECT_LT(smallest, 0.002);
+  EXPECT_LE(largest, 0.010);
+  EXPECT_GT(largest, 0.009);
+  EXPECT_EQ(ParseSweepMotion("rotation"), SweepMotion::kRotation);
+  EXPECT_THROW(ParseSweepMotion("spin"), std::invalid_argument);
 }
 
 TEST(CalibrationSweepSettings, FieldOfViewNamesParse) {
