@@ -113,7 +113,8 @@ std::optional<nlohmann::json> JointCalibrations::TrySolve(const std::string& key
   if (bursts.empty())
     throw std::runtime_error("no job of " + key + " has tracks to calibrate from (" +
                              std::to_string(jobs.size()) + " remembered)");
-  const JointCalibration joint = AdjustJointly(bursts, JointOptionsFor(SparseOptions{}));
+  const SparseOptions sparse;  // the pipeline's defaults: the readout estimated
+  const JointCalibration joint = AdjustJointly(bursts, JointOptionsFor(sparse));
   nlohmann::json result = ResultJson(joint, bursts, std::move(unreadable));
   std::lock_guard<std::mutex> lock(mutex_);
   Entry& entry = entries_[key];
