@@ -15,6 +15,7 @@
 #include "core/sparse/calibration_fusion.h"
 #include "core/sparse/joint_adjustment.h"
 #include "core/sparse/sparse_reconstruction.h"
+#include "tools/dfsm/burst_input.h"
 #include "tools/dfsm/command.h"
 #include "tools/dfsm/command_line.h"
 
@@ -24,31 +25,34 @@ namespace {
 enum class CalibrateMethod { kJoint, kFusion };
 
 struct CalibrateInputs {
-  std::vector<std::string> bursts;
+  std::vector<BurstWindow> bursts;
   std::filesystem::path out_dir;
-  ReadBurstOptions read_options;
+  int frames = 0;  // of each burst (0: all), as --frames
   SparseOptions sparse_options;
 };
 
 // One burst's sparse stage, alone; nullopt where it fails, with why. Prints
 // the burst's own calibration (the line the caller ends).
-std::optional<SparseReconstruction> CalibrateAlone(const std::string& burst_dir,
+std::optional<SparseReconstruction> CalibrateAlone(const BurstWindow& window,
                                                    const CalibrateInputs& inputs,
                                                    std::string* failure) {
+  const std::string name = window.Name();
+  const char* burst_dir = name.c_str();
   try {
-    const Burst burst = ReadBurst(burst_dir, inputs.read_options);
+    const Burst burst = ReadBurstInput(window.input, window.start,
+                                       window.frames > 0 ? window.frames : inputs.frames);
     SparseReconstruction sparse =
         ReconstructSparse(burst.gray, burst.reference(), inputs.sparse_options);
     const CameraModel& camera = sparse.state.camera;
-    std::printf("%s: f %.2f px (sigma %.2f %%), k1 %.5f, k2 %.5f, %s", burst_dir.c_str(), camera.f,
+    std::printf("%s: f %.2f px (sigma %.2f %%), k1 %.5f, k2 %.5f, %s", burst_dir, camera.f,
                 sparse.uncertainty.available ? sparse.uncertainty.sigma_f_percent(camera.f) : 0.0,
                 camera.k1, camera.k2, CalibrationQualityName(sparse.verdict.quality));
     return sparse;
   } catch (const BurstError& e) {
-    std::printf("%s: unreadable", burst_dir.c_str());
+    std::printf("%s: unreadable", burst_dir);
     *failure = e.what();
   } catch (const ReconstructionError& e) {
-    std::printf("%s: failed", burst_dir.c_str());
+    std::printf("%s: failed", burst_dir);
     *failure = e.what();
   }
   return std::nullopt;
@@ -56,9 +60,10 @@ std::optional<SparseReconstruction> CalibrateAlone(const std::string& burst_dir,
 
 int RunFusion(const CalibrateInputs& inputs) {
   CalibrationFusion fusion;
-  for (const std::string& burst_dir : inputs.bursts) {
+  for (const BurstWindow& window : inputs.bursts) {
+    const std::string burst_dir = window.Name();
     std::string outcome;
-    const std::optional<SparseReconstruction> sparse = CalibrateAlone(burst_dir, inputs, &outcome);
+    const std::optional<SparseReconstruction> sparse = CalibrateAlone(window, inputs, &outcome);
     if (!sparse) {
       outcome = "not fused: " + outcome;
     } else if (const std::optional<CalibrationSample> sample =
@@ -152,9 +157,10 @@ int RunJoint(const CalibrateInputs& inputs) {
   std::vector<JointBurst> bursts;
   std::vector<nlohmann::json> entries;
   std::vector<int> entry_of;  // each joint burst's entry
-  for (const std::string& burst_dir : inputs.bursts) {
+  for (const BurstWindow& window : inputs.bursts) {
+    const std::string burst_dir = window.Name();
     std::string failure;
-    const std::optional<SparseReconstruction> sparse = CalibrateAlone(burst_dir, inputs, &failure);
+    const std::optional<SparseReconstruction> sparse = CalibrateAlone(window, inputs, &failure);
     // Its tracks only are kept: memory stays one burst's frames at a time.
     entries.push_back(OwnCalibrationJson(burst_dir, sparse ? &*sparse : nullptr, failure));
     if (!sparse) {
@@ -196,8 +202,13 @@ int RunCalibrateCommand(const Args& args) {
       "Bursts must share one image size. Exit status: 0 a calibration was written, 1 none could "
       "be made (no burst usable, or fewer than two agreeing), 2 usage.");
   CalibrateInputs inputs;
+  std::vector<std::string> bursts;
+  int window_frames = 0;
   std::string out_dir, rolling_shutter = kDefaultRollingShutter, method = "joint";
-  app.add_option("BURST", inputs.bursts, "dfsm-burst/1 directories of one camera")->required();
+  app.add_option("BURST", bursts,
+                 "bursts of one camera: dfsm-burst/1 directories, folders of PNG or JPEG images "
+                 "or globs of them ('clip/*.jpg', quoted)")
+      ->required();
   app.add_option("--out", out_dir,
                  "written: calibration.json and calibration.yaml of the camera (as 'dfsm process' "
                  "writes them) and joint.json (the shared camera with its sigma and verdict, and "
@@ -210,14 +221,26 @@ int RunCalibrateCommand(const Args& args) {
                  "weighed by its information, as dfsmd keeps it over days")
       ->check(CLI::IsMember({"joint", "fusion"}))
       ->capture_default_str();
-  app.add_option("--frames", inputs.read_options.max_frames,
+  app.add_option("--frames", inputs.frames,
                  "use N frames of each burst, centred on its reference (0: all)")
+      ->check(FrameCount());
+  app.add_option("--windows", window_frames,
+                 "cut each folder or glob of images into consecutive bursts of N frames (a "
+                 "clip's frames; 0: each one burst)")
       ->check(FrameCount());
   app.add_option("--rolling-shutter", rolling_shutter,
                  "global | estimate | R: the sensor's readout, as for 'dfsm process'")
       ->capture_default_str();
   if (const auto status = ParseCommandLine(app, args)) return *status;
   inputs.out_dir = out_dir;
+  for (const std::string& burst : bursts) {
+    try {
+      for (BurstWindow& window : WindowsOf(burst, window_frames))
+        inputs.bursts.push_back(std::move(window));
+    } catch (const BurstError& e) {
+      throw UsageError(e.what());
+    }
+  }
   try {
     inputs.sparse_options.rolling_shutter = ParseRollingShutter(rolling_shutter);
   } catch (const std::invalid_argument& e) {

@@ -3,7 +3,8 @@
 # same size and a burst that cannot be read: the joint calibration keeps the
 # camera's bursts, leaves the other camera's out as disagreeing and names the
 # unreadable one; the fusion runs on the same bursts; no usable burst is exit
-# 1 with the reason. Usage: calibrate_test.sh DFSM WORKDIR
+# 1 with the reason; a folder of images is cut into windows. Usage:
+# calibrate_test.sh DFSM WORKDIR
 set -eu
 dfsm="$1" work="$2"
 rm -rf "$work" && mkdir -p "$work"
@@ -28,6 +29,16 @@ awk -v f="$f" 'BEGIN { exit !(f > 334.4 && f < 369.6) }' || fail "joint f $f px,
 "$dfsm" calibrate "$work"/camera-* --method fusion --out "$work/fused" >"$work/log" 2>&1 ||
   fail "the fusion exited $?"
 [ -s "$work/fused/fusion.json" ] || fail "no fusion.json"
+# A clip's frames (a folder of images) cut into windows, each one burst.
+"$dfsm" calibrate "$work/camera-1/frames" --windows 5 --out "$work/windows" >"$work/log" 2>&1 ||
+  fail "the windows of a folder exited $?"
+for window in "[0, 5)" "[5, 10)"; do
+  grep -qF "frames $window" "$work/windows/joint.json" || fail "no window $window"
+done
+if "$dfsm" calibrate "$work/camera-1/frames" --windows 20 --out "$work/none" >"$work/log" 2>&1; then
+  fail "a window longer than the clip was read"
+fi
+grep -q "fewer than one window of 20" "$work/log" || fail "the short clip is not named"
 if "$dfsm" calibrate "$work/missing" --out "$work/none" >"$work/log" 2>&1; then
   fail "no usable burst gave a calibration"
 fi

@@ -7,34 +7,11 @@
 #include "core/export/calibration_import.h"
 #include "core/io/image_sequence.h"
 #include "core/pipeline/pipeline.h"
+#include "tools/dfsm/burst_input.h"
 #include "tools/dfsm/command.h"
 #include "tools/dfsm/command_line.h"
 
 namespace dfsm::tools {
-namespace {
-
-// The burst `input` names: a dfsm-burst/1 directory (its --frames centred on
-// the reference), else a folder or glob of images (--start, then --frames).
-Burst ReadInput(const std::string& input, int start, int frames) {
-  std::error_code error;
-  if (std::filesystem::is_regular_file(input, error))
-    throw BurstError("'" + input +
-                     "' is a file; give a dfsm-burst/1 directory, a folder of PNG or JPEG images, "
-                     "or a glob of them (a video: extract its frames first, e.g. ffmpeg -i " +
-                     input + " frames/%04d.png)");
-  if (!IsImageSequence(input)) {
-    if (start > 0) throw BurstError("--start is for a folder or glob of images, not a burst");
-    ReadBurstOptions read;
-    read.max_frames = frames;
-    return ReadBurst(input, read);
-  }
-  ImageSequenceOptions sequence;
-  sequence.start = start;
-  sequence.frames = frames;
-  return ReadImageSequence(input, sequence);
-}
-
-}  // namespace
 
 int RunProcessCommand(const Args& args) {
   CLI::App app(
@@ -113,7 +90,7 @@ int RunProcessCommand(const Args& args) {
 
   Burst burst;
   try {
-    burst = ReadInput(burst_dir, start, frames);
+    burst = ReadBurstInput(burst_dir, start, frames);
   } catch (const BurstError& e) {
     std::fprintf(stderr, "dfsm process: %s\n", e.what());
     return 1;

@@ -1,0 +1,45 @@
+#include "tools/dfsm/burst_input.h"
+
+#include <filesystem>
+
+#include "core/io/image_sequence.h"
+
+namespace dfsm::tools {
+
+Burst ReadBurstInput(const std::string& input, int start, int frames) {
+  std::error_code error;
+  if (std::filesystem::is_regular_file(input, error))
+    throw BurstError("'" + input +
+                     "' is a file; give a dfsm-burst/1 directory, a folder of PNG or JPEG images, "
+                     "or a glob of them (a video: extract its frames first, e.g. ffmpeg -i " +
+                     input + " frames/%04d.png)");
+  if (!IsImageSequence(input)) {
+    if (start > 0) throw BurstError("--start is for a folder or glob of images, not a burst");
+    ReadBurstOptions read;
+    read.max_frames = frames;
+    return ReadBurst(input, read);
+  }
+  ImageSequenceOptions sequence;
+  sequence.start = start;
+  sequence.frames = frames;
+  return ReadImageSequence(input, sequence);
+}
+
+std::string BurstWindow::Name() const {
+  if (start == 0 && frames == 0) return input;
+  return input + " [" + std::to_string(start) + ", " + std::to_string(start + frames) + ")";
+}
+
+std::vector<BurstWindow> WindowsOf(const std::string& input, int frames) {
+  if (frames == 0 || !IsImageSequence(input)) return {{input, 0, 0}};
+  const int images = static_cast<int>(ListImageSequence(input).size());
+  std::vector<BurstWindow> windows;
+  for (int start = 0; start + frames <= images; start += frames)
+    windows.push_back({input, start, frames});
+  if (windows.empty())
+    throw BurstError("'" + input + "' holds " + std::to_string(images) +
+                     " images, fewer than one window of " + std::to_string(frames));
+  return windows;
+}
+
+}  // namespace dfsm::tools
