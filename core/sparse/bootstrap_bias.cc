@@ -95,34 +95,44 @@ IntrinsicsBias EstimateIntrinsicsBias(const FeatureTracks& tracks, const std::ve
                                       const BundleAdjustmentOptions& options,
                                       const BootstrapBiasOptions& bootstrap) {
   RequireEstimatedIntrinsics(options, "EstimateIntrinsicsBias");
-  IntrinsicsBias bias;
-  bias.noise_px = ResidualNoisePx(tracks, use, state, options);
+  const double noise_px = ResidualNoisePx(tracks, use, state, options);
   const int replicas = bootstrap.replicas;
   BundleAdjustmentOptions replica_options = options;
   replica_options.num_threads = 1;  // the replicas share the pool instead
   // What the replicas share, made once; each adds noise of its own.
   const FeatureTracks explained = ExplainedTracks(tracks, use, state);
   std::vector<SparseState> adjusted(replicas, state);
-  std::vector<char> solved(replicas, 0);
+  std::vector<ReplicaEstimate> estimates(replicas);
   cv::parallel_for_(cv::Range(0, replicas), [&](const cv::Range& range) {
     for (int r = range.start; r < range.end; ++r) {
       const FeatureTracks replica =
-          ReplicaTracks(explained, use, bias.noise_px, bootstrap.seed + 7919 * r);
+          ReplicaTracks(explained, use, noise_px, bootstrap.seed + 7919 * r);
       const BundleAdjustmentSummary summary =
           RunBundleAdjustment(replica, use, &adjusted[r], replica_options);
-      // A replica that ran out of iterations still counts: leaving out the
-      // slow ones would draw the mean towards the quick, small shifts.
-      solved[r] = std::isfinite(summary.final_cost) && std::isfinite(adjusted[r].camera.f) &&
-                  adjusted[r].camera.f > 0.0;
+      estimates[r] = {adjusted[r].camera, adjusted[r].readout,
+                      std::isfinite(summary.final_cost) && std::isfinite(adjusted[r].camera.f) &&
+                          adjusted[r].camera.f > 0.0};
     }
   });
-  for (int r = 0; r < replicas; ++r) {
-    if (!solved[r]) continue;
+  IntrinsicsBias bias = MeanShift(estimates, state.camera, state.readout, bootstrap);
+  bias.noise_px = noise_px;
+  return bias;
+}
+
+bool BiasMatters(double sigma_f_noise_px, double f, const BootstrapBiasOptions& bootstrap) {
+  return 100.0 * sigma_f_noise_px / f >= bootstrap.min_sigma_f_percent;
+}
+
+IntrinsicsBias MeanShift(const std::vector<ReplicaEstimate>& replicas, const CameraModel& camera,
+                         double readout, const BootstrapBiasOptions& bootstrap) {
+  IntrinsicsBias bias;
+  for (const ReplicaEstimate& replica : replicas) {
+    if (!replica.solved) continue;
     ++bias.replicas;
-    bias.f += adjusted[r].camera.f - state.camera.f;
-    bias.k1 += adjusted[r].camera.k1 - state.camera.k1;
-    bias.k2 += adjusted[r].camera.k2 - state.camera.k2;
-    bias.readout += adjusted[r].readout - state.readout;
+    bias.f += replica.camera.f - camera.f;
+    bias.k1 += replica.camera.k1 - camera.k1;
+    bias.k2 += replica.camera.k2 - camera.k2;
+    bias.readout += replica.readout - readout;
   }
   if (bias.replicas > 0) {
     bias.f /= bias.replicas;
@@ -130,6 +140,8 @@ IntrinsicsBias EstimateIntrinsicsBias(const FeatureTracks& tracks, const std::ve
     bias.k2 /= bias.replicas;
     bias.readout /= bias.replicas;
   }
+  bias.usable = 2 * bias.replicas >= static_cast<int>(replicas.size()) &&
+                std::abs(bias.f) <= bootstrap.max_correction_percent / 100.0 * camera.f;
   return bias;
 }
 
@@ -150,11 +162,9 @@ std::optional<IntrinsicsBias> MeasureBiasIfItMatters(const FeatureTracks& tracks
   RunBundleAdjustment(tracks, use, &at, evaluate, &uncertainty);
   if (!uncertainty.available) return std::nullopt;
   const double sigma_f = uncertainty.sigma_f_px();
-  if (!(100.0 * sigma_f / state.camera.f >= bootstrap.min_sigma_f_percent)) return std::nullopt;
+  if (!BiasMatters(sigma_f, state.camera.f, bootstrap)) return std::nullopt;
   IntrinsicsBias bias = EstimateIntrinsicsBias(tracks, use, state, options, bootstrap);
   bias.sigma_f_noise_px = sigma_f;
-  bias.usable = 2 * bias.replicas >= bootstrap.replicas &&
-                std::abs(bias.f) <= bootstrap.max_correction_percent / 100.0 * state.camera.f;
   return bias;
 }
 

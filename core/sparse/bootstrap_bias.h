@@ -61,12 +61,32 @@ struct IntrinsicsBias {
   double noise_px = 0.0;  // the replicas' tracking noise, per coordinate
   int replicas = 0;       // adjusted (a replica whose adjustment failed is left out)
   // Set by MeasureBiasIfItMatters: the sigma_f the tracks' noise alone gives
-  // the solution (before the uncertainty's inflation), and whether the bias
-  // can be taken off: at least half the replicas adjusted, and within
-  // BootstrapBiasOptions::max_correction_percent of f.
+  // the solution (before the uncertainty's inflation).
   double sigma_f_noise_px = 0.0;
+  // Whether the bias can be taken off: at least half the replicas adjusted,
+  // and within BootstrapBiasOptions::max_correction_percent of f.
   bool usable = false;
 };
+
+// Whether the bias is worth measuring where the tracks' noise alone gives
+// the camera of focal length `f` a sigma of `sigma_f_noise_px`
+// (BootstrapBiasOptions::min_sigma_f_percent).
+bool BiasMatters(double sigma_f_noise_px, double f, const BootstrapBiasOptions& bootstrap);
+
+// One replica's adjusted camera and readout; `solved` false where its
+// adjustment failed.
+struct ReplicaEstimate {
+  CameraModel camera;
+  double readout = 0.0;
+  bool solved = false;
+};
+
+// The solved replicas' mean camera and readout less the solution's, with
+// `replicas` and `usable` set. A replica that ran out of iterations counts:
+// leaving out the slow ones would draw the mean towards the quick, small
+// shifts.
+IntrinsicsBias MeanShift(const std::vector<ReplicaEstimate>& replicas, const CameraModel& camera,
+                         double readout, const BootstrapBiasOptions& bootstrap);
 
 // The tracks `state` explains exactly: every used track moved onto the
 // state's projection in every frame; the others as observed.

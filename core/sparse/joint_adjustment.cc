@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <opencv2/core/utility.hpp>
 #include <stdexcept>
 #include <string>
@@ -306,8 +307,7 @@ std::optional<IntrinsicsBias> JointBias(const std::vector<JointBurst>& bursts,
   const BootstrapBiasOptions& bootstrap = options.bootstrap;
   if (bootstrap.replicas == 0 || !uncertainty.available) return std::nullopt;
   const double sigma_f_noise = uncertainty.sigma_f_px() / uncertainty.inflation;
-  if (!(100.0 * sigma_f_noise / round.camera.f >= bootstrap.min_sigma_f_percent))
-    return std::nullopt;
+  if (!BiasMatters(sigma_f_noise, round.camera.f, bootstrap)) return std::nullopt;
   std::vector<FeatureTracks> explained;
   std::vector<double> noise;
   for (size_t b = 0; b < round.active.size(); ++b) {
@@ -336,24 +336,11 @@ std::optional<IntrinsicsBias> JointBias(const std::vector<JointBurst>& bursts,
       solved[r] = std::isfinite(summary.final_cost) && replicas[r].camera.f > 0.0;
     }
   });
-  IntrinsicsBias bias;
-  for (int r = 0; r < bootstrap.replicas; ++r) {
-    if (!solved[r]) continue;
-    ++bias.replicas;
-    bias.f += replicas[r].camera.f - round.camera.f;
-    bias.k1 += replicas[r].camera.k1 - round.camera.k1;
-    bias.k2 += replicas[r].camera.k2 - round.camera.k2;
-    bias.readout += replicas[r].readout - round.readout;
-  }
-  if (bias.replicas > 0) {
-    bias.f /= bias.replicas;
-    bias.k1 /= bias.replicas;
-    bias.k2 /= bias.replicas;
-    bias.readout /= bias.replicas;
-  }
+  std::vector<ReplicaEstimate> estimates(bootstrap.replicas);
+  for (int r = 0; r < bootstrap.replicas; ++r)
+    estimates[r] = {replicas[r].camera, replicas[r].readout, solved[r] != 0};
+  IntrinsicsBias bias = MeanShift(estimates, round.camera, round.readout, bootstrap);
   bias.sigma_f_noise_px = sigma_f_noise;
-  bias.usable = 2 * bias.replicas >= bootstrap.replicas &&
-                std::abs(bias.f) <= bootstrap.max_correction_percent / 100.0 * round.camera.f;
   return bias;
 }
 
@@ -529,6 +516,35 @@ JointCalibration AdjustJointly(const std::vector<JointBurst>& bursts,
   joint.rms_reprojection_px = count > 0 ? std::sqrt(sum_sq / count) : 0.0;
   joint.verdict = JudgeJointly(bursts, options, joint);
   return joint;
+}
+
+nlohmann::json ToJson(const JointCalibration& joint, const std::vector<JointBurst>& bursts) {
+  nlohmann::json listed = nlohmann::json::array();
+  for (size_t k = 0; k < bursts.size(); ++k) {
+    const JointBurstResult& result = joint.bursts[k];
+    nlohmann::json entry = {{"name", bursts[k].name},
+                            {"outcome", JointOutcomeName(result.outcome)},
+                            {"disagreement", result.disagreement}};
+    if (result.outcome == JointOutcome::kJoined) {
+      entry["tracks"] = result.tracks;
+      entry["rms_reprojection_px"] = result.rms_reprojection_px;
+      entry["poses"] = nlohmann::json::array();
+      for (const Pose& pose : result.poses) entry["poses"].push_back(ToJson(pose));
+    }
+    listed.push_back(std::move(entry));
+  }
+  return {{"camera", ToJson(joint.camera)},
+          {"readout", joint.readout},
+          {"uncertainty", ToJson(joint.uncertainty, joint.camera.f)},
+          {"verdict", ToJson(joint.verdict)},
+          {"dispersion", joint.dispersion},
+          {"undecided", joint.undecided},
+          {"bursts_joined", joint.Joined()},
+          {"start_f", joint.start_f},
+          {"iterations", joint.iterations},
+          {"converged", joint.converged},
+          {"rms_reprojection_px", joint.rms_reprojection_px},
+          {"bursts", std::move(listed)}};
 }
 
 }  // namespace dfsm

@@ -15,6 +15,7 @@
 // all agree. The bursts are never averaged across a disagreement.
 #pragma once
 
+#include <nlohmann/json_fwd.hpp>
 #include <optional>
 #include <string>
 #include <vector>
@@ -130,5 +131,11 @@ struct JointCalibration {
 // (sparse_reconstruction.h) where there is none.
 JointCalibration AdjustJointly(const std::vector<JointBurst>& bursts,
                                const JointAdjustmentOptions& options = {});
+
+// The joint calibration as `dfsm calibrate`'s joint.json and dfsmd's joint
+// result both give it: the shared camera, readout, uncertainty, verdict,
+// dispersion and fit, and per burst (`bursts`' names) its outcome and
+// disagreement, and where it joined its tracks, RMS and poses.
+nlohmann::json ToJson(const JointCalibration& joint, const std::vector<JointBurst>& bursts);
 
 }  // namespace dfsm

@@ -87,8 +87,9 @@ bool CalibrationKeeper::ForJob(const JobOptions& options, int width, int height,
   // observes the camera where single jobs could not.
   if (const std::optional<nlohmann::json> joint = joint_.Reliable(Key(width, height))) {
     *known = FusedCalibrationPrior(
-        CameraModelFromJson(joint->at("camera")), joint->at("sigma_f_percent").get<double>(),
-        joint->at("distortion_sigma_px").get<double>(),
+        CameraModelFromJson(joint->at("camera")),
+        joint->at("uncertainty").at("sigma_f_percent").get<double>(),
+        joint->at("uncertainty").at("distortion_sigma_px").get<double>(),
         "joint (" + std::to_string(joint->at("bursts_joined").get<int>()) + " bursts)");
     known->check_fit = true;
     return true;

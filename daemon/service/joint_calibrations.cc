@@ -24,24 +24,10 @@ std::string Reworded(std::string what, const fs::path& file, const std::string& 
 
 nlohmann::json ResultJson(const JointCalibration& joint, const std::vector<JointBurst>& bursts,
                           nlohmann::json unreadable) {
-  nlohmann::json listed = nlohmann::json::array();
-  for (size_t k = 0; k < bursts.size(); ++k)
-    listed.push_back({{"job", bursts[k].name},
-                      {"outcome", JointOutcomeName(joint.bursts[k].outcome)},
-                      {"disagreement", joint.bursts[k].disagreement}});
-  for (nlohmann::json& entry : unreadable) listed.push_back(std::move(entry));
-  const CalibrationUncertainty& uncertainty = joint.uncertainty;
-  return {{"solved_ms", NowUnixMs()},
-          {"camera", ToJson(joint.camera)},
-          {"readout", joint.readout},
-          {"sigma_f_percent", uncertainty.available
-                                  ? nlohmann::json(uncertainty.sigma_f_percent(joint.camera.f))
-                                  : nlohmann::json(nullptr)},
-          {"distortion_sigma_px", uncertainty.available ? uncertainty.distortion_sigma_px : 0.0},
-          {"verdict", ToJson(joint.verdict)},
-          {"dispersion", joint.dispersion},
-          {"bursts_joined", joint.Joined()},
-          {"bursts", listed}};
+  nlohmann::json result = ToJson(joint, bursts);
+  for (nlohmann::json& entry : unreadable) result["bursts"].push_back(std::move(entry));
+  result["solved_ms"] = NowUnixMs();
+  return result;
 }
 
 }  // namespace
@@ -107,7 +93,7 @@ std::optional<nlohmann::json> JointCalibrations::TrySolve(const std::string& key
       bursts.back().name = job;
     } catch (const std::exception& e) {
       unreadable.push_back(
-          {{"job", job}, {"outcome", "unreadable"}, {"reason", Reworded(e.what(), file, job)}});
+          {{"name", job}, {"outcome", "unreadable"}, {"reason", Reworded(e.what(), file, job)}});
     }
   }
   if (bursts.empty())
@@ -134,6 +120,9 @@ std::optional<nlohmann::json> JointCalibrations::Reliable(const std::string& key
   if (found == entries_.end() || found->second.result.is_null()) return std::nullopt;
   const nlohmann::json& result = found->second.result;
   if (result.at("verdict").value("quality", "") != "reliable") return std::nullopt;
+  // A result stored in an older form (no nested uncertainty) waits for the
+  // next solve.
+  if (!result.contains("uncertainty") || !result["uncertainty"].is_object()) return std::nullopt;
   return result;
 }
 

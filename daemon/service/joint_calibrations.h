@@ -49,8 +49,9 @@ class JointCalibrations {
   // tracks can be read.
   std::optional<nlohmann::json> TrySolve(const std::string& key, const TracksOf& tracks_of);
 
-  // The newest result of `key` when its verdict is reliable: the camera
-  // (CameraModel's JSON), sigma_f_percent, distortion_sigma_px and bursts.
+  // The newest result of `key` when its verdict is reliable: the joint
+  // calibration's JSON (ToJson(JointCalibration, ...)) with "solved_ms"; a
+  // burst's "name" is its job.
   std::optional<nlohmann::json> Reliable(const std::string& key) const;
 
   // {"key", "jobs" (remembered), "due_in" (jobs until the next solve; null

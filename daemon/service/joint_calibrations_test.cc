@@ -80,7 +80,7 @@ TEST_F(JointCalibrationsTest, SolvesFromTheJobsTracksAndIsTheNextJobsPrior) {
     ASSERT_TRUE(result.has_value());
     EXPECT_EQ(result->at("bursts_joined"), 4) << result->dump(2);
     const nlohmann::json& gone = result->at("bursts").back();
-    EXPECT_EQ(gone["job"], "j5");
+    EXPECT_EQ(gone["name"], "j5");
     EXPECT_EQ(gone["outcome"], "unreadable");
     EXPECT_NE(gone["reason"].get<std::string>().find("job j5's tracks"), std::string::npos)
         << gone.dump();
@@ -90,7 +90,7 @@ TEST_F(JointCalibrationsTest, SolvesFromTheJobsTracksAndIsTheNextJobsPrior) {
   const nlohmann::json snapshot = restarted.JointSnapshot();
   ASSERT_FALSE(snapshot["result"].is_null()) << snapshot.dump(2);
   const double f = snapshot["result"]["camera"]["fx"].get<double>();
-  const double sigma = snapshot["result"]["sigma_f_percent"].get<double>();
+  const double sigma = snapshot["result"]["uncertainty"]["sigma_f_percent"].get<double>();
   EXPECT_LE(std::abs(f - 2100.0), 2.0 * sigma / 100.0 * f) << snapshot.dump(2);
   ASSERT_EQ(snapshot["result"]["verdict"]["quality"], "reliable") << snapshot.dump(2);
   KnownCalibration known;

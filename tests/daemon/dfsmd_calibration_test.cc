@@ -144,11 +144,11 @@ TEST_F(DfsmdCalibrationTest, FusesTheBurstsOfOneCameraAndKeepsItAcrossARestart) 
   const json& result = joint["result"];
   std::cout << "joint: " << result["bursts_joined"] << " of " << result["bursts"].size()
             << " bursts, f " << result["camera"]["fx"] << " (truth " << truth_f_ << "), sigma_f "
-            << result["sigma_f_percent"] << " %, " << result["verdict"]["quality"] << "\n";
+            << result["uncertainty"]["sigma_f_percent"] << " %, " << result["verdict"]["quality"] << "\n";
   EXPECT_GE(result["bursts_joined"].get<int>(), kBursts - 1) << result.dump(2);
   const double joint_error =
       100.0 * std::abs(result["camera"]["fx"].get<double>() - truth_f_) / truth_f_;
-  EXPECT_LE(joint_error, 2.0 * result["sigma_f_percent"].get<double>()) << result.dump(2);
+  EXPECT_LE(joint_error, 2.0 * result["uncertainty"]["sigma_f_percent"].get<double>()) << result.dump(2);
 
   // The fusion is stored: a restart keeps it.
   EXPECT_EQ(daemon->Stop(SIGTERM), 0) << daemon->Log();

@@ -98,7 +98,7 @@ int RunFusion(const CalibrateInputs& inputs) {
 // calibration, or why it could not take part.
 nlohmann::json OwnCalibrationJson(const std::string& burst_dir, const SparseReconstruction* sparse,
                                   const std::string& failure) {
-  nlohmann::json entry = {{"burst", burst_dir}};
+  nlohmann::json entry = {{"name", burst_dir}};
   if (!sparse) {
     entry["outcome"] = "failed";
     entry["reason"] = failure;
@@ -128,29 +128,14 @@ void PrintJoint(const JointCalibration& joint, const std::vector<JointBurst>& bu
     std::printf("            %s\n", reason.c_str());
 }
 
+// joint.json: the joint calibration, each burst's entry with its own
+// calibration beside its part in the joint one.
 nlohmann::json JointJson(const JointCalibration& joint, const std::vector<JointBurst>& bursts,
                          std::vector<nlohmann::json> entries, const std::vector<int>& entry_of) {
-  for (size_t k = 0; k < bursts.size(); ++k) {
-    nlohmann::json& entry = entries[entry_of[k]];
-    const JointBurstResult& result = joint.bursts[k];
-    entry["outcome"] = JointOutcomeName(result.outcome);
-    entry["disagreement"] = result.disagreement;
-    if (result.outcome != JointOutcome::kJoined) continue;
-    entry["tracks"] = result.tracks;
-    entry["rms_reprojection_px"] = result.rms_reprojection_px;
-    entry["poses"] = nlohmann::json::array();
-    for (const Pose& pose : result.poses) entry["poses"].push_back(ToJson(pose));
-  }
-  return {{"camera", ToJson(joint.camera)},
-          {"readout", joint.readout},
-          {"uncertainty", ToJson(joint.uncertainty, joint.camera.f)},
-          {"verdict", ToJson(joint.verdict)},
-          {"bursts_joined", joint.Joined()},
-          {"start_f", joint.start_f},
-          {"iterations", joint.iterations},
-          {"converged", joint.converged},
-          {"rms_reprojection_px", joint.rms_reprojection_px},
-          {"bursts", entries}};
+  nlohmann::json json = ToJson(joint, bursts);
+  for (size_t k = 0; k < bursts.size(); ++k) entries[entry_of[k]].update(json["bursts"][k]);
+  json["bursts"] = std::move(entries);
+  return json;
 }
 
 int RunJoint(const CalibrateInputs& inputs) {
