@@ -1,8 +1,19 @@
 #!/usr/bin/env bash
 # Installs the Debian 12 packages dfsm needs to build, test and run. Idempotent:
 # packages already present are skipped, so it is cheap on a prepared machine.
+#
+#   scripts/install-deps.sh             the runtime set and the test set
+#   scripts/install-deps.sh --runtime   only what building and running dfsm needs
+#                                       (scripts/run-demo.sh): no test tools
+#                                       (*-test-deps.txt: browser, fuzz, Slurm, ...)
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
+runtime_only=0
+case "${1:-}" in
+  "") ;;
+  --runtime) runtime_only=1 ;;
+  *) echo "usage: install-deps.sh [--runtime]" >&2; exit 2 ;;
+esac
 
 packages=(
   build-essential cmake ninja-build pkg-config git
@@ -12,12 +23,13 @@ packages=(
   libturbojpeg0-dev   # JPEG frames decoded with their scans bounded (core/io/image_decode)
   libpng-dev   # every PNG read and written (core/io/png_encode, png_decode)
   libtiff-dev   # float32 depth maps (core/io/depth_tiff)
-  libgtest-dev libgmock-dev libbenchmark-dev
   opencv-doc   # real photographs used as textures of the synthetic bursts
 )
-# Further areas list their own packages, one per line (# comments allowed).
+# Further areas list their own packages, one per line (# comments allowed);
+# what only tests need is in *-test-deps.txt.
 for list in "$here"/*-deps.txt; do
   [ -f "$list" ] || continue
+  case "$list" in *-test-deps.txt) [ "$runtime_only" = 1 ] && continue ;; esac
   while read -r line; do
     line="${line%%#*}"
     line="$(echo "$line" | xargs)"

@@ -9,7 +9,7 @@
 #   DFSM_DEMO_DIR    where the burst, state and results go (default out/demo)
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-"$root/scripts/install-deps.sh"
+"$root/scripts/install-deps.sh" --runtime
 export BUILD_DIR="${BUILD_DIR:-$root/build}"
 "$root/scripts/build.sh" -DDFSM_BUILD_TESTS=OFF -DDFSM_BUILD_BENCH=OFF
 dfsm="$BUILD_DIR/tools/dfsm/dfsm"
