@@ -20,5 +20,6 @@ int RunProcessCommand(const Args& args);
 int RunSynthCommand(const Args& args);
 int RunEvaluateCommand(const Args& args);
 int RunCalibrateCommand(const Args& args);
+int RunBatchCommand(const Args& args);
 
 }  // namespace dfsm::tools

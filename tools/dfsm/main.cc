@@ -13,9 +13,11 @@ constexpr const char* kUsage =
     "\n"
     "commands:\n"
     "  process BURST --out DIR [options]\n"
-    "        run the pipeline on a dfsm-burst/1 directory, write a dfsm-result/1 directory\n"
+    "        run the pipeline on a burst or a folder of images, write a dfsm-result/1 directory\n"
     "  synth --out DIR [options]\n"
     "        render a handheld small-motion burst of a textured scene with ground truth\n"
+    "  batch INPUT... --out DIR [options]\n"
+    "        run the pipeline on many bursts, with progress, resume, a summary and shards\n"
     "  calibrate BURST... --out DIR [options]\n"
     "        calibrate one camera from several of its bursts (fused, with sigma)\n"
     "  evaluate --result DIR --truth BURST\n"
@@ -37,6 +39,7 @@ int main(int argc, char** argv) {
     if (command == "synth") return dfsm::tools::RunSynthCommand(args);
     if (command == "evaluate") return dfsm::tools::RunEvaluateCommand(args);
     if (command == "calibrate") return dfsm::tools::RunCalibrateCommand(args);
+    if (command == "batch") return dfsm::tools::RunBatchCommand(args);
   } catch (const dfsm::tools::UsageError& e) {
     std::fprintf(stderr, "dfsm %s: %s\n", command.c_str(), e.what());
     return 2;

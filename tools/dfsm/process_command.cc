@@ -2,14 +2,13 @@
 // folder of images or a glob of them.
 #include <cstdio>
 #include <filesystem>
-#include <opencv2/core/utility.hpp>
 
 #include "core/export/calibration_import.h"
-#include "core/io/image_sequence.h"
 #include "core/pipeline/pipeline.h"
 #include "tools/dfsm/burst_input.h"
 #include "tools/dfsm/command.h"
 #include "tools/dfsm/command_line.h"
+#include "tools/dfsm/process_options.h"
 
 namespace dfsm::tools {
 
@@ -22,98 +21,33 @@ int RunProcessCommand(const Args& args) {
   app.footer(
       "Exit status: 0 ok, 1 the burst could not be processed (result.json says why), "
       "2 usage.");
-  std::string burst_dir, out_dir, init = InitModeName(InitMode::kRankOne);
-  std::string rolling_shutter = kDefaultRollingShutter, calibration_file;
-  std::string calibration_mode = KnownCalibrationModeName(KnownCalibrationMode::kPrior);
-  PipelineOptions options;
-  int frames = 0, start = 0;
-  bool no_dense = false;
-  int threads = 0;
+  std::string burst_dir, out_dir;
+  int start = 0;
+  ProcessSettings settings;
   app.add_option("INPUT", burst_dir,
                  "a dfsm-burst/1 directory, a folder of PNG or JPEG images (in name order, "
                  "numbers compared as numbers) or a glob of them ('clip/*.jpg', quoted)")
       ->required();
   app.add_option("--out", out_dir, "result directory (dfsm-result/1); created when missing")
       ->required();
-  app.add_option("--init", init,
-                 "bundle-adjustment start (rank1 also probes the naive start beside its own and "
-                 "keeps the one that fits every track better)")
-      ->check(CLI::IsMember({InitModeName(InitMode::kRankOne), InitModeName(InitMode::kNaive)}))
-      ->capture_default_str();
-  app.add_option("--frames", frames,
-                 "use N consecutive frames: of a burst centred on its reference, of images "
-                 "from --start (0: all)")
-      ->check(FrameCount());
   app.add_option("--start", start,
                  "images only: skip this many first (the first read is the "
                  "reference)")
       ->check(CLI::NonNegativeNumber);
-  app.add_option("--grid", options.sparse.features.cell_px,
-                 "feature cell size, pixels (0: 80 px at 1080p, scaled)")
-      ->check(CLI::Range(0, GridedFeatureOptions::kMaxCellPx));
-  app.add_option("--planes", options.dense.planes, "plane-sweep planes")
-      ->check(CLI::Range(DenseOptions::kMinPlanes, DenseOptions::kMaxPlanes))
-      ->capture_default_str();
-  app.add_flag("--no-dense", no_dense, "stop after the sparse stage (no depth map)");
-  app.add_option("--threads", threads, "worker threads (0: all cores)")
-      ->check(CLI::NonNegativeNumber);
-  app.add_option("--max-iterations", options.sparse.bundle_adjustment.max_iterations,
-                 "bundle-adjustment iteration limit per run")
-      ->check(CLI::PositiveNumber)
-      ->capture_default_str();
-  CLI::Option* calibration = app.add_option(
-      "--calibration", calibration_file,
-      "a known calibration: dfsm's calibration.json/.yaml, an OpenCV FileStorage "
-      "(camera_matrix, distortion_coefficients) or a ROS CameraInfo YAML; its principal point "
-      "replaces the image centre");
-  app.add_option("--calibration-mode", calibration_mode,
-                 "hold it fixed, or use it as a prior (f 1 %, distortion 0.5 px)")
-      ->check(CLI::IsMember({KnownCalibrationModeName(KnownCalibrationMode::kFixed),
-                             KnownCalibrationModeName(KnownCalibrationMode::kPrior)}))
-      ->needs(calibration)
-      ->capture_default_str();
-  app.add_option("--rolling-shutter", rolling_shutter,
-                 "global | estimate | R: the sensor's readout: none, estimated by the "
-                 "adjustment, or R of the frame interval (phones and most webcams read out row "
-                 "by row; needs frames in capture order)")
-      ->capture_default_str();
+  AddProcessOptions(app, &settings);
   if (const auto status = ParseCommandLine(app, args)) return *status;
-
-  options.sparse.init = ParseInitMode(init);
-  try {
-    options.sparse.rolling_shutter = ParseRollingShutter(rolling_shutter);
-  } catch (const std::invalid_argument& e) {
-    throw UsageError(std::string("--rolling-shutter: ") + e.what());
-  }
-  options.run_dense = !no_dense;
-  if (threads > 0) cv::setNumThreads(threads);
+  PipelineOptions options = ParsedPipelineOptions(settings);
 
   Burst burst;
   try {
-    burst = ReadBurstInput(burst_dir, start, frames);
+    burst = ReadBurstInput(burst_dir, start, settings.frames);
+    options = WithKnownCalibration(options, settings, burst, "dfsm process");
   } catch (const BurstError& e) {
     std::fprintf(stderr, "dfsm process: %s\n", e.what());
     return 1;
-  }
-  if (!calibration_file.empty()) {
-    KnownCalibration known;
-    known.mode = ParseKnownCalibrationMode(calibration_mode);
-    const std::string& file = calibration_file;
-    try {
-      const ImportedCalibration imported = ReadCalibrationFile(file, burst.width(), burst.height());
-      known.camera = imported.camera;
-      known.source = "file:" + file + " (" + imported.format + ")";
-      if (imported.fit_max_error_px > 0.0)
-        std::fprintf(stderr,
-                     "dfsm process: %s: fitted to ha2016-d2u, max error %.3f px, RMS %.3f px\n",
-                     file.c_str(), imported.fit_max_error_px, imported.fit_rms_error_px);
-      for (const std::string& note : imported.notes)
-        std::fprintf(stderr, "dfsm process: %s: %s\n", file.c_str(), note.c_str());
-    } catch (const CalibrationFileError& e) {
-      std::fprintf(stderr, "dfsm process: %s\n", e.what());
-      return 1;
-    }
-    options.sparse.known = known;
+  } catch (const CalibrationFileError& e) {
+    std::fprintf(stderr, "dfsm process: %s\n", e.what());
+    return 1;
   }
   // Each lap as it ends: where a long burst is.
   PipelineOutput output = RunPipeline(burst, options, [](const std::string& lap, double fraction) {

@@ -1,0 +1,111 @@
+#include "tools/dfsm/batch_calibration.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <map>
+
+#include "core/export/calibration_export.h"
+#include "core/io/file_util.h"
+#include "core/sparse/calibration_fusion.h"
+#include "core/sparse/joint_adjustment.h"
+
+namespace dfsm::tools {
+namespace fs = std::filesystem;
+namespace {
+
+// The known calibration joint.json gives, or nullopt with why.
+std::optional<KnownCalibration> PriorOf(const nlohmann::json& joint, std::string* said) {
+  const nlohmann::json& uncertainty = joint.at("uncertainty");
+  const std::string verdict = joint.at("verdict").value("quality", "");
+  const int joined = joint.at("bursts_joined").get<int>();
+  if (!uncertainty.value("available", false) || verdict == "degenerate") {
+    *said = "the joint calibration of " + std::to_string(joined) + " bursts is " +
+            (verdict == "degenerate" ? "degenerate" : "without an uncertainty") +
+            "; each burst calibrates itself";
+    return std::nullopt;
+  }
+  const double sigma_f = uncertainty.at("sigma_f_percent").get<double>();
+  KnownCalibration known =
+      FusedCalibrationPrior(CameraModelFromJson(joint.at("camera")), sigma_f,
+                            uncertainty.at("distortion_sigma_px").get<double>(),
+                            "joint (" + std::to_string(joined) + " bursts, " + verdict + ")");
+  known.check_fit = true;
+  known.also_self_calibrate = false;  // no fusion takes the bursts' own estimates
+  char line[160];
+  std::snprintf(line, sizeof line,
+                "joint calibration of %d bursts: f %.2f px (sigma %.2f %%), %s; a prior of "
+                "every burst, checked against it",
+                joined, known.camera.f, sigma_f, verdict.c_str());
+  *said = line;
+  return known;
+}
+
+// Each item's sparse stage alone, of the image size most items have.
+std::vector<JointBurst> BurstsToJoin(const std::vector<BatchItem>& items,
+                                     const BatchRunOptions& options, const SparseOptions& sparse) {
+  std::vector<JointBurst> bursts;
+  std::map<std::pair<int, int>, int> sizes;
+  for (const BatchItem& item : items) {
+    // Shards calibrating at once each read into scratch of their own.
+    const fs::path scratch = options.out_dir / ".partial" /
+                             (".calibration-" + std::to_string(getpid()) + "-" + item.name);
+    try {
+      fs::path burst_dir;
+      const Burst burst = ReadBatchItem(item, options.process, scratch, &burst_dir);
+      const SparseReconstruction own = ReconstructSparse(burst.gray, burst.reference(), sparse);
+      ++sizes[{burst.width(), burst.height()}];
+      bursts.push_back(JointBurstOf(item.name, own));
+    } catch (const BurstError& e) {
+      std::fprintf(stderr, "dfsm batch: %s: not joined: %s\n", item.name.c_str(), e.what());
+    } catch (const ReconstructionError& e) {
+      std::fprintf(stderr, "dfsm batch: %s: not joined: %s\n", item.name.c_str(), e.what());
+    }
+    fs::remove_all(scratch);
+  }
+  if (sizes.size() > 1) {
+    const auto most =
+        std::max_element(sizes.begin(), sizes.end(),
+                         [](const auto& a, const auto& b) { return a.second < b.second; });
+    bursts.erase(std::remove_if(bursts.begin(), bursts.end(),
+                                [&](const JointBurst& burst) {
+                                  return std::make_pair(burst.state.camera.width,
+                                                        burst.state.camera.height) != most->first;
+                                }),
+                 bursts.end());
+    std::fprintf(stderr, "dfsm batch: bursts of several image sizes: %dx%d (%d bursts) joined\n",
+                 most->first.first, most->first.second, most->second);
+  }
+  return bursts;
+}
+
+}  // namespace
+
+std::optional<KnownCalibration> CalibrateFirst(const std::vector<BatchItem>& items,
+                                               const BatchRunOptions& options, std::string* said) {
+  const fs::path dir = options.out_dir / "calibration";
+  std::error_code error;
+  if (fs::is_regular_file(dir / "joint.json", error))
+    return PriorOf(nlohmann::json::parse(ReadFileToString(dir / "joint.json")), said);
+  const SparseOptions sparse = ParsedPipelineOptions(options.process).sparse;
+  const std::vector<JointBurst> bursts = BurstsToJoin(items, options, sparse);
+  if (bursts.empty()) {
+    *said = "no burst could be calibrated; each burst calibrates itself";
+    return std::nullopt;
+  }
+  JointCalibration joint;
+  try {
+    joint = AdjustJointly(bursts, JointOptionsFor(sparse));
+  } catch (const ReconstructionError& e) {
+    *said = std::string("no joint calibration (") + e.what() + "); each burst calibrates itself";
+    return std::nullopt;
+  }
+  const nlohmann::json json = ToJson(joint, bursts);
+  fs::create_directories(dir);
+  WriteCalibrationFiles(dir, joint.camera);
+  WriteFileAtomically(dir / "joint.json", json.dump(2) + "\n");
+  return PriorOf(json, said);
+}
+
+}  // namespace dfsm::tools

@@ -1,0 +1,27 @@
+// dfsm batch --calibrate-first: the batch's bursts adjusted jointly
+// (core/sparse/joint_adjustment.h) before any is processed, so that each
+// burst's depth starts from the camera all of them observe, as a prior checked
+// against the burst (a burst of another camera is told by its fit, as a
+// calibration file's is). DIR/calibration/ keeps calibration.json,
+// calibration.yaml and joint.json; a later run into DIR (resumed, or another
+// shard) takes the camera from there instead of adjusting again.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/sparse/sparse_reconstruction.h"
+#include "tools/dfsm/batch_inputs.h"
+#include "tools/dfsm/batch_runner.h"
+
+namespace dfsm::tools {
+
+// The prior of the joint calibration of `items` (all of the batch's, every
+// shard alike) of the image size most of them have; nullopt where none could
+// be made, it has no uncertainty or it is degenerate (an uncertain one is a
+// prior as wide as its sigma). `said` gets one line for the user either way.
+std::optional<KnownCalibration> CalibrateFirst(const std::vector<BatchItem>& items,
+                                               const BatchRunOptions& options, std::string* said);
+
+}  // namespace dfsm::tools
