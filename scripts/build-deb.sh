@@ -45,6 +45,23 @@ if [ -z "${DEB_BUILD_PROFILES:-}" ] && tr ' ' '\n' <<<"$DEB_BUILD_OPTIONS" | gre
 fi
 start=$SECONDS
 
+# The packaging tools and the build dependencies are installed as the other
+# scripts install theirs: what is missing, as root (otherwise named).
+ensure_packages() {
+  local missing=() package
+  for package in "$@"; do
+    dpkg-query -W -f='${Status}' "$package" 2>/dev/null | grep -q "install ok installed" ||
+      missing+=("$package")
+  done
+  [ ${#missing[@]} -eq 0 ] && return 0
+  if [ "$(id -u)" -ne 0 ]; then
+    echo "build-deb: missing ${missing[*]}: run as root, or apt-get install them" >&2
+    exit 1
+  fi
+  echo "build-deb: installing ${missing[*]}"
+  DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${missing[@]}"
+}
+
 # A copy of the tree: the source package's name as its directory, so that the
 # packages land beside it in $work.
 # (tar rather than rsync: nothing beyond the base system and the build
@@ -59,11 +76,16 @@ rm -f "$work"/*.deb "$work"/*.ddeb "$work"/*.buildinfo "$work"/*.changes
 
 if [ "$arch" = amd64 ]; then
   [ "$(dpkg --print-architecture)" = amd64 ] || { echo "build-deb: amd64 builds natively on amd64 only" >&2; exit 1; }
-  (cd "$work/dfsm" && dpkg-checkbuilddeps) || {
-    echo "build-deb: install the missing build dependencies (scripts/install-deps.sh: the libraries;" \
-      "apt-get install debhelper dpkg-dev lintian: the packaging tools, docs/packaging.md)" >&2
-    exit 1
-  }
+  ensure_packages debhelper dpkg-dev lintian
+  if ! (cd "$work/dfsm" && dpkg-checkbuilddeps 2>/dev/null); then
+    [ "$(id -u)" -eq 0 ] || {
+      (cd "$work/dfsm" && dpkg-checkbuilddeps) || true
+      echo "build-deb: run as root to install the build dependencies above" >&2
+      exit 1
+    }
+    echo "build-deb: installing the build dependencies of debian/control"
+    (cd "$work/dfsm" && DEBIAN_FRONTEND=noninteractive apt-get build-dep -y -qq ./)
+  fi
   (cd "$work/dfsm" && nice -n 19 dpkg-buildpackage -b -us -uc)
 else
   chroot_dir="${DEB_CHROOT:-/var/cache/dfsm/cross-arm64}"
@@ -73,7 +95,7 @@ else
     # The arm64 libraries are installed as the chroot's foreign architecture, so
     # that dpkg-shlibdeps finds their symbols files; libopencv-dev:arm64 could
     # not join the host's libopencv-dev:amd64 (not Multi-Arch co-installable).
-    command -v mmdebstrap >/dev/null || { echo "build-deb: apt-get install mmdebstrap" >&2; exit 1; }
+    ensure_packages mmdebstrap
     rm -rf "$chroot_dir.tmp"
     mkdir -p "$(dirname "$chroot_dir")"
     nice -n 19 mmdebstrap --architectures=amd64,arm64 --variant=apt \

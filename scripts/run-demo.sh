@@ -70,8 +70,10 @@ for file in result.json depth.tiff depth.png preview.png confidence.png points.p
   calibration.json calibration.yaml; do
   curl -fsS -o "$demo/result/$file" "$api$location/$file"
 done
-"$dfsm" evaluate --result "$demo/result" --truth "$demo/burst"
-echo "demo: outputs in $demo/result"
+# What came out, for a person: the camera, the depth, the time, the scores
+# against the burst's ground truth ('dfsm evaluate' prints every metric as JSON).
+echo
+"$dfsm" show "$demo/result" --truth "$demo/burst"
 
 cat <<EOT
 

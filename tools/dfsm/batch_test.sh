@@ -41,6 +41,13 @@ done
 [ ! -e "$work/out/job-5/.burst" ] || fail "the extracted tar was left in the result"
 [ -z "$(ls -A "$work/out/.partial" 2>/dev/null)" ] || fail "a partial result was left behind"
 
+# dfsm show: a result in a few lines, with scores; a failed one says why.
+"$dfsm" show "$work/out/burst-1" --truth "$work/in/burst-1" >"$work/show" || fail "show failed"
+grep -q "^calibration f .* px (sigma" "$work/show" && grep -q "^scores      f .*depth AbsRel" "$work/show" ||
+  { cat "$work/show"; fail "dfsm show does not give the camera and the scores"; }
+"$dfsm" show "$work/out/broken" >"$work/show" && fail "dfsm show of a failed result exited 0"
+grep -q "^error .*required field" "$work/show" || fail "dfsm show does not say why it failed"
+
 # 2. --resume with everything complete redoes nothing.
 stamp="$work/out/burst-1/result.json"
 touch -d '2020-01-01' "$stamp"

@@ -21,5 +21,6 @@ int RunSynthCommand(const Args& args);
 int RunEvaluateCommand(const Args& args);
 int RunCalibrateCommand(const Args& args);
 int RunBatchCommand(const Args& args);
+int RunShowCommand(const Args& args);
 
 }  // namespace dfsm::tools

@@ -20,6 +20,8 @@ constexpr const char* kUsage =
     "        run the pipeline on many bursts, with progress, resume, a summary and shards\n"
     "  calibrate BURST... --out DIR [options]\n"
     "        calibrate one camera from several of its bursts (fused, with sigma)\n"
+    "  show RESULT [--truth BURST]\n"
+    "        a result in a few lines: camera, depth, warnings, time, files (and scores)\n"
     "  evaluate --result DIR --truth BURST\n"
     "        compare a result against a synthetic burst's ground truth (prints JSON)\n"
     "\n"
@@ -40,6 +42,7 @@ int main(int argc, char** argv) {
     if (command == "evaluate") return dfsm::tools::RunEvaluateCommand(args);
     if (command == "calibrate") return dfsm::tools::RunCalibrateCommand(args);
     if (command == "batch") return dfsm::tools::RunBatchCommand(args);
+    if (command == "show") return dfsm::tools::RunShowCommand(args);
   } catch (const dfsm::tools::UsageError& e) {
     std::fprintf(stderr, "dfsm %s: %s\n", command.c_str(), e.what());
     return 2;
