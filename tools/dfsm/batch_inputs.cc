@@ -10,6 +10,7 @@
 #include "core/io/burst.h"
 #include "core/io/image_sequence.h"
 #include "tools/dfsm/burst_input.h"
+#include "tools/dfsm/video_input.h"
 
 namespace dfsm::tools {
 namespace fs = std::filesystem;
@@ -64,8 +65,8 @@ std::string Usable(const std::string& name) {
 // A tar by its name less ".tar", anything else by its whole name.
 std::string NameOf(const BatchItem& item) {
   const fs::path named = NamedPath(item);
-  return Usable(
-      (item.tar && named == fs::path(item.input) ? named.stem() : named.filename()).string());
+  const bool file = (item.tar || IsVideoFile(item.input)) && named == fs::path(item.input);
+  return Usable((file ? named.stem() : named.filename()).string());
 }
 
 BatchItem BurstItem(const fs::path& path, bool tar) {
@@ -85,7 +86,7 @@ void AddClip(const std::string& input, int window_frames, std::vector<BatchItem>
 }
 
 // The bursts one level inside `dir`.
-void AddDirectoryOfBursts(const fs::path& dir, std::vector<BatchItem>* items) {
+void AddDirectoryOfBursts(const fs::path& dir, int window_frames, std::vector<BatchItem>* items) {
   std::vector<fs::path> entries;
   std::error_code error;
   for (fs::directory_iterator it(dir, error), end; !error && it != end; it.increment(error))
@@ -103,11 +104,13 @@ void AddDirectoryOfBursts(const fs::path& dir, std::vector<BatchItem>* items) {
       items->push_back(BurstItem(entry / "burst", false));
     else if (IsTarFile(entry / "burst.tar"))  // a job's burst as dfsmd serves it
       items->push_back(BurstItem(entry / "burst.tar", true));
+    else if (IsVideoFile(entry.string()))
+      AddClip(entry.string(), window_frames, items);
   }
   if (items->size() == before)
     throw BurstError("'" + dir.string() +
                      "' holds no burst: no manifest.json, no images, no burst directories, "
-                     ".tar files or dfsmd job directories one level down");
+                     ".tar files, videos or dfsmd job directories one level down");
 }
 
 void AddInput(const std::string& input, int window_frames, std::vector<BatchItem>* items) {
@@ -118,12 +121,13 @@ void AddInput(const std::string& input, int window_frames, std::vector<BatchItem
   } else if (IsTarFile(path)) {
     items->push_back(BurstItem(path, true));
   } else if (fs::is_directory(path, error) && !HoldsImages(path)) {
-    AddDirectoryOfBursts(path, items);
+    AddDirectoryOfBursts(path, window_frames, items);
   } else if (fs::exists(path, error) || IsImageSequence(input)) {
-    if (fs::is_regular_file(path, error))
+    if (fs::is_regular_file(path, error) && !IsVideoFile(input))
       throw BurstError("'" + input +
-                       "' is a file but not a .tar; give burst directories, burst.tar files, "
-                       "folders or globs of images, or directories of them");
+                       "' is a file but neither a .tar nor a video; give burst directories, "
+                       "burst.tar files, videos, folders or globs of images, or directories of "
+                       "them");
     AddClip(input, window_frames, items);
   } else {
     throw BurstError("'" + input + "': no such file or directory");

@@ -8,7 +8,7 @@
 namespace dfsm::tools {
 
 // One burst of a batch: a dfsm-burst/1 directory, a burst.tar as dfsmd
-// serves it, or a window of a folder or glob of images.
+// serves it, or a window of a video or of a folder or glob of images.
 struct BatchItem {
   std::string name;   // its result is DIR/<name>/; unique in the batch
   std::string input;  // the path it is read from
@@ -18,13 +18,14 @@ struct BatchItem {
 };
 
 // The bursts `inputs` name, in name order. Each input is a burst directory
-// (it holds manifest.json), a .tar file, a folder or glob of images (cut into
-// windows of `window_frames` where that is not 0), or a directory of such
-// bursts and tars, one level down (a dfsmd job directory holding burst.tar
-// counts as that tar). A burst is named after its directory or tar ("burst.tar"
-// after the directory holding it), a window after its folder and first image;
-// a name taken twice gets its parent folder's name in front, then a number.
-// Throws BurstError (core/io/burst.h) naming an input that holds no burst.
+// (it holds manifest.json), a .tar file, a video, a folder or glob of images
+// (a clip, cut into windows of `window_frames` where that is not 0), or a
+// directory of bursts, tars, videos and dfsmd job directories (<job>/burst/
+// or <job>/burst.tar), one level down. A burst is named after its directory,
+// tar or video (dfsmd's bursts after their job), a window after its clip and
+// first frame; a name taken twice (or the batch's own "calibration") gets its
+// parent folder's name in front, then a number. Throws BurstError
+// (core/io/burst.h) naming an input that holds no burst.
 std::vector<BatchItem> ExpandBatchInputs(const std::vector<std::string>& inputs, int window_frames);
 
 // The I-th of N shards (0 <= I < N).

@@ -3,16 +3,17 @@
 #include <filesystem>
 
 #include "core/io/image_sequence.h"
+#include "tools/dfsm/video_input.h"
 
 namespace dfsm::tools {
 
 Burst ReadBurstInput(const std::string& input, int start, int frames) {
+  if (IsVideoFile(input)) return ReadVideoBurst(input, start, frames);
   std::error_code error;
   if (std::filesystem::is_regular_file(input, error))
     throw BurstError("'" + input +
-                     "' is a file; give a dfsm-burst/1 directory, a folder of PNG or JPEG images, "
-                     "or a glob of them (a video: extract its frames first, e.g. ffmpeg -i " +
-                     input + " frames/%04d.png)");
+                     "' is a file but not a video; give a video (MP4, MOV, MKV, AVI, WebM), a "
+                     "dfsm-burst/1 directory, a folder of PNG or JPEG images, or a glob of them");
   if (!IsImageSequence(input)) {
     if (start > 0) throw BurstError("--start is for a folder or glob of images, not a burst");
     ReadBurstOptions read;
@@ -31,14 +32,17 @@ std::string BurstWindow::Name() const {
 }
 
 std::vector<BurstWindow> WindowsOf(const std::string& input, int frames) {
-  if (frames == 0 || !IsImageSequence(input)) return {{input, 0, 0}};
-  const int images = static_cast<int>(ListImageSequence(input).size());
+  const bool video = IsVideoFile(input);
+  if (frames == 0 || (!video && !IsImageSequence(input))) return {{input, 0, 0}};
+  const int images =
+      video ? CountVideoFrames(input) : static_cast<int>(ListImageSequence(input).size());
   std::vector<BurstWindow> windows;
   for (int start = 0; start + frames <= images; start += frames)
     windows.push_back({input, start, frames});
   if (windows.empty())
     throw BurstError("'" + input + "' holds " + std::to_string(images) +
-                     " images, fewer than one window of " + std::to_string(frames));
+                     (video ? " frames" : " images") + ", fewer than one window of " +
+                     std::to_string(frames));
   return windows;
 }
 

@@ -15,12 +15,15 @@ for result in from-folder from-glob; do
       { echo "FAIL: $result/$file differs from the burst directory's"; exit 1; }
   done
 done
-# A video is refused with what to do instead; a folder without images by name.
-touch "$work/clip.mp4"
-if "$dfsm" process "$work/clip.mp4" --out "$work/none" 2>"$work/err"; then echo "FAIL: a file was read"; exit 1; fi
-grep -q "extract its frames first" "$work/err" || { echo "FAIL: $(cat "$work/err")"; exit 1; }
+# A video that is not one, a file that is no video and a folder without images
+# are each named.
+touch "$work/clip.mp4" "$work/notes.txt"
+if "$dfsm" process "$work/clip.mp4" --out "$work/none" 2>"$work/err"; then echo "FAIL: an empty video was read"; exit 1; fi
+grep -q "cannot be opened as a video\|video module" "$work/err" || { echo "FAIL: $(cat "$work/err")"; exit 1; }
+if "$dfsm" process "$work/notes.txt" --out "$work/none" 2>"$work/err"; then echo "FAIL: a text file was read"; exit 1; fi
+grep -q "is a file but not a video" "$work/err" || { echo "FAIL: $(cat "$work/err")"; exit 1; }
 mkdir -p "$work/empty"
 if "$dfsm" process "$work/empty" --out "$work/none" 2>"$work/err"; then echo "FAIL: an empty folder was read"; exit 1; fi
 grep -q "names no PNG or JPEG images" "$work/err" || { echo "FAIL: $(cat "$work/err")"; exit 1; }
-echo "PASS: folder and glob give the burst's calibration.json and depth.tiff; a video and an empty folder are named"
+echo "PASS: folder and glob give the burst's calibration.json and depth.tiff; a broken video, a text file and an empty folder are named"
 rm -rf "$work"

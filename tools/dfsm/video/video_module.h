@@ -1,0 +1,33 @@
+// The interface between dfsm and its video module, dfsm-video.so: the frames
+// of a video file, decoded by OpenCV's videoio (FFmpeg). dfsm loads the module
+// only for a video input (video_input.h): videoio and FFmpeg bring about 190
+// shared libraries and 0.17 s of start-up that no other input needs.
+#pragma once
+
+#include <cstdint>
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+namespace dfsm::tools {
+
+struct VideoReadRequest {
+  int start = 0;            // frames skipped first
+  int frames = 0;           // frames decoded from there (0: all)
+  bool count_only = false;  // decode nothing: count the frames (VideoFrames::total)
+};
+
+struct VideoFrames {
+  std::vector<cv::Mat> bgr;            // BGR8, one size
+  std::vector<int64_t> timestamps_ns;  // each frame's presentation time
+  int total = 0;                       // frames in the video (count_only)
+  double fps = 0.0;                    // the container's nominal rate
+  std::string error;                   // empty: read; else what went wrong, for the user
+};
+
+// The module's one entry point, dfsm_read_video (C linkage, for dlsym).
+using ReadVideoFunction = void (*)(const char* path, const VideoReadRequest* request,
+                                   VideoFrames* frames);
+inline constexpr const char* kReadVideoSymbol = "dfsm_read_video";
+
+}  // namespace dfsm::tools
