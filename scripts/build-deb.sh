@@ -59,8 +59,15 @@ ensure_packages() {
     exit 1
   fi
   echo "build-deb: installing ${missing[*]}"
+  apt_updated
   DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${missing[@]}"
 }
+apt_updated() {  # once per run: a fresh container has no package lists
+  [ -n "${apt_lists_fresh:-}" ] && return 0
+  apt-get update -qq
+  apt_lists_fresh=1
+}
+ensure_packages lintian  # both architectures' packages are checked with it
 
 # A copy of the tree: the source package's name as its directory, so that the
 # packages land beside it in $work.
@@ -76,7 +83,7 @@ rm -f "$work"/*.deb "$work"/*.ddeb "$work"/*.buildinfo "$work"/*.changes
 
 if [ "$arch" = amd64 ]; then
   [ "$(dpkg --print-architecture)" = amd64 ] || { echo "build-deb: amd64 builds natively on amd64 only" >&2; exit 1; }
-  ensure_packages debhelper dpkg-dev lintian
+  ensure_packages debhelper dpkg-dev
   if ! (cd "$work/dfsm" && dpkg-checkbuilddeps 2>/dev/null); then
     [ "$(id -u)" -eq 0 ] || {
       (cd "$work/dfsm" && dpkg-checkbuilddeps) || true
@@ -84,7 +91,9 @@ if [ "$arch" = amd64 ]; then
       exit 1
     }
     echo "build-deb: installing the build dependencies of debian/control"
-    (cd "$work/dfsm" && DEBIAN_FRONTEND=noninteractive apt-get build-dep -y -qq ./)
+    apt_updated
+    (cd "$work/dfsm" && DEBIAN_FRONTEND=noninteractive apt-get build-dep -y -qq \
+      --no-install-recommends ./)
   fi
   (cd "$work/dfsm" && nice -n 19 dpkg-buildpackage -b -us -uc)
 else

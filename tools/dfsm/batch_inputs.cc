@@ -69,19 +69,23 @@ std::string NameOf(const BatchItem& item) {
   return Usable((file ? named.stem() : named.filename()).string());
 }
 
-BatchItem BurstItem(const fs::path& path, bool tar) {
-  BatchItem item{"", Normal(path).string(), tar};
+// The item of `path`, named.
+BatchItem ItemOf(const fs::path& path, bool tar) {
+  BatchItem item;
+  item.input = Normal(path).string();
+  item.tar = tar;
   item.name = NameOf(item);
   return item;
 }
 
 void AddClip(const std::string& input, int window_frames, std::vector<BatchItem>* items) {
-  const std::string normal = Normal(input).string();
-  const std::string folder = NameOf({"", normal});
-  for (const BurstWindow& window : WindowsOf(normal, window_frames)) {
-    const std::string name =
-        window.frames == 0 ? folder : folder + "-from-" + std::to_string(window.start);
-    items->push_back({name, normal, false, window.start, window.frames});
+  const BatchItem clip = ItemOf(input, false);
+  for (const BurstWindow& window : WindowsOf(clip.input, window_frames)) {
+    BatchItem item = clip;
+    if (window.frames > 0) item.name += "-from-" + std::to_string(window.start);
+    item.start = window.start;
+    item.frames = window.frames;
+    items->push_back(item);
   }
 }
 
@@ -97,15 +101,21 @@ void AddDirectoryOfBursts(const fs::path& dir, int window_frames, std::vector<Ba
   for (const fs::path& entry : entries) {
     if (entry.filename().string().front() == '.') continue;  // hidden, and the batch's scratch
     if (IsBurstDirectory(entry))
-      items->push_back(BurstItem(entry, false));
+      items->push_back(ItemOf(entry, false));
     else if (IsTarFile(entry))
-      items->push_back(BurstItem(entry, true));
+      items->push_back(ItemOf(entry, true));
     else if (IsBurstDirectory(entry / "burst"))  // a dfsmd job directory
-      items->push_back(BurstItem(entry / "burst", false));
+      items->push_back(ItemOf(entry / "burst", false));
     else if (IsTarFile(entry / "burst.tar"))  // a job's burst as dfsmd serves it
-      items->push_back(BurstItem(entry / "burst.tar", true));
+      items->push_back(ItemOf(entry / "burst.tar", true));
     else if (IsVideoFile(entry.string()))
-      AddClip(entry.string(), window_frames, items);
+      try {
+        AddClip(entry.string(), window_frames, items);
+      } catch (const BurstError& e) {  // one broken clip fails alone
+        BatchItem broken = ItemOf(entry, false);
+        broken.error = e.what();
+        items->push_back(broken);
+      }
   }
   if (items->size() == before)
     throw BurstError("'" + dir.string() +
@@ -117,9 +127,9 @@ void AddInput(const std::string& input, int window_frames, std::vector<BatchItem
   const fs::path path(input);
   std::error_code error;
   if (IsBurstDirectory(path)) {
-    items->push_back(BurstItem(path, false));
+    items->push_back(ItemOf(path, false));
   } else if (IsTarFile(path)) {
-    items->push_back(BurstItem(path, true));
+    items->push_back(ItemOf(path, true));
   } else if (fs::is_directory(path, error) && !HoldsImages(path)) {
     AddDirectoryOfBursts(path, window_frames, items);
   } else if (fs::exists(path, error) || IsImageSequence(input)) {

@@ -13,8 +13,11 @@ struct BatchItem {
   std::string name;   // its result is DIR/<name>/; unique in the batch
   std::string input;  // the path it is read from
   bool tar = false;   // `input` is a tar of a burst directory
-  int start = 0;      // a window of images: skip `start`, then `frames` (0: all)
+  int start = 0;      // a window of a clip: skip `start`, then `frames` (0: all)
   int frames = 0;
+  // Why the input cannot be cut into windows (a broken video in a directory
+  // of bursts): the burst fails with it, the batch goes on.
+  std::string error;
 };
 
 // The bursts `inputs` name, in name order. Each input is a burst directory

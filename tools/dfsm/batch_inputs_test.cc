@@ -93,6 +93,17 @@ TEST_F(BatchInputsTest, ShardsPartitionTheBatch) {
   EXPECT_EQ(ParseShard("0/1").Suffix(), "");
 }
 
+// A video in a directory of bursts that cannot be cut into windows (here:
+// not a video at all) is one burst that fails with why; the others stand.
+TEST_F(BatchInputsTest, ABrokenClipInADirectoryFailsAlone) {
+  Burst("clips/a");
+  Touch(dir_ / "clips" / "broken.mp4");
+  const std::vector<BatchItem> items = ExpandBatchInputs({(dir_ / "clips").string()}, 5);
+  ASSERT_EQ(NamesOf(items), (std::vector<std::string>{"a", "broken"}));
+  EXPECT_TRUE(items[0].error.empty());
+  EXPECT_NE(items[1].error.find("broken.mp4"), std::string::npos) << items[1].error;
+}
+
 TEST_F(BatchInputsTest, BadShardsAndInputsAreNamed) {
   for (const std::string bad : {"3/3", "-1/2", "1/0", "1", "a/b", "1/2x", "1/2/3"})
     EXPECT_THROW(ParseShard(bad), std::invalid_argument) << bad;

@@ -78,6 +78,7 @@ nlohmann::json ProcessItem(const BatchItem& item, const BatchRunOptions& options
   std::optional<Burst> burst;
   PipelineOutput output;
   try {
+    if (!item.error.empty()) throw BurstError(item.error);
     burst = ReadBatchItem(item, options.process, partial, &burst_dir);
     output = RunPipeline(*burst, OptionsFor(*burst, options, pipeline));
   } catch (const std::exception& e) {

@@ -13,6 +13,9 @@
 #ifndef DFSM_VIDEO_MODULE_DIR
 #define DFSM_VIDEO_MODULE_DIR ""
 #endif
+#ifndef DFSM_VIDEO_MODULE_LIBDIR
+#define DFSM_VIDEO_MODULE_LIBDIR "lib"
+#endif
 
 namespace dfsm::tools {
 namespace fs = std::filesystem;
@@ -22,16 +25,32 @@ constexpr const char* kModuleName = "dfsm-video.so";
 // Frame intervals that differ by more than this share of the median are a
 // variable frame rate: the pipeline takes the frames as evenly spaced.
 constexpr double kMaxIntervalDeviation = 0.25;
+constexpr double kTimeBaseMs = 1.0;
+// A video read whole (no --frames) longer than this is refused: a burst is
+// 10-30 frames, and every frame read is held in memory.
+constexpr int kMaxWholeVideoFrames = 120;
 
-// Where the module is: $DFSM_VIDEO_MODULE, else beside the running binary
-// (a build tree), else the installed one.
-std::vector<fs::path> ModuleCandidates() {
+// Where the module is: $DFSM_VIDEO_MODULE (which must then exist), else
+// beside the running binary (a build tree), else in the install's library
+// directory, relative to the binary first (an install moved or made with
+// --prefix), then where it was configured.
+std::vector<fs::path> ModuleCandidates(const std::string& input) {
+  if (const char* path = std::getenv("DFSM_VIDEO_MODULE"); path && *path) {
+    const fs::path module = fs::absolute(path);
+    std::error_code error;
+    if (!fs::exists(module, error))
+      throw BurstError("'" + input + "': $DFSM_VIDEO_MODULE names " + module.string() +
+                       ", which does not exist");
+    return {module};
+  }
   std::vector<fs::path> candidates;
-  if (const char* path = std::getenv("DFSM_VIDEO_MODULE"); path && *path)
-    candidates.emplace_back(path);
   std::error_code error;
   const fs::path self = fs::read_symlink("/proc/self/exe", error);
-  if (!error) candidates.push_back(self.parent_path() / kModuleName);
+  if (!error) {
+    candidates.push_back(self.parent_path() / kModuleName);
+    candidates.push_back(self.parent_path().parent_path() / DFSM_VIDEO_MODULE_LIBDIR / "dfsm" /
+                         kModuleName);
+  }
   if (*DFSM_VIDEO_MODULE_DIR) candidates.push_back(fs::path(DFSM_VIDEO_MODULE_DIR) / kModuleName);
   return candidates;
 }
@@ -39,38 +58,39 @@ std::vector<fs::path> ModuleCandidates() {
 ReadVideoFunction LoadModule(const std::string& input) {
   static std::mutex mutex;
   static ReadVideoFunction function = nullptr;
-  static std::string failure;
   std::lock_guard<std::mutex> lock(mutex);
   if (function) return function;
-  if (failure.empty()) {
-    for (const fs::path& candidate : ModuleCandidates()) {
-      std::error_code error;
-      if (!fs::exists(candidate, error)) continue;
-      void* module = dlopen(candidate.c_str(), RTLD_NOW | RTLD_LOCAL);
-      if (!module) {
-        failure = std::string("cannot load ") + candidate.string() + ": " + dlerror();
-        break;
-      }
-      function = reinterpret_cast<ReadVideoFunction>(dlsym(module, kReadVideoSymbol));
-      if (function) return function;
-      failure = candidate.string() + " has no " + kReadVideoSymbol;
-      break;
+  std::string failures;
+  for (const fs::path& candidate : ModuleCandidates(input)) {
+    std::error_code error;
+    if (!fs::exists(candidate, error)) continue;
+    void* module = dlopen(candidate.c_str(), RTLD_NOW | RTLD_LOCAL);
+    if (!module) {
+      failures += std::string("; cannot load ") + candidate.string() + ": " + dlerror();
+      continue;
     }
-    if (failure.empty())
-      failure = std::string("the video module ") + kModuleName + " is not installed";
+    function = reinterpret_cast<ReadVideoFunction>(dlsym(module, kReadVideoSymbol));
+    if (function) return function;
+    failures += "; " + candidate.string() + " is of another build (no " + kReadVideoSymbol + ")";
+    dlclose(module);
   }
-  throw BurstError("'" + input + "': " + failure + "; extract the frames instead (ffmpeg -i " +
-                   input + " frames/%04d.png)");
+  throw BurstError("'" + input + "': the video module " + kModuleName +
+                   (failures.empty() ? std::string(" is not installed") : failures) +
+                   "; extract the frames instead (ffmpeg -i " + input + " frames/%04d.png)");
 }
 
 VideoFrames Read(const std::string& input, const VideoReadRequest& request) {
-  const ReadVideoFunction read = LoadModule(input);
+  const ReadVideoFunction read = LoadModule(input);  // throws where there is none
   VideoFrames frames;
   read(input.c_str(), &request, &frames);
   if (!frames.error.empty()) throw BurstError("'" + input + "': " + frames.error);
   return frames;
 }
 
+// Refuses a variable frame rate: the pipeline takes the frames as evenly
+// spaced. Intervals may differ from their median by a quarter of it, or by a
+// millisecond (the 1 ms time base of WebM and Matroska); a video whose frames
+// carry no times is taken as evenly spaced.
 void CheckFrameRate(const std::string& input, const std::vector<int64_t>& timestamps_ns) {
   std::vector<double> intervals;
   for (size_t i = 1; i < timestamps_ns.size(); ++i)
@@ -78,11 +98,12 @@ void CheckFrameRate(const std::string& input, const std::vector<int64_t>& timest
   if (intervals.empty()) return;
   std::vector<double> sorted = intervals;
   std::sort(sorted.begin(), sorted.end());
+  if (sorted.front() == 0.0 && sorted.back() == 0.0) return;
   const double median = sorted[sorted.size() / 2];
-  if (median > 0.0 && sorted.front() >= (1.0 - kMaxIntervalDeviation) * median &&
-      sorted.back() <= (1.0 + kMaxIntervalDeviation) * median)
+  const double tolerance = std::max(kMaxIntervalDeviation * median, kTimeBaseMs);
+  if (median > 0.0 && sorted.front() >= median - tolerance && sorted.back() <= median + tolerance)
     return;
-  char text[160];
+  char text[200];
   std::snprintf(text, sizeof text,
                 "variable frame rate: frames %.1f to %.1f ms apart (median %.1f ms); extract "
                 "them at a constant rate (ffmpeg -i VIDEO -vsync cfr frames/%%04d.png)",
@@ -113,8 +134,9 @@ Burst ReadVideoBurst(const std::string& input, int start, int frames) {
   VideoReadRequest request;
   request.start = start;
   request.frames = frames;
+  request.max_frames = kMaxWholeVideoFrames;
   VideoFrames video = Read(input, request);
-  const int count = static_cast<int>(video.bgr.size());
+  const int count = static_cast<int>(video.gray.size());
   if (count < 3 || (frames > 0 && count < frames))
     throw BurstError("'" + input + "': " + std::to_string(count) + " frames from frame " +
                      std::to_string(start) +
@@ -123,8 +145,8 @@ Burst ReadVideoBurst(const std::string& input, int start, int frames) {
   CheckFrameRate(input, video.timestamps_ns);
   Burst burst;
   BurstManifest& manifest = burst.manifest;
-  manifest.width = video.bgr.front().cols;
-  manifest.height = video.bgr.front().rows;
+  manifest.width = video.gray.front().cols;
+  manifest.height = video.gray.front().rows;
   manifest.pixel_format = "bgr8";
   manifest.reference = 0;
   for (int i = 0; i < count; ++i) {
@@ -133,10 +155,10 @@ Burst ReadVideoBurst(const std::string& input, int start, int frames) {
     info.sequence = start + i;
     info.timestamp_ns = video.timestamps_ns[i];
     manifest.frames.push_back(info);
-    burst.gray.push_back(ToGray8(video.bgr[i]));
   }
   manifest.source = {{"driver", "video"}, {"input", input}, {"fps", video.fps}};
-  burst.reference_color = video.bgr.front();
+  burst.gray = std::move(video.gray);
+  burst.reference_color = video.first_bgr;
   return burst;
 }
 

@@ -13,21 +13,26 @@ namespace dfsm::tools {
 
 struct VideoReadRequest {
   int start = 0;            // frames skipped first
-  int frames = 0;           // frames decoded from there (0: all)
-  bool count_only = false;  // decode nothing: count the frames (VideoFrames::total)
+  int frames = 0;           // frames decoded from there (0: all, at most max_frames)
+  int max_frames = 0;       // with frames 0: more than this is an error (0: no bound)
+  bool count_only = false;  // keep nothing: count the frames (VideoFrames::total)
 };
 
 struct VideoFrames {
-  std::vector<cv::Mat> bgr;            // BGR8, one size
-  std::vector<int64_t> timestamps_ns;  // each frame's presentation time
+  std::vector<cv::Mat> gray;           // 8-bit, one size: what the pipeline works on
+  cv::Mat first_bgr;                   // the first frame read in colour (the reference's)
+  std::vector<int64_t> timestamps_ns;  // each frame's presentation time (0: none known)
   int total = 0;                       // frames in the video (count_only)
   double fps = 0.0;                    // the container's nominal rate
   std::string error;                   // empty: read; else what went wrong, for the user
 };
 
-// The module's one entry point, dfsm_read_video (C linkage, for dlsym).
+// The module's one entry point (C linkage, for dlsym). The symbol carries the
+// interface's version: the structs above cross the dlopen boundary as C++
+// objects, so a change to them takes a new suffix, and a module of another
+// build is refused by name instead of misread.
 using ReadVideoFunction = void (*)(const char* path, const VideoReadRequest* request,
                                    VideoFrames* frames);
-inline constexpr const char* kReadVideoSymbol = "dfsm_read_video";
+inline constexpr const char* kReadVideoSymbol = "dfsm_read_video_v2";
 
 }  // namespace dfsm::tools
