@@ -68,9 +68,9 @@ int RunBatchCommand(const Args& args) {
   int window_frames = 0;
   bool calibrate_first_flag = false;
   app.add_option("INPUT", inputs,
-                 "dfsm-burst/1 directories, burst.tar files (as dfsmd serves them), folders or "
-                 "globs of images, or directories of bursts and tars (a dfsmd job directory's "
-                 "burst.tar included)");
+                 "dfsm-burst/1 directories, burst.tar files (as dfsmd serves them), videos, "
+                 "folders or globs of images, or directories of them (dfsmd job directories "
+                 "included)");
   app.add_option("--out", out_dir, "the batch's directory; created when missing")->required();
   app.add_option("--jobs", options.jobs,
                  "bursts processed at once (memory: about this many bursts' frames)")
@@ -83,7 +83,7 @@ int RunBatchCommand(const Args& args) {
                  "from the I-th")
       ->capture_default_str();
   app.add_option("--windows", window_frames,
-                 "cut each folder or glob of images into consecutive bursts of N frames")
+                 "cut each video, folder or glob of images into consecutive bursts of N frames")
       ->check(FrameCount());
   CLI::Option* calibrate_first = app.add_flag(
       "--calibrate-first", calibrate_first_flag,

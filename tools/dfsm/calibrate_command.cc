@@ -191,8 +191,8 @@ int RunCalibrateCommand(const Args& args) {
   int window_frames = 0;
   std::string out_dir, rolling_shutter = kDefaultRollingShutter, method = "joint";
   app.add_option("BURST", bursts,
-                 "bursts of one camera: dfsm-burst/1 directories, folders of PNG or JPEG images "
-                 "or globs of them ('clip/*.jpg', quoted)")
+                 "bursts of one camera: dfsm-burst/1 directories, videos, folders of PNG or JPEG "
+                 "images or globs of them ('clip/*.jpg', quoted)")
       ->required();
   app.add_option("--out", out_dir,
                  "written: calibration.json and calibration.yaml of the camera (as 'dfsm process' "
@@ -210,8 +210,8 @@ int RunCalibrateCommand(const Args& args) {
                  "use N frames of each burst, centred on its reference (0: all)")
       ->check(FrameCount());
   app.add_option("--windows", window_frames,
-                 "cut each folder or glob of images into consecutive bursts of N frames (a "
-                 "clip's frames; 0: each one burst)")
+                 "cut each video, folder or glob of images into consecutive bursts of N frames "
+                 "(a clip's frames; 0: each one burst)")
       ->check(FrameCount());
   app.add_option("--rolling-shutter", rolling_shutter,
                  "global | estimate | R: the sensor's readout, as for 'dfsm process'")

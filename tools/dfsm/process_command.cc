@@ -25,13 +25,14 @@ int RunProcessCommand(const Args& args) {
   int start = 0;
   ProcessSettings settings;
   app.add_option("INPUT", burst_dir,
-                 "a dfsm-burst/1 directory, a folder of PNG or JPEG images (in name order, "
-                 "numbers compared as numbers) or a glob of them ('clip/*.jpg', quoted)")
+                 "a dfsm-burst/1 directory, a video (MP4, MOV, MKV, AVI, WebM), a folder of PNG "
+                 "or JPEG images (in name order, numbers compared as numbers) or a glob of them "
+                 "('clip/*.jpg', quoted)")
       ->required();
   app.add_option("--out", out_dir, "result directory (dfsm-result/1); created when missing")
       ->required();
   app.add_option("--start", start,
-                 "images only: skip this many first (the first read is the "
+                 "videos and images only: skip this many frames first (the first read is the "
                  "reference)")
       ->check(CLI::NonNegativeNumber);
   AddProcessOptions(app, &settings);

@@ -22,8 +22,8 @@ void AddProcessOptions(CLI::App& app, ProcessSettings* settings) {
       ->check(CLI::IsMember({InitModeName(InitMode::kRankOne), InitModeName(InitMode::kNaive)}))
       ->capture_default_str();
   app.add_option("--frames", settings->frames,
-                 "use N consecutive frames: of a burst centred on its reference, of images "
-                 "from --start (0: all)")
+                 "use N consecutive frames: of a burst centred on its reference, of a video or "
+                 "images from the first read (0: all)")
       ->check(FrameCount());
   app.add_option("--grid", options.sparse.features.cell_px,
                  "feature cell size, pixels (0: 80 px at 1080p, scaled)")
