@@ -318,8 +318,7 @@ std::optional<IntrinsicsBias> JointBias(const std::vector<JointBurst>& bursts,
   }
   JointAdjustmentOptions replica_options = options;
   replica_options.bundle_adjustment.num_threads = 1;  // the replicas share the pool instead
-  std::vector<Round> replicas(bootstrap.replicas, round);
-  std::vector<char> solved(bootstrap.replicas, 0);
+  std::vector<ReplicaEstimate> estimates(bootstrap.replicas);
   cv::parallel_for_(cv::Range(0, bootstrap.replicas), [&](const cv::Range& range) {
     for (int r = range.start; r < range.end; ++r) {
       std::vector<JointBurst> replica(bursts.size());
@@ -331,14 +330,13 @@ std::optional<IntrinsicsBias> JointBias(const std::vector<JointBurst>& bursts,
         copy.use = burst.use;
         copy.state = burst.state;
       }
-      JointProblem problem(replica, replica_options, &replicas[r]);
+      Round solution = round;
+      JointProblem problem(replica, replica_options, &solution);
       const ceres::Solver::Summary summary = problem.Solve();
-      solved[r] = std::isfinite(summary.final_cost) && replicas[r].camera.f > 0.0;
+      estimates[r] = {solution.camera, solution.readout,
+                      std::isfinite(summary.final_cost) && solution.camera.f > 0.0};
     }
   });
-  std::vector<ReplicaEstimate> estimates(bootstrap.replicas);
-  for (int r = 0; r < bootstrap.replicas; ++r)
-    estimates[r] = {replicas[r].camera, replicas[r].readout, solved[r] != 0};
   IntrinsicsBias bias = MeanShift(estimates, round.camera, round.readout, bootstrap);
   bias.sigma_f_noise_px = sigma_f_noise;
   return bias;
@@ -545,6 +543,27 @@ nlohmann::json ToJson(const JointCalibration& joint, const std::vector<JointBurs
           {"converged", joint.converged},
           {"rms_reprojection_px", joint.rms_reprojection_px},
           {"bursts", std::move(listed)}};
+}
+
+std::optional<KnownCalibration> JointCalibrationPrior(const nlohmann::json& joint,
+                                                      std::string* why) {
+  const nlohmann::json& uncertainty = joint.at("uncertainty");
+  const std::string quality = joint.at("verdict").value("quality", "");
+  const std::string bursts = std::to_string(joint.at("bursts_joined").get<int>()) + " bursts";
+  if (quality == "degenerate") {
+    *why = "the joint calibration of " + bursts + " is degenerate";
+    return std::nullopt;
+  }
+  if (!uncertainty.value("available", false)) {
+    *why = "the joint calibration of " + bursts + " has no uncertainty";
+    return std::nullopt;
+  }
+  KnownCalibration known = FusedCalibrationPrior(
+      CameraModelFromJson(joint.at("camera")), uncertainty.at("sigma_f_percent").get<double>(),
+      uncertainty.at("distortion_sigma_px").get<double>(),
+      "joint (" + bursts + ", " + quality + ")");
+  known.check_fit = true;
+  return known;
 }
 
 }  // namespace dfsm

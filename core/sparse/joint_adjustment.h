@@ -138,4 +138,11 @@ JointCalibration AdjustJointly(const std::vector<JointBurst>& bursts,
 // disagreement, and where it joined its tracks, RMS and poses.
 nlohmann::json ToJson(const JointCalibration& joint, const std::vector<JointBurst>& bursts);
 
+// The prior a joint calibration (as ToJson gives it) is for a later burst of
+// its camera: f and distortion within the joint sigma, checked against the
+// burst's own fit (KnownCalibration::check_fit). nullopt, with why, where it
+// is degenerate or has no uncertainty.
+std::optional<KnownCalibration> JointCalibrationPrior(const nlohmann::json& joint,
+                                                      std::string* why);
+
 }  // namespace dfsm

@@ -7,6 +7,7 @@
 #include "core/io/bounded_json.h"
 #include "core/io/file_util.h"
 #include "core/sparse/calibration_fusion.h"
+#include "core/sparse/joint_adjustment.h"
 #include "core/sparse/sparse_reconstruction.h"
 
 namespace dfsm::service {
@@ -86,13 +87,11 @@ bool CalibrationKeeper::ForJob(const JobOptions& options, int width, int height,
   // The joint calibration first: made from the tracks of several jobs, it
   // observes the camera where single jobs could not.
   if (const std::optional<nlohmann::json> joint = joint_.Reliable(Key(width, height))) {
-    *known = FusedCalibrationPrior(
-        CameraModelFromJson(joint->at("camera")),
-        joint->at("uncertainty").at("sigma_f_percent").get<double>(),
-        joint->at("uncertainty").at("distortion_sigma_px").get<double>(),
-        "joint (" + std::to_string(joint->at("bursts_joined").get<int>()) + " bursts)");
-    known->check_fit = true;
-    return true;
+    std::string unused;
+    if (std::optional<KnownCalibration> prior = JointCalibrationPrior(*joint, &unused)) {
+      *known = *prior;
+      return true;
+    }
   }
   std::lock_guard<std::mutex> lock(mutex_);
   const auto found = fusions_.find(Key(width, height));

@@ -5,6 +5,7 @@
 #include <utility>
 
 #include "daemon/service/staging_guard.h"
+#include "daemon/service/tar_extract.h"
 
 namespace dfsm::service {
 namespace fs = std::filesystem;
@@ -116,19 +117,11 @@ Job JobIntake::FromUpload(PendingUpload upload, const JobOptions& options) {
   }
   const fs::path extracted = upload.dir_ / "upload";
 
-  // The burst is the archive's top level, or its single top-level directory.
-  fs::path root = extracted;
-  if (!fs::exists(root / "manifest.json")) {
-    std::vector<fs::path> children;
-    for (const auto& child : fs::directory_iterator(extracted)) children.push_back(child.path());
-    if (children.size() == 1 && fs::is_directory(children[0]) &&
-        fs::exists(children[0] / "manifest.json")) {
-      root = children[0];
-    } else {
-      throw BadUpload(
-          "the archive has no manifest.json at its top level or in a single top-level directory");
-    }
-  }
+  const std::optional<fs::path> burst_root = BurstRootOf(extracted);
+  if (!burst_root)
+    throw BadUpload(
+        "the archive has no manifest.json at its top level or in a single top-level directory");
+  const fs::path root = *burst_root;
   BurstManifest manifest;
   try {
     manifest = ReadBurstManifest(root);

@@ -95,7 +95,7 @@ TEST_F(JointCalibrationsTest, SolvesFromTheJobsTracksAndIsTheNextJobsPrior) {
   ASSERT_EQ(snapshot["result"]["verdict"]["quality"], "reliable") << snapshot.dump(2);
   KnownCalibration known;
   ASSERT_TRUE(restarted.ForJob(JobOptions{}, 1920, 1080, &known));
-  EXPECT_EQ(known.source, "joint (4 bursts)");
+  EXPECT_EQ(known.source, "joint (4 bursts, reliable)");
   EXPECT_TRUE(known.check_fit);
   EXPECT_DOUBLE_EQ(known.camera.f, f);
   // Another camera's job neither joins nor takes it.

@@ -152,4 +152,16 @@ void ExtractTar(std::string_view archive, const fs::path& dir, const TarLimits& 
       dir, limits);
 }
 
+std::optional<std::filesystem::path> BurstRootOf(const std::filesystem::path& extracted) {
+  namespace fs = std::filesystem;
+  std::error_code error;
+  if (fs::is_regular_file(extracted / "manifest.json", error)) return extracted;
+  std::vector<fs::path> children;
+  for (const auto& child : fs::directory_iterator(extracted)) children.push_back(child.path());
+  if (children.size() == 1 && fs::is_directory(children[0], error) &&
+      fs::is_regular_file(children[0] / "manifest.json", error))
+    return children[0];
+  return std::nullopt;
+}
+
 }  // namespace dfsm::service

@@ -6,6 +6,7 @@
 
 #include <filesystem>
 #include <functional>
+#include <optional>
 #include <string_view>
 
 #include "daemon/service/tar_policy.h"
@@ -22,5 +23,9 @@ using TarSource = std::function<size_t(char* buffer, size_t size)>;
 void ExtractTar(const TarSource& source, const std::filesystem::path& dir, const TarLimits& limits);
 void ExtractTar(std::string_view archive, const std::filesystem::path& dir,
                 const TarLimits& limits);
+
+// The burst an extracted archive holds: its top level, or its single
+// top-level directory, whichever has the manifest.json. nullopt where neither.
+std::optional<std::filesystem::path> BurstRootOf(const std::filesystem::path& extracted);
 
 }  // namespace dfsm::service

@@ -123,6 +123,23 @@ TEST_F(TarExtractTest, RoundTripsFilesAndLongNames) {
   for (const auto& [name, data] : files) EXPECT_EQ(ReadFileToString(out / name), data);
 }
 
+// The burst is the top level or its single top-level directory; anything
+// else is no burst.
+TEST_F(TarExtractTest, BurstRootIsTheTopLevelOrItsOneDirectory) {
+  const fs::path top = Fresh();
+  WriteFileAtomically(top / "manifest.json", "{}");
+  EXPECT_EQ(BurstRootOf(top), top);
+  const fs::path nested = Fresh();
+  fs::create_directories(nested / "burst");
+  WriteFileAtomically(nested / "burst" / "manifest.json", "{}");
+  EXPECT_EQ(BurstRootOf(nested), nested / "burst");
+  fs::create_directories(nested / "other");
+  EXPECT_EQ(BurstRootOf(nested), std::nullopt) << "two top-level directories";
+  const fs::path empty = Fresh();
+  fs::create_directories(empty / "burst");
+  EXPECT_EQ(BurstRootOf(empty), std::nullopt) << "no manifest.json";
+}
+
 // tar's default format (GNU, with 'L' long-name headers), pax and ustar.
 TEST_F(TarExtractTest, ReadsWhatTarWrites) {
   if (!HasTar()) GTEST_SKIP() << "no tar program";

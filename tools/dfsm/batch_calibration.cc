@@ -15,29 +15,20 @@ namespace dfsm::tools {
 namespace fs = std::filesystem;
 namespace {
 
-// The known calibration joint.json gives, or nullopt with why.
+// The prior joint.json gives every burst, or nullopt with why.
 std::optional<KnownCalibration> PriorOf(const nlohmann::json& joint, std::string* said) {
-  const nlohmann::json& uncertainty = joint.at("uncertainty");
-  const std::string verdict = joint.at("verdict").value("quality", "");
-  const int joined = joint.at("bursts_joined").get<int>();
-  if (!uncertainty.value("available", false) || verdict == "degenerate") {
-    *said = "the joint calibration of " + std::to_string(joined) + " bursts is " +
-            (verdict == "degenerate" ? "degenerate" : "without an uncertainty") +
-            "; each burst calibrates itself";
+  std::optional<KnownCalibration> known = JointCalibrationPrior(joint, said);
+  if (!known) {
+    *said += "; each burst calibrates itself";
     return std::nullopt;
   }
-  const double sigma_f = uncertainty.at("sigma_f_percent").get<double>();
-  KnownCalibration known =
-      FusedCalibrationPrior(CameraModelFromJson(joint.at("camera")), sigma_f,
-                            uncertainty.at("distortion_sigma_px").get<double>(),
-                            "joint (" + std::to_string(joined) + " bursts, " + verdict + ")");
-  known.check_fit = true;
-  known.also_self_calibrate = false;  // no fusion takes the bursts' own estimates
-  char line[160];
+  known->also_self_calibrate = false;  // no fusion takes the bursts' own estimates
+  char line[200];
   std::snprintf(line, sizeof line,
                 "joint calibration of %d bursts: f %.2f px (sigma %.2f %%), %s; a prior of "
                 "every burst, checked against it",
-                joined, known.camera.f, sigma_f, verdict.c_str());
+                joint.at("bursts_joined").get<int>(), known->camera.f, known->f_sigma_percent,
+                joint.at("verdict").value("quality", "").c_str());
   *said = line;
   return known;
 }
@@ -52,17 +43,15 @@ std::vector<JointBurst> BurstsToJoin(const std::vector<BatchItem>& items,
     const fs::path scratch = options.out_dir / ".partial" /
                              (".calibration-" + std::to_string(getpid()) + "-" + item.name);
     try {
-      fs::path burst_dir;
-      const Burst burst = ReadBatchItem(item, options.process, scratch, &burst_dir);
-      const SparseReconstruction own = ReconstructSparse(burst.gray, burst.reference(), sparse);
-      ++sizes[{burst.width(), burst.height()}];
+      const SparseReconstruction own =
+          ReconstructAlone(item, options.process.frames, sparse, scratch);
+      ++sizes[{own.state.camera.width, own.state.camera.height}];
       bursts.push_back(JointBurstOf(item.name, own));
     } catch (const BurstError& e) {
       std::fprintf(stderr, "dfsm batch: %s: not joined: %s\n", item.name.c_str(), e.what());
     } catch (const ReconstructionError& e) {
       std::fprintf(stderr, "dfsm batch: %s: not joined: %s\n", item.name.c_str(), e.what());
     }
-    fs::remove_all(scratch);
   }
   if (sizes.size() > 1) {
     const auto most =
@@ -81,6 +70,20 @@ std::vector<JointBurst> BurstsToJoin(const std::vector<BatchItem>& items,
 }
 
 }  // namespace
+
+SparseReconstruction ReconstructAlone(const BatchItem& item, int max_frames,
+                                      const SparseOptions& sparse, const fs::path& scratch) {
+  struct Scratch {
+    const fs::path& dir;
+    ~Scratch() {
+      std::error_code error;
+      fs::remove_all(dir, error);
+    }
+  } removed_after{scratch};
+  fs::path burst_dir;
+  const Burst burst = ReadBatchItem(item, max_frames, scratch, &burst_dir);
+  return ReconstructSparse(burst.gray, burst.reference(), sparse);
+}
 
 std::optional<KnownCalibration> CalibrateFirst(const std::vector<BatchItem>& items,
                                                const BatchRunOptions& options, std::string* said) {

@@ -7,6 +7,7 @@
 // shard) takes the camera from there instead of adjusting again.
 #pragma once
 
+#include <filesystem>
 #include <optional>
 #include <string>
 #include <vector>
@@ -16,6 +17,15 @@
 #include "tools/dfsm/batch_runner.h"
 
 namespace dfsm::tools {
+
+// The sparse stage of `item` alone (at most `max_frames` of a burst or tar;
+// a tar extracted into `scratch`, removed after): its tracks and own
+// calibration, where a joint adjustment or a fusion of several bursts
+// starts (dfsm calibrate, --calibrate-first). Throws BurstError or
+// ReconstructionError naming the problem.
+SparseReconstruction ReconstructAlone(const BatchItem& item, int max_frames,
+                                      const SparseOptions& sparse,
+                                      const std::filesystem::path& scratch);
 
 // The prior of the joint calibration of `items` (all of the batch's, every
 // shard alike) of the image size most of them have; nullopt where none could

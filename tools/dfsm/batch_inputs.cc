@@ -21,11 +21,6 @@ bool IsBurstDirectory(const fs::path& path) {
   return fs::is_regular_file(path / "manifest.json", error);
 }
 
-bool IsTarFile(const fs::path& path) {
-  std::error_code error;
-  return path.extension() == ".tar" && fs::is_regular_file(path, error);
-}
-
 // Whether `dir` holds images of its own (a clip), not bursts.
 bool HoldsImages(const fs::path& dir) {
   try {
@@ -167,6 +162,11 @@ void MakeNamesUnique(std::vector<BatchItem>* items) {
 }
 
 }  // namespace
+
+bool IsTarFile(const fs::path& path) {
+  std::error_code error;
+  return path.extension() == ".tar" && fs::is_regular_file(path, error);
+}
 
 std::vector<BatchItem> ExpandBatchInputs(const std::vector<std::string>& inputs,
                                          int window_frames) {

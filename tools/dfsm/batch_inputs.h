@@ -2,6 +2,7 @@
 // into deterministic shards for a cluster's array job.
 #pragma once
 
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -19,6 +20,9 @@ struct BatchItem {
   // of bursts): the burst fails with it, the batch goes on.
   std::string error;
 };
+
+// Whether `path` is a .tar file (a burst as dfsmd serves it).
+bool IsTarFile(const std::filesystem::path& path);
 
 // The bursts `inputs` name, in name order. Each input is a burst directory
 // (it holds manifest.json), a .tar file, a video, a folder or glob of images

@@ -79,7 +79,7 @@ nlohmann::json ProcessItem(const BatchItem& item, const BatchRunOptions& options
   PipelineOutput output;
   try {
     if (!item.error.empty()) throw BurstError(item.error);
-    burst = ReadBatchItem(item, options.process, partial, &burst_dir);
+    burst = ReadBatchItem(item, options.process.frames, partial, &burst_dir);
     output = RunPipeline(*burst, OptionsFor(*burst, options, pipeline));
   } catch (const std::exception& e) {
     burst.reset();
@@ -108,27 +108,24 @@ nlohmann::json ProcessItem(const BatchItem& item, const BatchRunOptions& options
 
 }  // namespace
 
-Burst ReadBatchItem(const BatchItem& item, const ProcessSettings& process, const fs::path& scratch,
+Burst ReadBatchItem(const BatchItem& item, int max_frames, const fs::path& scratch,
                     fs::path* burst_dir) {
   if (!item.tar) {
     if (!IsImageSequence(item.input)) *burst_dir = item.input;
-    return ReadBurstInput(item.input, item.start, item.frames > 0 ? item.frames : process.frames);
+    return ReadBurstInput(item.input, item.start, item.frames > 0 ? item.frames : max_frames);
   }
   const fs::path extracted = scratch / ".burst";
   fs::remove_all(extracted);
   fs::create_directories(extracted);
   ExtractTarFile(item.input, extracted);
-  // The burst is the archive's top level or its single top-level directory,
-  // as an upload to dfsmd.
-  *burst_dir = extracted;
-  std::error_code error;
-  if (!fs::exists(extracted / "manifest.json", error)) {
-    std::vector<fs::path> children;
-    for (const auto& child : fs::directory_iterator(extracted)) children.push_back(child.path());
-    if (children.size() == 1 && fs::is_directory(children[0], error)) *burst_dir = children[0];
-  }
+  const std::optional<fs::path> root = service::BurstRootOf(extracted);
+  if (!root)
+    throw BurstError(item.input +
+                     ": the archive has no manifest.json at its top level or in a single "
+                     "top-level directory");
+  *burst_dir = *root;
   ReadBurstOptions read;
-  read.max_frames = process.frames;
+  read.max_frames = max_frames;
   return ReadBurst(*burst_dir, read);
 }
 

@@ -35,11 +35,12 @@ struct BatchReport {
   int failed = 0;
 };
 
-// The burst of `item` with --frames of `process` (a tar extracted into
-// `scratch`/.burst first); `burst_dir` is set where the burst is a directory
-// (its ground truth). Throws BurstError naming the input and the problem.
-Burst ReadBatchItem(const BatchItem& item, const ProcessSettings& process,
-                    const std::filesystem::path& scratch, std::filesystem::path* burst_dir);
+// The burst of `item`, at most `max_frames` (0: all) of a burst directory or
+// tar (a tar extracted into `scratch`/.burst first); `burst_dir` is set where
+// the burst is a directory (its ground truth). Throws BurstError naming the
+// input and the problem.
+Burst ReadBatchItem(const BatchItem& item, int max_frames, const std::filesystem::path& scratch,
+                    std::filesystem::path* burst_dir);
 
 // Whether DIR/<item.name>/ holds a complete result.
 bool ResultComplete(const std::filesystem::path& out_dir, const BatchItem& item);

@@ -7,11 +7,9 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "core/io/burst.h"
-#include "core/io/depth_tiff.h"
 #include "core/io/file_util.h"
 #include "core/io/ground_truth.h"
-#include "core/pipeline/evaluation.h"
+#include "tools/dfsm/truth_scores.h"
 
 namespace dfsm::tools {
 namespace fs = std::filesystem;
@@ -118,22 +116,14 @@ nlohmann::json ScoresAgainstTruth(const fs::path& burst_dir, const fs::path& res
   if (!HasGroundTruth(burst_dir)) return nullptr;
   const nlohmann::json result = ReadJson(result_dir / "result.json");
   if (result.value("status", "") != "ok") return nullptr;
-  const GroundTruth truth = ReadGroundTruth(burst_dir);
-  std::vector<Pose> poses;
-  for (const auto& pose : result.at("poses")) poses.push_back(PoseFromJson(pose));
-  const SparseEvaluation sparse =
-      EvaluateSparse(CameraModelFromJson(result.at("calibration")), poses, truth);
-  nlohmann::json scores = {{"f_error_percent", sparse.focal_error_percent},
-                           {"distortion_error_px", sparse.distortion_error_px},
-                           {"mean_rotation_error_deg", sparse.mean_rotation_error_deg}};
-  if (result.contains("depth")) {
-    const Burst burst = ReadBurst(burst_dir);
-    const cv::Mat depth = ReadDepthTiff(result_dir / result["depth"].value("file", "depth.tiff"));
-    const DepthEvaluation evaluation =
-        EvaluateDepth(depth, truth.depth, TexturedMask(burst.gray[burst.reference()]));
-    scores["abs_rel"] = evaluation.abs_rel;
-    scores["within_25_percent"] = evaluation.within_25_percent;
-    scores["coverage"] = evaluation.coverage;
+  const TruthScores scored = ScoreAgainstTruth(burst_dir, result_dir, result);
+  nlohmann::json scores = {{"f_error_percent", scored.sparse.focal_error_percent},
+                           {"distortion_error_px", scored.sparse.distortion_error_px},
+                           {"mean_rotation_error_deg", scored.sparse.mean_rotation_error_deg}};
+  if (scored.depth) {
+    scores["abs_rel"] = scored.depth->abs_rel;
+    scores["within_25_percent"] = scored.depth->within_25_percent;
+    scores["coverage"] = scored.depth->coverage;
   }
   return scores;
 }

@@ -6,6 +6,8 @@
 // still informs) or the fusion dfsmd keeps over days
 // (core/sparse/calibration_fusion.h: each usable burst's estimate weighed by
 // its information).
+#include <unistd.h>
+
 #include <cstdio>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -15,6 +17,7 @@
 #include "core/sparse/calibration_fusion.h"
 #include "core/sparse/joint_adjustment.h"
 #include "core/sparse/sparse_reconstruction.h"
+#include "tools/dfsm/batch_calibration.h"
 #include "tools/dfsm/burst_input.h"
 #include "tools/dfsm/command.h"
 #include "tools/dfsm/command_line.h"
@@ -25,7 +28,7 @@ namespace {
 enum class CalibrateMethod { kJoint, kFusion };
 
 struct CalibrateInputs {
-  std::vector<BurstWindow> bursts;
+  std::vector<BatchItem> bursts;  // each named by its input (and window)
   std::filesystem::path out_dir;
   int frames = 0;  // of each burst (0: all), as --frames
   SparseOptions sparse_options;
@@ -33,16 +36,15 @@ struct CalibrateInputs {
 
 // One burst's sparse stage, alone; nullopt where it fails, with why. Prints
 // the burst's own calibration (the line the caller ends).
-std::optional<SparseReconstruction> CalibrateAlone(const BurstWindow& window,
+std::optional<SparseReconstruction> CalibrateAlone(const BatchItem& item,
                                                    const CalibrateInputs& inputs,
                                                    std::string* failure) {
-  const std::string name = window.Name();
-  const char* burst_dir = name.c_str();
+  const char* burst_dir = item.name.c_str();
   try {
-    const Burst burst = ReadBurstInput(window.input, window.start,
-                                       window.frames > 0 ? window.frames : inputs.frames);
+    const std::filesystem::path scratch =
+        inputs.out_dir / (".burst-" + std::to_string(getpid()));  // a tar's files
     SparseReconstruction sparse =
-        ReconstructSparse(burst.gray, burst.reference(), inputs.sparse_options);
+        ReconstructAlone(item, inputs.frames, inputs.sparse_options, scratch);
     const CameraModel& camera = sparse.state.camera;
     std::printf("%s: f %.2f px (sigma %.2f %%), k1 %.5f, k2 %.5f, %s", burst_dir, camera.f,
                 sparse.uncertainty.available ? sparse.uncertainty.sigma_f_percent(camera.f) : 0.0,
@@ -60,10 +62,10 @@ std::optional<SparseReconstruction> CalibrateAlone(const BurstWindow& window,
 
 int RunFusion(const CalibrateInputs& inputs) {
   CalibrationFusion fusion;
-  for (const BurstWindow& window : inputs.bursts) {
-    const std::string burst_dir = window.Name();
+  for (const BatchItem& item : inputs.bursts) {
+    const std::string& burst_dir = item.name;
     std::string outcome;
-    const std::optional<SparseReconstruction> sparse = CalibrateAlone(window, inputs, &outcome);
+    const std::optional<SparseReconstruction> sparse = CalibrateAlone(item, inputs, &outcome);
     if (!sparse) {
       outcome = "not fused: " + outcome;
     } else if (const std::optional<CalibrationSample> sample =
@@ -142,10 +144,10 @@ int RunJoint(const CalibrateInputs& inputs) {
   std::vector<JointBurst> bursts;
   std::vector<nlohmann::json> entries;
   std::vector<int> entry_of;  // each joint burst's entry
-  for (const BurstWindow& window : inputs.bursts) {
-    const std::string burst_dir = window.Name();
+  for (const BatchItem& item : inputs.bursts) {
+    const std::string& burst_dir = item.name;
     std::string failure;
-    const std::optional<SparseReconstruction> sparse = CalibrateAlone(window, inputs, &failure);
+    const std::optional<SparseReconstruction> sparse = CalibrateAlone(item, inputs, &failure);
     // Its tracks only are kept: memory stays one burst's frames at a time.
     entries.push_back(OwnCalibrationJson(burst_dir, sparse ? &*sparse : nullptr, failure));
     if (!sparse) {
@@ -191,8 +193,9 @@ int RunCalibrateCommand(const Args& args) {
   int window_frames = 0;
   std::string out_dir, rolling_shutter = kDefaultRollingShutter, method = "joint";
   app.add_option("BURST", bursts,
-                 "bursts of one camera: dfsm-burst/1 directories, videos, folders of PNG or JPEG "
-                 "images or globs of them ('clip/*.jpg', quoted)")
+                 "bursts of one camera: dfsm-burst/1 directories, burst.tar files (as dfsmd "
+                 "serves them), videos, folders of PNG or JPEG images or globs of them "
+                 "('clip/*.jpg', quoted)")
       ->required();
   app.add_option("--out", out_dir,
                  "written: calibration.json and calibration.yaml of the camera (as 'dfsm process' "
@@ -220,8 +223,15 @@ int RunCalibrateCommand(const Args& args) {
   inputs.out_dir = out_dir;
   for (const std::string& burst : bursts) {
     try {
-      for (BurstWindow& window : WindowsOf(burst, window_frames))
-        inputs.bursts.push_back(std::move(window));
+      for (const BurstWindow& window : WindowsOf(burst, window_frames)) {
+        BatchItem item;
+        item.name = window.Name();
+        item.input = window.input;
+        item.tar = IsTarFile(window.input);
+        item.start = window.start;
+        item.frames = window.frames;
+        inputs.bursts.push_back(std::move(item));
+      }
     } catch (const BurstError& e) {
       throw UsageError(e.what());
     }

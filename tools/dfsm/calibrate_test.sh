@@ -3,7 +3,8 @@
 # same size and a burst that cannot be read: the joint calibration keeps the
 # camera's bursts, leaves the other camera's out as disagreeing and names the
 # unreadable one; the fusion runs on the same bursts; no usable burst is exit
-# 1 with the reason; a folder of images is cut into windows. Usage:
+# 1 with the reason; a burst.tar reads as its directory; a folder of images
+# is cut into windows. Usage:
 # calibrate_test.sh DFSM WORKDIR
 set -eu
 dfsm="$1" work="$2"
@@ -26,9 +27,12 @@ grep -q "1 of 4 bursts disagree" "$work/log" || fail "the disagreement is not sa
 # The joint focal length within 5 % of the camera's 352 px (1.1 x 320).
 f=$(sed -n 's/^joint *f \([0-9.]*\) px.*/\1/p' "$work/log")
 awk -v f="$f" 'BEGIN { exit !(f > 334.4 && f < 369.6) }' || fail "joint f $f px, not within 5 % of 352"
-"$dfsm" calibrate "$work"/camera-* --method fusion --out "$work/fused" >"$work/log" 2>&1 ||
-  fail "the fusion exited $?"
+# One burst as dfsmd serves it (a tar of its directory) reads as the directory.
+tar -C "$work" -cf "$work/camera-3.tar" camera-3
+"$dfsm" calibrate "$work/camera-1" "$work/camera-2" "$work/camera-3.tar" --method fusion \
+  --out "$work/fused" >"$work/log" 2>&1 || fail "the fusion exited $?"
 [ -s "$work/fused/fusion.json" ] || fail "no fusion.json"
+grep -q "camera-3.tar: f " "$work/log" || fail "the tar was not read"
 # A clip's frames (a folder of images) cut into windows, each one burst.
 "$dfsm" calibrate "$work/camera-1/frames" --windows 5 --out "$work/windows" >"$work/log" 2>&1 ||
   fail "the windows of a folder exited $?"

@@ -4,13 +4,11 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 
-#include "core/io/burst.h"
-#include "core/io/depth_tiff.h"
 #include "core/io/file_util.h"
 #include "core/io/image_decode.h"
-#include "core/pipeline/evaluation.h"
 #include "tools/dfsm/command.h"
 #include "tools/dfsm/command_line.h"
+#include "tools/dfsm/truth_scores.h"
 
 namespace dfsm::tools {
 
@@ -66,25 +64,17 @@ int RunEvaluateCommand(const Args& args) {
   const nlohmann::json result = nlohmann::json::parse(ReadFileToString(result_dir / "result.json"));
   if (result.value("status", "") != "ok")
     throw std::runtime_error(result_dir.string() + ": result status is not ok");
-  const GroundTruth truth = ReadGroundTruth(burst_dir);
-  std::vector<Pose> poses;
-  for (const auto& pose : result.at("poses")) poses.push_back(PoseFromJson(pose));
-  nlohmann::json report = {
-      {"sparse",
-       ToJson(EvaluateSparse(CameraModelFromJson(result.at("calibration")), poses, truth))},
-      {"bundle_adjustment", result.at("bundle_adjustment")}};
-  if (result.contains("depth")) {
-    const Burst burst = ReadBurst(burst_dir);
-    const cv::Mat depth = ReadDepthTiff(result_dir / result["depth"].value("file", "depth.tiff"));
-    const cv::Mat textured = TexturedMask(burst.gray[burst.reference()]);
-    const DepthEvaluation whole = EvaluateDepth(depth, truth.depth, textured);
-    report["depth"] = ToJson(whole);
+  const TruthScores scores = ScoreAgainstTruth(burst_dir, result_dir, result);
+  nlohmann::json report = {{"sparse", ToJson(scores.sparse)},
+                           {"bundle_adjustment", result.at("bundle_adjustment")}};
+  if (scores.depth) {
+    report["depth"] = ToJson(*scores.depth);
     const nlohmann::json truth_json =
         nlohmann::json::parse(ReadFileToString(burst_dir / "ground_truth.json"));
     if (truth_json.contains("moving_object"))
-      report["moving_object"] =
-          EvaluateAroundMovingObject(burst_dir, truth_json["moving_object"].at("frames"), burst,
-                                     depth, truth, textured, whole.scale);
+      report["moving_object"] = EvaluateAroundMovingObject(
+          burst_dir, truth_json["moving_object"].at("frames"), *scores.burst, scores.depth_map,
+          scores.truth, scores.textured, scores.depth->scale);
   }
   std::cout << report.dump(2) << std::endl;
   return 0;
