@@ -1,5 +1,6 @@
 #include "api/job_request.h"
 
+#include <algorithm>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
@@ -24,12 +25,17 @@ struct Field {
   const char* name;
   const char* key;
 };
-constexpr Field kFields[] = {
-    {"frames", "pipeline.frames"}, {"when", "pipeline.when"},
-    {"planes", "pipeline.planes"}, {"grid", "pipeline.grid"},
-    {"init", "pipeline.init"},     {"rolling_shutter", "pipeline.rolling_shutter"},
-    {"dense", "pipeline.dense"},   {"keep_burst", "jobs.keep_burst"},
-    {"calibration", nullptr},      {"camera", nullptr}};
+constexpr Field kFields[] = {{"frames", "pipeline.frames"},
+                             {"when", "pipeline.when"},
+                             {"planes", "pipeline.planes"},
+                             {"grid", "pipeline.grid"},
+                             {"init", "pipeline.init"},
+                             {"rolling_shutter", "pipeline.rolling_shutter"},
+                             {"dense", "pipeline.dense"},
+                             {"keep_burst", "jobs.keep_burst"},
+                             {"calibration", nullptr},
+                             {"camera", nullptr},
+                             {"max_frames", "pipeline.max_frames"}};
 
 // A job field of choices that no daemon key stands behind.
 ConfigKey ChoiceKey(const char* name, std::vector<std::string> choices) {
@@ -43,7 +49,8 @@ ConfigKey ChoiceKey(const char* name, std::vector<std::string> choices) {
 const Field* FindField(const std::string& name, bool upload) {
   for (const Field& field : kFields) {
     if (name != field.name) continue;
-    if (upload ? name == "when" : name == "camera") return nullptr;
+    // "when" and "max_frames" take frames from the ring: captures only.
+    if (upload ? name == "when" || name == "max_frames" : name == "camera") return nullptr;
     return &field;
   }
   return nullptr;
@@ -103,10 +110,21 @@ void ApplyField(const std::string& name, const nlohmann::json& value, bool uploa
     return value.get<bool>();
   };
   if (name == "frames") {
-    // A capture takes at most the ring; an upload at most a burst's frames
-    // (0: all of them).
+    // A capture takes at most the ring, or "auto": as many as its parallax
+    // needs, up to max_frames; an upload at most a burst's frames (0: all).
+    if (!upload && value == "auto") {
+      options->auto_frames = true;
+      // The ring holds no more, whatever the configured maximum.
+      options->frames = std::min(config.pipeline.max_frames, config.capture.ring_frames);
+      return;
+    }
+    if (!upload && !value.is_number_integer()) fail("must be an integer or \"auto\"");
     key.max = upload ? config.limits.max_burst_frames : config.capture.ring_frames;
     options->frames = upload && value == 0 ? 0 : integer();
+  } else if (name == "max_frames") {
+    if (!options->auto_frames) fail("applies to \"frames\": \"auto\" only");
+    key.max = config.capture.ring_frames;
+    options->frames = integer();
   } else if (name == "when") {
     options->when = service::ParseBurstWhen(text());
   } else if (name == "planes") {
@@ -159,8 +177,11 @@ JobOptions ParseCaptureRequest(const std::string& body, const service::DaemonCon
   }
   if (!json.is_object()) throw RequestError("the body must be a JSON object");
   for (const auto& [field, value] : json.items()) {
-    ApplyField(field, value, false, config, &options);
+    if (field != "max_frames") ApplyField(field, value, false, config, &options);
   }
+  // After "frames", whose "auto" it qualifies.
+  if (json.contains("max_frames"))
+    ApplyField("max_frames", json["max_frames"], false, config, &options);
   return options;
 }
 

@@ -59,7 +59,7 @@ TEST(JobRequestTest, BadBodiesNameTheProblem) {
   };
   EXPECT_NE(error("{\"frames\":").find("not valid JSON"), std::string::npos);
   EXPECT_EQ(error("[1]"), "the body must be a JSON object");
-  EXPECT_EQ(error(R"({"frames":"ten"})"), "'frames' must be an integer");
+  EXPECT_EQ(error(R"({"frames":"ten"})"), "'frames' must be an integer or \"auto\"");
   EXPECT_EQ(error(R"({"frames":2})"), "'frames' must be in [3, 64], got 2");
   EXPECT_EQ(error(R"({"frames":65})"), "'frames' must be in [3, 64], got 65");
   EXPECT_EQ(error(R"({"when":"soon"})"), "'when' must be \"last\" or \"next\", got \"soon\"");
@@ -72,6 +72,40 @@ TEST(JobRequestTest, BadBodiesNameTheProblem) {
             std::string::npos);
   EXPECT_EQ(error(R"({"dense":"yes"})"), "'dense' must be true or false");
   EXPECT_NE(error(R"({"frame":10})").find("unknown field 'frame'"), std::string::npos);
+}
+
+// "frames": "auto" takes max_frames (the configured one by default) and
+// keeps as many as the parallax needs; max_frames means nothing without it.
+TEST(JobRequestTest, AutoFramesTakeAtMostMaxFrames) {
+  service::DaemonConfig config;
+  config.pipeline.max_frames = 24;
+  const service::JobOptions configured = ParseCaptureRequest(R"({"frames":"auto"})", config);
+  EXPECT_TRUE(configured.auto_frames);
+  EXPECT_EQ(configured.frames, 24);
+  const service::JobOptions asked =
+      ParseCaptureRequest(R"({"max_frames":40,"frames":"auto"})", config);
+  EXPECT_TRUE(asked.auto_frames);
+  EXPECT_EQ(asked.frames, 40);
+  EXPECT_FALSE(ParseCaptureRequest(R"({"frames":12})", config).auto_frames);
+  config.pipeline.max_frames = 100;  // more than the ring (64) holds
+  EXPECT_EQ(ParseCaptureRequest(R"({"frames":"auto"})", config).frames, 64);
+  config.pipeline.max_frames = 24;
+  const auto error = [&](const std::string& body) {
+    return ErrorOf([&] { ParseCaptureRequest(body, config); });
+  };
+  EXPECT_EQ(error(R"({"max_frames":20})"), "'max_frames' applies to \"frames\": \"auto\" only");
+  EXPECT_EQ(error(R"({"frames":12,"max_frames":20})"),
+            "'max_frames' applies to \"frames\": \"auto\" only");
+  EXPECT_EQ(error(R"({"frames":"auto","max_frames":65})"),
+            "'max_frames' must be in [3, 64], got 65");
+  EXPECT_NE(ErrorOf([&] {
+              ParseUploadQuery({{"max_frames", "20"}}, config);
+            }).find("unknown field 'max_frames'"),
+            std::string::npos);
+  EXPECT_EQ(ErrorOf([&] {
+              ParseUploadQuery({{"frames", "auto"}}, config);
+            }),
+            "'frames' must be an integer, got 'auto'");
 }
 
 TEST(JobRequestTest, UploadQueryIsTextAndHasNoWhen) {

@@ -60,11 +60,20 @@ TEST(OpenApiTest, TheJobOptionsTakeTheirKeysDefaultsAndRanges) {
   for (const auto& [field, schema] : Schemas().at("CaptureRequest").at("properties").items()) {
     if (!schema.contains("x-dfsmd-key")) continue;
     const ConfigKey& key = service::ConfigKeyNamed(schema.at("x-dfsmd-key").get<std::string>());
-    // frames: at most capture.ring_frames, a value of the configuration.
-    ExpectSchemaOfKey(schema, key, field != "frames");
+    // frames and max_frames: at most capture.ring_frames, a value of the
+    // configuration; frames is an integer or "auto".
+    const bool ring_bound = field == "frames" || field == "max_frames";
+    if (field == "frames") {
+      json integer = schema.at("oneOf").at(0);
+      integer["default"] = schema.at("default");
+      ExpectSchemaOfKey(integer, key, false);
+      EXPECT_EQ(schema.at("oneOf").at(1).at("enum"), json({"auto"}));
+    } else {
+      ExpectSchemaOfKey(schema, key, !ring_bound);
+    }
     ++fields_with_keys;
   }
-  EXPECT_EQ(fields_with_keys, 8);
+  EXPECT_EQ(fields_with_keys, 9);
   // The upload's query takes the same fields, "when" excepted.
   for (const json& parameter :
        OpenApiDocument().at("paths").at("/api/v1/jobs").at("post").at("parameters")) {

@@ -1,50 +1,39 @@
-// How long a burst must be: the parallax a capture measures before any
-// reconstruction (core/sparse/parallax_growth.h) against the depth the
-// pipeline then makes of the first K frames. A JSON report, not a timing
-// benchmark: it sets BurstLengthOptions' defaults (dfsmd's "frames": "auto").
+// How long a burst must be: dfsmd's "frames": "auto" (core/pipeline/
+// burst_length.h) against fixed lengths, on generated bursts with ground
+// truth. A JSON report, not a timing benchmark: it sets BurstLengthOptions'
+// defaults (docs/experiments/006-burst-length.md).
 //
 //   burst_length [--bursts N] [--seed S] [--camera ideal|webcam|phone]
-//                [--frames M] [--motion-scale X] [--lengths 5,7,10,15,20,30]
-//   burst_length --tum DATASET [--start I] [--step J]
-//   burst_length --burst DIR
+//                [--frames M] [--motion-scale X] [--target PX] [--still PX]
+//   burst_length --burst DIR [--target PX] [--still PX]
 //
 // Generated: the calibration sweep's bursts (sizes, tremor, effects), each
 // rendered with M frames (30) and its camera path's extent and rotation
-// times X (2: a hand drifts further over a second than over a third); the
-// pipeline runs on the first K frames for each K of --lengths (reference: the
-// first frame, whose depth the ground truth holds). Printed per burst and K:
-// the measured parallax, the pipeline's AbsRel, its parallax and its depth
-// verdict; then, by bins of the measured parallax, the median AbsRel.
-// TUM: each 10-frame window's measured parallax from its first frame on;
-// --burst: a burst directory's.
+// times X (2: a hand drifts further over a second than over a third), the
+// reference first (a capture of the next frames). Per burst: the pipeline's
+// AbsRel and parallax for each length the choice tries and for all frames,
+// and the length the choice takes. Then the median AbsRel of the choice, of
+// 10 frames and of all, and the mean frames the choice takes. --burst: the
+// choice on a burst directory (from its first frame where its reference is
+// not an end), without truth.
+#include "core/pipeline/burst_length.h"
+
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <map>
 #include <nlohmann/json.hpp>
-#include <sstream>
 #include <string>
 #include <vector>
 
-#include "bench/tum_sequence.h"
 #include "core/pipeline/evaluation.h"
-#include "core/pipeline/frame_selection.h"
 #include "core/pipeline/pipeline.h"
-#include "core/sparse/parallax_growth.h"
 #include "core/synth/burst_synthesizer.h"
 #include "tests/support/calibration_sweep.h"
 
 namespace dfsm {
 namespace {
-
-std::vector<int> ParseLengths(const std::string& text) {
-  std::vector<int> lengths;
-  std::stringstream in(text);
-  std::string item;
-  while (std::getline(in, item, ',')) lengths.push_back(std::atoi(item.c_str()));
-  return lengths;
-}
 
 double Median(std::vector<double> values) {
   if (values.empty()) return 0.0;
@@ -53,124 +42,107 @@ double Median(std::vector<double> values) {
   return n % 2 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
 }
 
-ParallaxGrowthOptions probe;  // --pipeline-tracker sets its tracker
-
-struct Sample {
-  double measured_px = 0.0;
-  double measured_p90_px = 0.0;
-  double abs_rel = -1.0;  // -1: the pipeline failed
+struct Outcome {
+  std::map<int, double> abs_rel;  // by frames; absent where the pipeline failed
+  int chosen = 0;
+  bool too_still = false;
 };
 
-nlohmann::json RunGeneratedBurst(SynthOptions settings, const std::vector<int>& lengths,
-                                 std::vector<Sample>* samples) {
+// The pipeline on the first `frames` frames: AbsRel and parallax into `at`.
+void RunLength(const Burst& burst, const GroundTruth& truth, int frames, Outcome* outcome,
+               nlohmann::json* at) {
+  const cv::Mat textured = TexturedMask(burst.gray[burst.reference()]);
+  (*at)["frames"] = frames;
+  try {
+    const PipelineOutput output =
+        RunPipeline(FramesFromReference(burst, frames), PipelineOptions());
+    if (!output.dense) return;
+    const double abs_rel = EvaluateDepth(output.dense->depth, truth.depth, textured).abs_rel;
+    outcome->abs_rel[frames] = abs_rel;
+    (*at)["abs_rel"] = abs_rel;
+    (*at)["parallax_px"] =
+        output.result.extra.value("parallax", nlohmann::json()).value("median_px", 0.0);
+    (*at)["depth_verdict"] =
+        output.result.extra.value("depth_verdict", nlohmann::json()).value("quality", "");
+  } catch (const std::exception& e) {
+    (*at)["error"] = e.what();
+  }
+}
+
+Outcome RunGeneratedBurst(const SynthOptions& settings, const BurstLengthOptions& options) {
   const SynthBurst synth = SynthesizeBurst(settings);
   const Burst burst = ToBurst(synth);
-  const ParallaxGrowth growth = MeasureParallaxGrowth(burst.gray, probe);
+  Outcome outcome;
+  const BurstLength length = ChooseBurstLength(burst, SparseOptions(), options);
+  outcome.chosen = length.frames;
+  outcome.too_still = length.reason == BurstLengthReason::kTooStill;
   nlohmann::json line = {{"width", settings.width},
                          {"height", settings.height},
                          {"baseline_mm", settings.baseline * 1000.0},
                          {"rotation_deg", settings.rotation_deg},
                          {"seed", settings.seed},
-                         {"tracks", growth.tracks},
-                         {"tracked_frames", growth.tracked_frames},
-                         {"growth_px", growth.parallax_px},
-                         {"growth_p90_px", growth.parallax_p90_px}};
-  const cv::Mat textured = TexturedMask(burst.gray[burst.reference()]);
-  for (const int k : lengths) {
-    if (k > burst.size()) continue;
-    std::vector<int> first(k);
-    for (int i = 0; i < k; ++i) first[i] = i;
-    Sample sample;
-    sample.measured_px = growth.parallax_px[k - 1];
-    sample.measured_p90_px = growth.parallax_p90_px[k - 1];
-    nlohmann::json at = {{"frames", k},
-                         {"measured_px", sample.measured_px},
-                         {"measured_p90_px", sample.measured_p90_px}};
-    try {
-      const PipelineOutput output = RunPipeline(SelectFrames(burst, first), PipelineOptions());
-      if (output.dense) {
-        sample.abs_rel = EvaluateDepth(output.dense->depth, synth.truth.depth, textured).abs_rel;
-        at["abs_rel"] = sample.abs_rel;
-        at["pipeline_parallax_px"] =
-            output.result.extra.value("parallax", nlohmann::json()).value("median_px", 0.0);
-        at["depth_verdict"] =
-            output.result.extra.value("depth_verdict", nlohmann::json()).value("quality", "");
-      }
-    } catch (const std::exception& e) {
-      at["error"] = e.what();
-    }
-    samples->push_back(sample);
+                         {"choice", ToJson(length, burst.size(), options)}};
+  std::vector<int> lengths;
+  for (const int frames : options.lengths)
+    if (frames < burst.size()) lengths.push_back(frames);
+  lengths.push_back(burst.size());
+  for (const int frames : lengths) {
+    nlohmann::json at;
+    RunLength(burst, synth.truth, frames, &outcome, &at);
     line["lengths"].push_back(at);
   }
-  return line;
+  std::printf("%s\n", line.dump().c_str());
+  std::fflush(stdout);
+  return outcome;
 }
 
 int RunGenerated(int bursts, unsigned seed, const std::string& camera, int frames, double scale,
-                 const std::vector<int>& lengths) {
-  std::vector<SynthOptions> sweep = CalibrationSweepSettings(
+                 const BurstLengthOptions& options) {
+  const std::vector<SynthOptions> sweep = CalibrationSweepSettings(
       bursts, seed, SweepFieldOfView::kNormal, CameraEffects::Preset(camera), SweepMotion::kTremor);
-  std::vector<Sample> samples;
+  const double kFailed = 10.0;  // a failed depth counts as 1000 % AbsRel
+  std::vector<double> chosen, ten, all;
+  double frames_taken = 0.0;
+  int too_still = 0;
   for (SynthOptions settings : sweep) {
     settings.frames = frames;
     settings.baseline *= scale;
     settings.rotation_deg *= scale;
     settings.reference = 0;
-    std::printf("%s\n", RunGeneratedBurst(settings, lengths, &samples).dump().c_str());
-    std::fflush(stdout);
+    const Outcome outcome = RunGeneratedBurst(settings, options);
+    const auto abs_rel = [&](int k) {
+      const auto found = outcome.abs_rel.find(k);
+      return found == outcome.abs_rel.end() ? kFailed : found->second;
+    };
+    chosen.push_back(abs_rel(outcome.chosen));
+    ten.push_back(abs_rel(std::min(10, frames)));
+    all.push_back(abs_rel(frames));
+    frames_taken += outcome.chosen;
+    too_still += outcome.too_still;
   }
-  const std::vector<double> edges = {0.0, 0.5, 1.0, 1.5, 2.0, 3.0, 4.0, 6.0, 1e9};
-  nlohmann::json bins = nlohmann::json::array();
-  for (size_t b = 0; b + 1 < edges.size(); ++b) {
-    std::vector<double> abs_rel;
-    int failed = 0;
-    for (const Sample& sample : samples) {
-      if (sample.measured_px < edges[b] || sample.measured_px >= edges[b + 1]) continue;
-      if (sample.abs_rel < 0.0)
-        ++failed;
-      else
-        abs_rel.push_back(sample.abs_rel);
-    }
-    bins.push_back({{"measured_px_from", edges[b]},
-                    {"to", edges[b + 1]},
-                    {"bursts", abs_rel.size()},
-                    {"failed", failed},
-                    {"median_abs_rel", Median(abs_rel)}});
-  }
-  std::printf("%s\n", nlohmann::json({{"summary", bins}}).dump().c_str());
+  const nlohmann::json summary = {
+      {"bursts", sweep.size()},
+      {"target_parallax_px", options.target_parallax_px},
+      {"min_parallax_px", options.min_parallax_px},
+      {"median_abs_rel_chosen", Median(chosen)},
+      {"median_abs_rel_10_frames", Median(ten)},
+      {"median_abs_rel_all_frames", Median(all)},
+      {"worst_abs_rel_chosen", *std::max_element(chosen.begin(), chosen.end())},
+      {"mean_frames_chosen", frames_taken / sweep.size()},
+      {"too_still", too_still}};
+  std::printf("%s\n", nlohmann::json({{"summary", summary}}).dump().c_str());
   return 0;
 }
 
-int RunBurst(const std::string& dir) {
-  const Burst burst = ReadBurst(dir);
-  const ParallaxGrowth growth = MeasureParallaxGrowth(burst.gray, probe);
-  std::printf("%s\n", nlohmann::json({{"burst", dir},
-                                      {"tracks", growth.tracks},
-                                      {"tracked_frames", growth.tracked_frames},
-                                      {"focal_px", growth.focal_px},
-                                      {"growth_px", growth.parallax_px},
-                                      {"growth_p90_px", growth.parallax_p90_px}})
-                          .dump()
-                          .c_str());
-  return 0;
-}
-
-int RunTum(const std::string& dataset, int start, int step) {
-  const TumSequence sequence(dataset);
-  if (sequence.empty()) {
-    std::fprintf(stderr, "%s: no TUM sequence\n", dataset.c_str());
-    return 1;
-  }
-  for (int first = start; first + 10 <= sequence.frames(); first += step) {
-    const Burst burst = sequence.Window(first, 10);
-    const ParallaxGrowth growth = MeasureParallaxGrowth(burst.gray, probe);
-    std::printf("%s\n", nlohmann::json({{"window", first},
-                                        {"tracks", growth.tracks},
-                                        {"tracked_frames", growth.tracked_frames},
-                                        {"growth_px", growth.parallax_px},
-                                        {"growth_p90_px", growth.parallax_p90_px}})
-                            .dump()
-                            .c_str());
-  }
+int RunBurst(const std::string& dir, const BurstLengthOptions& options) {
+  Burst burst = ReadBurst(dir);
+  // A recorded clip's reference is often its middle; a capture's is an end.
+  if (burst.reference() != 0 && burst.reference() != burst.size() - 1) burst.manifest.reference = 0;
+  const BurstLength length = ChooseBurstLength(burst, SparseOptions(), options);
+  std::printf("%s\n",
+              nlohmann::json({{"burst", dir}, {"choice", ToJson(length, burst.size(), options)}})
+                  .dump()
+                  .c_str());
   return 0;
 }
 
@@ -178,10 +150,11 @@ int RunTum(const std::string& dataset, int start, int step) {
 }  // namespace dfsm
 
 int main(int argc, char** argv) {
-  int bursts = 16, frames = 30, start = 1, step = 12;
+  int bursts = 16, frames = 30;
   unsigned seed = 3;
   double scale = 2.0;
-  std::string camera = "phone", tum, burst, lengths = "5,7,10,15,20,30";
+  std::string camera = "phone", burst;
+  dfsm::BurstLengthOptions options;
   for (int i = 1; i < argc; ++i) {
     const bool value = i + 1 < argc;
     if (!std::strcmp(argv[i], "--bursts") && value)
@@ -194,31 +167,25 @@ int main(int argc, char** argv) {
       frames = std::atoi(argv[++i]);
     else if (!std::strcmp(argv[i], "--motion-scale") && value)
       scale = std::atof(argv[++i]);
-    else if (!std::strcmp(argv[i], "--lengths") && value)
-      lengths = argv[++i];
-    else if (!std::strcmp(argv[i], "--pipeline-tracker"))
-      dfsm::probe.pipeline_tracker = true;
+    else if (!std::strcmp(argv[i], "--target") && value)
+      options.target_parallax_px = std::atof(argv[++i]);
+    else if (!std::strcmp(argv[i], "--still") && value)
+      options.min_parallax_px = std::atof(argv[++i]);
     else if (!std::strcmp(argv[i], "--burst") && value)
       burst = argv[++i];
-    else if (!std::strcmp(argv[i], "--tum") && value)
-      tum = argv[++i];
-    else if (!std::strcmp(argv[i], "--start") && value)
-      start = std::atoi(argv[++i]);
-    else if (!std::strcmp(argv[i], "--step") && value)
-      step = std::atoi(argv[++i]);
     else {
       std::fprintf(stderr,
                    "usage: burst_length [--bursts N] [--seed S] [--camera ideal|webcam|phone]\n"
-                   "                    [--frames M] [--motion-scale X] [--lengths K,K,...]\n"
-                   "       burst_length --tum DATASET [--start I] [--step J]\n"
-                   "       burst_length --burst DIR\n");
+                   "                    [--frames M] [--motion-scale X] [--target PX] "
+                   "[--still PX]\n"
+                   "       burst_length --burst DIR [--target PX] [--still PX]\n");
       return 2;
     }
   }
   try {
-    if (!burst.empty()) return dfsm::RunBurst(burst);
-    if (!tum.empty()) return dfsm::RunTum(tum, start, step);
-    return dfsm::RunGenerated(bursts, seed, camera, frames, scale, dfsm::ParseLengths(lengths));
+    options.Check();
+    if (!burst.empty()) return dfsm::RunBurst(burst, options);
+    return dfsm::RunGenerated(bursts, seed, camera, frames, scale, options);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "burst_length: %s\n", e.what());
     return 1;

@@ -105,8 +105,11 @@ std::unique_ptr<Parts> Assemble(const service::DaemonConfig& config,
   p.persister = std::make_unique<service::BurstPersister>(p.store.get());
   p.calibration = std::make_unique<service::CalibrationKeeper>(c.calibration, c.capture.source,
                                                                c.jobs.state_dir);
-  p.processor = std::make_unique<service::JobProcessor>(p.store.get(), &p.metrics, c.retention,
-                                                        p.calibration.get(), p.persister.get());
+  BurstLengthOptions burst_length;
+  burst_length.target_parallax_px = c.pipeline.auto_parallax_px;
+  burst_length.min_parallax_px = c.pipeline.still_parallax_px;
+  p.processor = std::make_unique<service::JobProcessor>(
+      p.store.get(), &p.metrics, c.retention, p.calibration.get(), p.persister.get(), burst_length);
   p.scheduler = std::make_unique<service::JobScheduler>(
       c.jobs.workers, c.jobs.queue,
       [processor = p.processor.get()](const std::string& id, std::shared_ptr<const Burst> burst) {

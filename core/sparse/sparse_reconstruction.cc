@@ -565,7 +565,8 @@ SparseReconstruction AdjustTracked(SparseReconstruction tracked, int width, int 
   const double parallax = tracked.tracks.MedianMaxDisplacement();
   if (parallax < options.min_parallax_px)
     throw ReconstructionError("insufficient parallax: median track motion " + FixedText(parallax) +
-                              " px (need >= " + FixedText(options.min_parallax_px) + " px)");
+                              " px (need >= " + FixedText(options.min_parallax_px) +
+                              " px): move the camera a little during the burst");
   if (!options.known)
     return AdjustTracks(std::move(tracked), width, height, options,
                         /*measure_lens_relief=*/true, beside);

@@ -85,6 +85,12 @@ void Validate(const DaemonConfig& c) {
                                           std::to_string(c.capture.ring_frames) + "), got " +
                                           std::to_string(c.pipeline.frames));
   }
+  if (c.pipeline.auto_parallax_px <= 0) {
+    throw KeyError("pipeline.auto_parallax_px", "must be more than 0");
+  }
+  if (c.pipeline.still_parallax_px > c.pipeline.auto_parallax_px) {
+    throw KeyError("pipeline.still_parallax_px", "must be at most pipeline.auto_parallax_px");
+  }
   try {
     ParseRollingShutter(c.pipeline.rolling_shutter);
   } catch (const std::invalid_argument& e) {

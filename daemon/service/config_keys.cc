@@ -119,6 +119,13 @@ std::vector<ConfigKey> MakeKeys() {
           "no frame for this long: stop watchdog pings (0: never)"),
       Key("pipeline.frames", kInt, DFSM_MEMBER(pipeline.frames), 3, kMaxRingFrames,
           "frames per burst (at most capture.ring_frames)"),
+      Key("pipeline.max_frames", kInt, DFSM_MEMBER(pipeline.max_frames), 3, kMaxRingFrames,
+          "the most frames a \"frames\": \"auto\" capture takes (capture.ring_frames "
+          "where that is fewer)"),
+      Key("pipeline.auto_parallax_px", KeyType::kDouble, DFSM_MEMBER(pipeline.auto_parallax_px), 0,
+          100, "an \"auto\" capture stops once its parallax reaches this, pixels (> 0)"),
+      Key("pipeline.still_parallax_px", KeyType::kDouble, DFSM_MEMBER(pipeline.still_parallax_px),
+          0, 100, "an \"auto\" capture below this at max_frames is refused: move the camera"),
       Choice("pipeline.when", DFSM_MEMBER(pipeline.when),
              {BurstWhenName(BurstWhen::kLast), BurstWhenName(BurstWhen::kNext)},
              "last: frames already in the ring | next: frames still to come"),

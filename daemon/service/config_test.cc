@@ -75,6 +75,10 @@ TEST(ConfigTest, ErrorsNameTheKeyAndTheProblem) {
   config = DaemonConfig();
   config.pipeline.frames = 100;  // more than the ring holds
   EXPECT_NE(ConfigErrorOf([&] { Validate(config); }).find("pipeline.frames"), std::string::npos);
+  config = DaemonConfig();
+  config.pipeline.still_parallax_px = 2 * config.pipeline.auto_parallax_px;
+  EXPECT_NE(ConfigErrorOf([&] { Validate(config); }).find("pipeline.still_parallax_px"),
+            std::string::npos);
   EXPECT_EQ(ConfigErrorOf([&] { ApplyToml("[pipeline]\nwhen = \"now\"\n", "f", &config); }),
             "pipeline.when: must be \"last\" or \"next\", got \"now\"");
   config = DaemonConfig();

@@ -42,7 +42,8 @@ nlohmann::json ToJson(const Job& job) {
       {"status", JobStatusName(job.status)},
       {"stage", job.stage},
       {"options",
-       {{"frames", job.options.frames},
+       {{"frames",
+         job.options.auto_frames ? nlohmann::json("auto") : nlohmann::json(job.options.frames)},
         {"when", job.options.when ? BurstWhenName(*job.options.when) : ""},
         {"planes", job.options.planes},
         {"grid", job.options.grid},
@@ -61,6 +62,7 @@ nlohmann::json ToJson(const Job& job) {
       {"bytes", job.bytes},
       {"input", job.input.is_null() ? nlohmann::json::object() : job.input},
   };
+  if (job.options.auto_frames) json["options"]["max_frames"] = job.options.frames;
   if (!job.error.empty()) json["error"] = job.error;
   json["warnings"] = job.warnings;
   if (!job.calibration_quality.empty()) json["calibration_quality"] = job.calibration_quality;
@@ -105,7 +107,12 @@ Job JobFromJson(const nlohmann::json& json) {
   job.stage = json.value("stage", "");
   job.error = json.value("error", "");
   const nlohmann::json& options = json.at("options");
-  job.options.frames = options.at("frames").get<int>();
+  if (options.at("frames") == "auto") {
+    job.options.auto_frames = true;
+    job.options.frames = options.at("max_frames").get<int>();
+  } else {
+    job.options.frames = options.at("frames").get<int>();
+  }
   // Records from before the option were captures of the last frames.
   job.options.when = ParseStoredChoice(options, "when", "last", ParseStoredWhen);
   job.options.planes = options.at("planes").get<int>();

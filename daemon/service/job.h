@@ -29,6 +29,9 @@ inline bool IsFinished(JobStatus status) {
 // (ToJson / JobFromJson: "last" | "next", "rank1" | "naive").
 struct JobOptions {
   int frames = 10;
+  // Captures only ("frames": "auto"): `frames` is then the most the capture
+  // takes, and it keeps as many as its parallax needs (burst_trim.h).
+  bool auto_frames = false;
   // Captures only; an upload has none (stored and reported as "").
   std::optional<BurstWhen> when = BurstWhen::kLast;
   int planes = 128;

@@ -40,8 +40,12 @@ Job JobIntake::FromCapture(const JobOptions& options, std::chrono::milliseconds 
     throw QueueFull("the bursts of " + std::to_string(persister_->Pending()) +
                     " captures are still being stored");
   }
-  CameraBurst grabbed =
-      camera_->GrabBurst(options.frames, options.when.value_or(BurstWhen::kLast), timeout);
+  const BurstWhen when = options.when.value_or(BurstWhen::kLast);
+  CameraBurst grabbed = camera_->GrabBurst(options.frames, when, timeout);
+  // "frames": "auto" keeps the frames nearest the trigger (burst_length.h):
+  // of the last ones, the newest, which is then the reference.
+  if (options.auto_frames && when == BurstWhen::kLast && !grabbed.frames.empty())
+    grabbed.manifest.reference = static_cast<int>(grabbed.frames.size()) - 1;
 
   auto burst = std::make_shared<Burst>();
   try {

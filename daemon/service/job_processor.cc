@@ -1,7 +1,9 @@
 #include "daemon/service/job_processor.h"
 
 #include <chrono>
+#include <cstdio>
 #include <iostream>
+#include <optional>
 
 #include "core/io/stage_timer.h"
 #include "core/pipeline/pipeline.h"
@@ -19,6 +21,29 @@ PipelineOptions ToPipelineOptions(const JobOptions& options) {
   pipeline.dense.planes = options.planes;
   pipeline.run_dense = options.dense;
   return pipeline;
+}
+
+// The failure of a capture of "frames": "auto" that barely moved.
+std::string TooStill(const BurstLength& length, const BurstLengthOptions& options) {
+  char message[256];
+  std::snprintf(message, sizeof message,
+                "move the camera a little: over all %d frames the tracks moved %.2f px beyond "
+                "the camera's rotation, and depth needs %.2f px (%.2f px to stop early); hold "
+                "it by hand, not on a table",
+                length.frames, length.parallax_px, options.min_parallax_px,
+                options.target_parallax_px);
+  return message;
+}
+
+// The warning of a capture of "frames": "auto" that took every frame
+// without reaching the parallax it asked for.
+std::string LittleMotion(const BurstLength& length, const BurstLengthOptions& options) {
+  char message[256];
+  std::snprintf(message, sizeof message,
+                "little motion: over all %d frames the parallax reached %.2f px of the %.2f px "
+                "asked; the depth is coarser than it would be with more motion",
+                length.frames, length.parallax_px, options.target_parallax_px);
+  return message;
 }
 
 }  // namespace
@@ -77,7 +102,22 @@ void JobProcessor::Process(const std::string& id, std::shared_ptr<const Burst> p
     KnownCalibration known;
     if (calibration_ && calibration_->ForJob(job.options, burst->width(), burst->height(), &known))
       pipeline.sparse.known = known;
+    std::optional<BurstLength> length;
+    if (job.options.auto_frames) {
+      length = ChooseBurstLength(*burst, pipeline.sparse, burst_length_);
+      job.input["auto_frames"] = ToJson(*length, burst->size(), burst_length_);
+      if (length->reason == BurstLengthReason::kTooStill) {
+        Finish(&job, false, TooStill(*length, burst_length_));
+        return;
+      }
+      burst = std::make_shared<Burst>(FramesFromReference(*burst, length->frames));
+    }
     PipelineOutput output = RunPipeline(*burst, pipeline, report);
+    if (length) {
+      output.result.extra["auto_frames"] = job.input["auto_frames"];
+      if (length->reason == BurstLengthReason::kAllFrames && output.result.ok)
+        output.result.warnings.push_back(LittleMotion(*length, burst_length_));
+    }
     if (calibration_ && output.result.ok && output.sparse)
       output.result.extra["calibration_fusion"] =
           calibration_->Record(id, job.options, NowUnixMs(), *output.sparse);

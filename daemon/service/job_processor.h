@@ -9,6 +9,7 @@
 #include <string>
 
 #include "core/io/burst.h"
+#include "core/pipeline/burst_length.h"
 #include "daemon/service/burst_persister.h"
 #include "daemon/service/calibration_keeper.h"
 #include "daemon/service/config.h"
@@ -30,13 +31,16 @@ class JobProcessor {
 
   // `calibration` may be null: every job then calibrates alone. `persister`
   // may be null where no job is a capture stored in the background.
+  // `burst_length`: how a capture of "frames": "auto" keeps its frames.
   JobProcessor(JobStore* store, Metrics* metrics, RetentionSection retention,
-               CalibrationKeeper* calibration = nullptr, BurstPersister* persister = nullptr)
+               CalibrationKeeper* calibration = nullptr, BurstPersister* persister = nullptr,
+               BurstLengthOptions burst_length = {})
       : store_(store),
         metrics_(metrics),
         retention_(retention),
         calibration_(calibration),
-        persister_(persister) {}
+        persister_(persister),
+        burst_length_(std::move(burst_length)) {}
 
   // Never throws.
   void Process(const std::string& id, std::shared_ptr<const Burst> preloaded);
@@ -54,6 +58,7 @@ class JobProcessor {
   const RetentionSection retention_;
   CalibrationKeeper* calibration_;
   BurstPersister* persister_;
+  const BurstLengthOptions burst_length_;
   JobProgressModel progress_;
 };
 

@@ -69,6 +69,23 @@ TEST(JobTest, StoredRecordsLoadAndRoundTrip) {
   EXPECT_EQ(JobFromJson(old).options.when, BurstWhen::kLast);
 }
 
+// "frames": "auto" is stored as the request gave it, with its max_frames.
+TEST(JobTest, AutoFramesRoundTripWithTheirMaximum) {
+  Job job;
+  job.id = "j1700000000000-00ab";
+  job.options.auto_frames = true;
+  job.options.frames = 24;
+  const nlohmann::json json = ToJson(job);
+  EXPECT_EQ(json.at("options").at("frames"), "auto");
+  EXPECT_EQ(json.at("options").at("max_frames"), 24);
+  const Job loaded = JobFromJson(json);
+  EXPECT_TRUE(loaded.options.auto_frames);
+  EXPECT_EQ(loaded.options.frames, 24);
+  job.options.auto_frames = false;
+  EXPECT_FALSE(ToJson(job).at("options").contains("max_frames"));
+  EXPECT_FALSE(JobFromJson(ToJson(job)).options.auto_frames);
+}
+
 TEST(JobTest, AnUnknownStoredOptionIsNamedWithItsValue) {
   const std::string when = RecordErrorOf(StoredRecord("soon", "rank1"));
   EXPECT_NE(when.find("options.when"), std::string::npos) << when;

@@ -231,6 +231,59 @@ TEST_F(DfsmdTest, CaptureThenFetchEveryOutput) {
   EXPECT_EQ(daemon->Stop(SIGTERM), 0) << daemon->Log();
 }
 
+// "frames": "auto": the job keeps the frames nearest the trigger that its
+// parallax needs and says what it took and why; a camera that only turns
+// gets "move the camera a little" instead of a depth map.
+TEST_F(DfsmdTest, AutoFramesTakeWhatTheParallaxNeedsOrAskForMotion) {
+  // One "auto" capture of 20 frames from a dfsmd replaying a burst that
+  // moved `baseline` metres while it turned 1 deg: the finished job, and its
+  // result.json where it succeeded.
+  const auto capture = [&](const std::string& name, double baseline,
+                           const std::vector<std::string>& extra) {
+    SynthOptions options;
+    options.width = 320;
+    options.height = 240;
+    options.frames = 20;
+    options.seed = 5;
+    options.supersampling = 1;
+    options.baseline = baseline;
+    options.rotation_deg = 1.0;
+    WriteSynthBurst(dir_ / name, SynthesizeBurst(options));
+    std::vector<std::string> args = {"--capture.source",  "replay:" + (dir_ / name).string(),
+                                     "--jobs.state_dir",  (dir_ / ("state-" + name)).string(),
+                                     "--pipeline.planes", "32"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    DfsmdProcess daemon(DFSMD_BINARY, args, dir_ / (name + ".log"));
+    EXPECT_TRUE(daemon.ok()) << daemon.Log();
+    httplib::Client client = daemon.Client();
+    const std::string location = Accepted(
+        client.Post("/api/v1/captures", R"({"frames":"auto","max_frames":20,"when":"next"})",
+                    "application/json"));
+    const json job = AwaitFinished(client, location, kJobTimeout);
+    const auto result = client.Get((location + "/result.json").c_str());
+    return std::make_pair(job,
+                          result && result->status == 200 ? json::parse(result->body) : json());
+  };
+  const auto [moving, result] =
+      capture("moving", 0.02,
+              {"--pipeline.auto_parallax_px", "0.3", "--pipeline.still_parallax_px", "0.1"});
+  ASSERT_EQ(moving["status"], "succeeded") << moving.dump(2);
+  EXPECT_EQ(moving["options"]["frames"], "auto");
+  EXPECT_EQ(moving["options"]["max_frames"], 20);
+  const json& taken = result.at("auto_frames");
+  EXPECT_EQ(taken, moving["input"]["auto_frames"]);
+  EXPECT_EQ(taken["reason"], "parallax reached") << taken.dump();
+  EXPECT_EQ(taken["frames"], 10);
+  EXPECT_EQ(taken["of"], 20);
+  EXPECT_EQ(result["poses"].size(), 10u);
+
+  const json turning = capture("turning", 0.0, {}).first;
+  ASSERT_EQ(turning["status"], "failed") << turning.dump(2);
+  EXPECT_NE(turning["error"].get<std::string>().find("move the camera a little"), std::string::npos)
+      << turning.dump(2);
+  EXPECT_EQ(turning["input"]["auto_frames"]["reason"], "too still");
+}
+
 TEST_F(DfsmdTest, UploadedBurstIsProcessedTheSameWay) {
   auto daemon = Start();
   httplib::Client client = daemon->Client();
