@@ -346,7 +346,7 @@ function fmtTime(ms) {
 
 // What to do about a failed burst, by the reason the pipeline gave.
 const ADVICE = [
-  [/insufficient parallax|too little baseline/, 'Too little motion: hold the camera by hand (not on a tripod or a table), as still as for a photo, and capture again; the tremor does the rest.'],
+  [/insufficient parallax|too little baseline|move the camera a little/, 'Too little motion: hold the camera by hand (not on a tripod or a table), as still as for a photo, and capture again; the tremor does the rest.'],
   [/too few (consistent )?tracks/, 'Too little to track: aim at a textured, well-lit scene a few metres away, and hold the camera steadier (less blur).'],
   [/needs at least 3 frames/, 'Capture more frames (10-30).'],
 ];
@@ -479,13 +479,13 @@ async function pollFor(ms, why) {
 async function trigger(event) {
   event.preventDefault();
   const button = $('trigger-button');
-  const body = {
-    frames: Number($('trigger-frames').value),
-    when: $('trigger-when').value,
-    planes: Number($('trigger-planes').value),
-  };
+  const frames = Number($('trigger-frames').value);
+  // "auto": the job keeps as many of them as its parallax needs.
+  const body = $('trigger-auto').checked ? {frames: 'auto', max_frames: frames} : {frames};
+  body.when = $('trigger-when').value;
+  body.planes = Number($('trigger-planes').value);
   button.disabled = true;
-  const wait = body.when === 'next' ? message(`waiting for the next ${body.frames} frames…`, 'notice') : null;
+  const wait = body.when === 'next' ? message(`waiting for the next ${frames} frames…`, 'notice') : null;
   try {
     const response = await api('api/v1/captures', {
       method: 'POST', headers: {'Content-Type': 'application/json'}, body: JSON.stringify(body)});
@@ -650,6 +650,8 @@ function renderSummary(job, res) {
   // The verdict on the depth map as a whole: "unreliable" is a map likely flattened or inverted.
   if (res.depth_verdict && res.depth_verdict.quality) parts.push(`depth ${res.depth_verdict.quality}`);
   if (res.input) parts.push(`${res.input.frames} frames of ${res.input.width}x${res.input.height}`);
+  // "frames": "auto": how many of the frames taken the motion needed, and why.
+  if (res.auto_frames) parts.push(`kept ${res.auto_frames.frames} of ${res.auto_frames.of} frames (${res.auto_frames.reason})`);
   if (res.untracked_frames && res.untracked_frames.length)
     parts.push(`${res.untracked_frames.length} frame${res.untracked_frames.length > 1 ? 's' : ''} left out (lost by the tracker)`);
   // What the burst's motion gave: its parallax, and the precision of the focal length it measured.
