@@ -27,6 +27,7 @@
 #include <string>
 #include <vector>
 
+#include "bench/report_options.h"
 #include "core/pipeline/evaluation.h"
 #include "core/pipeline/pipeline.h"
 #include "core/synth/burst_synthesizer.h"
@@ -155,32 +156,37 @@ int main(int argc, char** argv) {
   double scale = 2.0;
   std::string camera = "phone", burst;
   dfsm::BurstLengthOptions options;
-  for (int i = 1; i < argc; ++i) {
-    const bool value = i + 1 < argc;
-    if (!std::strcmp(argv[i], "--bursts") && value)
-      bursts = std::atoi(argv[++i]);
-    else if (!std::strcmp(argv[i], "--seed") && value)
-      seed = static_cast<unsigned>(std::atoi(argv[++i]));
-    else if (!std::strcmp(argv[i], "--camera") && value)
-      camera = argv[++i];
-    else if (!std::strcmp(argv[i], "--frames") && value)
-      frames = std::atoi(argv[++i]);
-    else if (!std::strcmp(argv[i], "--motion-scale") && value)
-      scale = std::atof(argv[++i]);
-    else if (!std::strcmp(argv[i], "--target") && value)
-      options.target_parallax_px = std::atof(argv[++i]);
-    else if (!std::strcmp(argv[i], "--still") && value)
-      options.min_parallax_px = std::atof(argv[++i]);
-    else if (!std::strcmp(argv[i], "--burst") && value)
-      burst = argv[++i];
-    else {
-      std::fprintf(stderr,
-                   "usage: burst_length [--bursts N] [--seed S] [--camera ideal|webcam|phone]\n"
-                   "                    [--frames M] [--motion-scale X] [--target PX] "
-                   "[--still PX]\n"
-                   "       burst_length --burst DIR [--target PX] [--still PX]\n");
-      return 2;
+  try {
+    for (int i = 1; i < argc; ++i) {
+      const bool value = i + 1 < argc;
+      if (!std::strcmp(argv[i], "--bursts") && value)
+        bursts = dfsm::WholeNumber("--bursts", argv[++i], 1);
+      else if (!std::strcmp(argv[i], "--seed") && value)
+        seed = static_cast<unsigned>(dfsm::SeedNumber("--seed", argv[++i]));
+      else if (!std::strcmp(argv[i], "--camera") && value)
+        camera = argv[++i];
+      else if (!std::strcmp(argv[i], "--frames") && value)
+        frames = dfsm::WholeNumber("--frames", argv[++i], 3);
+      else if (!std::strcmp(argv[i], "--motion-scale") && value)
+        scale = dfsm::PositiveNumber("--motion-scale", argv[++i]);
+      else if (!std::strcmp(argv[i], "--target") && value)
+        options.target_parallax_px = dfsm::PositiveNumber("--target", argv[++i]);
+      else if (!std::strcmp(argv[i], "--still") && value)
+        options.min_parallax_px = dfsm::NonNegativeNumber("--still", argv[++i]);
+      else if (!std::strcmp(argv[i], "--burst") && value)
+        burst = argv[++i];
+      else {
+        std::fprintf(stderr,
+                     "usage: burst_length [--bursts N] [--seed S] [--camera ideal|webcam|phone]\n"
+                     "                    [--frames M] [--motion-scale X] [--target PX] "
+                     "[--still PX]\n"
+                     "       burst_length --burst DIR [--target PX] [--still PX]\n");
+        return 2;
+      }
     }
+  } catch (const std::invalid_argument& e) {
+    std::fprintf(stderr, "burst_length: %s\n", e.what());
+    return 2;
   }
   try {
     options.Check();

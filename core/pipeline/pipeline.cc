@@ -348,7 +348,9 @@ void RecordSparseDetail(const Burst& burst, const SparseReconstruction& sparse,
       {"rank1_iterations", sparse.rank_one.iterations},
       {"rank1_rms_residual_px", sparse.rank_one.rms_residual_px},
       {"median_track_motion_px", sparse.tracks.MedianMaxDisplacement()},
-      {"starts", StartsJson(sparse.starts)}};
+      {"starts", StartsJson(sparse.starts)},
+      {"mirrored_relief",
+       {{"cost_ratio", sparse.mirrored_relief_cost_ratio}, {"kept", sparse.mirrored_relief_kept}}}};
   const Parallax parallax = MeasureParallax(sparse.tracks, sparse.inliers, sparse.state,
                                             sparse.bundle_adjustment.rms_reprojection_px);
   result->extra["parallax"] = {{"median_px", parallax.median_px},

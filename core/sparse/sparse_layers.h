@@ -24,6 +24,7 @@ enum class SparseLayer {
   kOutlierRounds,        // tracks judged again under the adjusted camera
   kReweight,             // tracks weighed by their own noise
   kBootstrapBias,        // the intrinsics' bias from the tracks' noise
+  kMirroredRelief,       // the mirrored relief as one more start
   kLensRelief,           // the relief's shift under a k1-only lens model
   kKnownFitCheck,        // a known camera compared with the burst's own
   kUncheckedKnownRetry,  // the burst's own solution as a start, if needed

@@ -377,6 +377,56 @@ void ScaleToUnitMedianInverseDepth(SparseReconstruction* sparse) {
 // fallback, for a burst of width x height; `measure_lens_relief`: also
 // SparseReconstruction::lens_relief_shift (one adjustment more), which the
 // known-fit check's run of the burst alone does not read.
+// The mirror's cost over the solution's below which the mirror is kept.
+constexpr double kMirrorBetterRatio = 0.99;
+
+// `state` with its relief mirrored about the median inverse depth of the
+// tracks `use` marks, the translations reversed.
+SparseState MirroredRelief(const SparseState& state, const std::vector<bool>& use) {
+  std::vector<double> used;
+  for (size_t j = 0; j < use.size(); ++j)
+    if (use[j]) used.push_back(state.inverse_depths[j]);
+  std::nth_element(used.begin(), used.begin() + used.size() / 2, used.end());
+  const double median = used[used.size() / 2];
+  SparseState mirrored = state;
+  for (double& w : mirrored.inverse_depths) w = std::max(2.0 * median - w, 0.05 * median);
+  for (Pose& pose : mirrored.poses) pose.T = -pose.T;
+  return mirrored;
+}
+
+// SparseOptions::mirrored_relief: the solution and its mirror adjusted with
+// the intrinsics (and readout) held, the mirror's kept where its cost is
+// clearly lower; the summary then keeps the first adjustment's runs with the
+// mirror's final cost and RMS.
+void TryMirroredRelief(const FeatureTracks& tracks, const BundleAdjustmentOptions& adjust,
+                       AdjustmentAttempt* solved, SparseReconstruction* sparse) {
+  if (CountUsed(solved->use) < 3) return;
+  BundleAdjustmentOptions held = adjust;
+  held.fix_intrinsics = true;
+  held.estimate_readout = false;
+  SparseState solution = solved->state;
+  const BundleAdjustmentSummary at_solution =
+      RunBundleAdjustment(tracks, solved->use, &solution, held);
+  SparseState mirrored = MirroredRelief(solved->state, solved->use);
+  const BundleAdjustmentSummary from_mirror =
+      RunBundleAdjustment(tracks, solved->use, &mirrored, held);
+  sparse->mirrored_relief_cost_ratio =
+      from_mirror.final_cost / std::max(at_solution.final_cost, 1e-300);
+  // A mirror that came back to the solution ends within the solver's
+  // tolerance of its cost, above or below: only a clearly lower cost is
+  // another, better minimum.
+  if (!(sparse->mirrored_relief_cost_ratio < kMirrorBetterRatio)) return;
+  SettleSign(&mirrored, &solved->use);
+  solved->state = std::move(mirrored);
+  solved->summary.final_cost = from_mirror.final_cost;
+  solved->summary.rms_reprojection_px = from_mirror.rms_reprojection_px;
+  sparse->mirrored_relief_kept = true;
+  sparse->warnings.push_back(
+      "depth order: the mirrored relief (near and far exchanged) fits the tracks better than "
+      "the first solution (cost x" +
+      FixedText(sparse->mirrored_relief_cost_ratio, 3) + ") and was kept");
+}
+
 SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int height,
                                   const SparseOptions& options, bool measure_lens_relief,
                                   SharedWork* beside, const GivenStart* given = nullptr) {
@@ -403,6 +453,8 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
       options.known->also_self_calibrate)
     sparse.self_estimate = EstimateAlone(sparse.tracks, solved.use, solved.state, options);
   SettleSign(&solved.state, &solved.use);
+  if (options.mirrored_relief) TryMirroredRelief(sparse.tracks, adjust, &solved, &sparse);
+  timer.Lap("mirrored_relief");
   if (CountUsed(solved.use) < options.min_tracks)
     throw ReconstructionError("too few consistent tracks after bundle adjustment: " +
                               std::to_string(CountUsed(solved.use)) +

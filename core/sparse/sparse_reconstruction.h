@@ -144,6 +144,14 @@ struct SparseOptions {
   // Measure SparseReconstruction::lens_relief_shift (one adjustment more)
   // where the burst calibrates its own lens; the depth check reads it.
   bool measure_lens_relief = true;
+  // Small motion leaves a near-ambiguity in the depth order: the relief
+  // mirrored about its median inverse depth (near made far) with the
+  // translation reversed moves the tracks almost as the solution does, the
+  // rotation taking up the rest. The adjustment runs once more from that
+  // mirror, the intrinsics held, and the mirror's solution replaces the
+  // first where it fits the tracks better
+  // (SparseReconstruction::mirrored_relief; docs/experiments/007-relief-flip.md).
+  bool mirrored_relief = true;
   // A known calibration; without one the burst calibrates the camera alone.
   std::optional<KnownCalibration> known;
   // A known calibration (with check_fit, held fixed or as a prior) is
@@ -266,6 +274,11 @@ struct SparseReconstruction {
   // -1: not measured (intrinsics held or given as a
   // prior with its distortion, or a fallback camera).
   double lens_relief_shift = -1.0;
+  // The adjustment from the mirrored relief (SparseOptions::mirrored_relief):
+  // its cost over the solution's, both with the intrinsics held (1: it came
+  // back to the solution; -1: not run), and whether it replaced the solution.
+  double mirrored_relief_cost_ratio = -1.0;
+  bool mirrored_relief_kept = false;
   // The camera the adjustment estimated, when a fallback replaced it.
   std::optional<CameraModel> rejected_camera;
   CalibrationSource calibration_used = CalibrationSource::kSelf;

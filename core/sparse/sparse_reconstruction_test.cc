@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "core/sparse/sparse_layers.h"
 #include "tests/support/rolling_shutter_phone.h"
 #include "tests/support/track_simulator.h"
 
@@ -91,6 +92,22 @@ TEST(ReconstructFromTracks, CalibratesARollingShutterCameraFromItsTracks) {
       worst = std::max(
           worst, std::abs(scale * sparse.state.inverse_depths[j] / sim.inverse_depths[j] - 1.0));
   EXPECT_LT(worst, 0.25);
+}
+
+// The mirrored relief of a right solution fits the tracks no better (it
+// comes back, or stops in a worse minimum): the solution stays, exactly as
+// without the layer, and the ratio is reported.
+TEST(ReconstructFromTracks, TheMirroredReliefOfARightSolutionIsNotKept) {
+  const TrackSimulation sim = SimulateTracks(RollingShutterCamera());
+  const SparseReconstruction sparse =
+      ReconstructFromTracks(sim.tracks, 640, 480, EstimatingTheReadout());
+  EXPECT_GE(sparse.mirrored_relief_cost_ratio, 0.99);
+  EXPECT_FALSE(sparse.mirrored_relief_kept);
+  const SparseReconstruction without = ReconstructFromTracks(
+      sim.tracks, 640, 480, WithoutLayer(EstimatingTheReadout(), SparseLayer::kMirroredRelief));
+  EXPECT_EQ(without.mirrored_relief_cost_ratio, -1.0);
+  EXPECT_EQ(without.state.camera.f, sparse.state.camera.f);
+  EXPECT_EQ(without.state.inverse_depths, sparse.state.inverse_depths);
 }
 
 // A known camera 15 % off fits the tracks worse than the burst's own: the

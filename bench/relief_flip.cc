@@ -1,0 +1,187 @@
+// Can the tracks tell a relief from its mirror? Small motion leaves a
+// near-ambiguity: inverse depths mirrored about their median (near made far)
+// with the translation reversed move the tracks almost as the true ones do,
+// the rotation taking up the rest. A JSON report, not a timing benchmark
+// (docs/experiments/007-relief-flip.md): per burst, the order of the sparse
+// stage's inverse depths against the truth (Spearman's rho: +1 right, -1
+// inverted), and the adjustment's cost from the mirrored start against the
+// cost at the solution, both with the intrinsics held.
+//
+//   relief_flip [--bursts N] [--seed S] [--camera ideal|webcam|phone]
+//   relief_flip --tum DATASET [--start I] [--step J]
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <nlohmann/json.hpp>
+#include <numeric>
+#include <string>
+#include <vector>
+
+#include "bench/report_options.h"
+#include "bench/tum_sequence.h"
+#include "core/sparse/sparse_reconstruction.h"
+#include "core/synth/burst_synthesizer.h"
+#include "tests/support/calibration_sweep.h"
+
+namespace dfsm {
+namespace {
+
+std::vector<double> Ranks(const std::vector<double>& values) {
+  std::vector<int> order(values.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::sort(order.begin(), order.end(), [&](int a, int b) { return values[a] < values[b]; });
+  std::vector<double> ranks(values.size());
+  for (size_t r = 0; r < order.size(); ++r) ranks[order[r]] = static_cast<double>(r);
+  return ranks;
+}
+
+double Spearman(const std::vector<double>& a, const std::vector<double>& b) {
+  if (a.size() < 3) return 0.0;
+  const std::vector<double> ra = Ranks(a), rb = Ranks(b);
+  const double mean = (a.size() - 1) / 2.0;
+  double ab = 0, aa = 0, bb = 0;
+  for (size_t i = 0; i < a.size(); ++i) {
+    ab += (ra[i] - mean) * (rb[i] - mean);
+    aa += (ra[i] - mean) * (ra[i] - mean);
+    bb += (rb[i] - mean) * (rb[i] - mean);
+  }
+  return ab / std::sqrt(aa * bb);
+}
+
+// The order of `state`'s inverse depths against the true inverse depth at
+// each used track's reference pixel (0 where the truth has none: skipped).
+double OrderAgainstTruth(const SparseReconstruction& sparse, const SparseState& state,
+                         const cv::Mat& depth) {
+  std::vector<double> estimated, truth;
+  const Eigen::Matrix2Xd& pixels = sparse.tracks.pixels[sparse.tracks.reference];
+  for (int i = 0; i < sparse.tracks.num_tracks(); ++i) {
+    if (!sparse.inliers[i]) continue;
+    const int x = static_cast<int>(std::lround(pixels(0, i)));
+    const int y = static_cast<int>(std::lround(pixels(1, i)));
+    if (x < 0 || y < 0 || x >= depth.cols || y >= depth.rows) continue;
+    const float z = depth.at<float>(y, x);
+    if (!(z > 0.0f)) continue;
+    estimated.push_back(state.inverse_depths[i]);
+    truth.push_back(1.0 / z);
+  }
+  return Spearman(estimated, truth);
+}
+
+// `state` with its relief mirrored about the median inverse depth and its
+// translations reversed (kept in front of the camera).
+SparseState Mirrored(const SparseState& state) {
+  SparseState mirrored = state;
+  std::vector<double> sorted = state.inverse_depths;
+  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+  const double median = sorted[sorted.size() / 2];
+  for (double& w : mirrored.inverse_depths) w = std::max(2.0 * median - w, 0.05 * median);
+  for (Pose& pose : mirrored.poses) pose.T = -pose.T;
+  return mirrored;
+}
+
+nlohmann::json Compare(const std::string& name, const Burst& burst, const cv::Mat& depth) {
+  nlohmann::json line = {{"burst", name}};
+  SparseReconstruction sparse;
+  try {
+    SparseOptions options;
+    options.mirrored_relief = false;  // the ambiguity as the adjustment leaves it
+    sparse = ReconstructSparse(burst.gray, burst.reference(), options);
+  } catch (const ReconstructionError& e) {
+    line["error"] = e.what();
+    return line;
+  }
+  BundleAdjustmentOptions held;
+  held.fix_intrinsics = true;
+  held.max_iterations = 100;
+  SparseState at_solution = sparse.state;
+  const BundleAdjustmentSummary solution =
+      RunBundleAdjustment(sparse.tracks, sparse.inliers, &at_solution, held);
+  SparseState mirrored = Mirrored(sparse.state);
+  const double order_mirrored_start = OrderAgainstTruth(sparse, mirrored, depth);
+  const BundleAdjustmentSummary from_mirror =
+      RunBundleAdjustment(sparse.tracks, sparse.inliers, &mirrored, held);
+  line["order"] = OrderAgainstTruth(sparse, at_solution, depth);
+  line["order_mirrored_start"] = order_mirrored_start;
+  line["order_from_mirror"] = OrderAgainstTruth(sparse, mirrored, depth);
+  line["cost"] = solution.final_cost;
+  line["cost_from_mirror"] = from_mirror.final_cost;
+  line["cost_ratio"] = from_mirror.final_cost / std::max(solution.final_cost, 1e-12);
+  line["tracks"] = CountUsed(sparse.inliers);
+  line["f"] = sparse.state.camera.f;
+  return line;
+}
+
+int RunGenerated(int bursts, unsigned seed, const std::string& camera) {
+  for (const SynthOptions& settings :
+       CalibrationSweepSettings(bursts, seed, SweepFieldOfView::kNormal,
+                                CameraEffects::Preset(camera), SweepMotion::kTremor)) {
+    const SynthBurst synth = SynthesizeBurst(settings);
+    nlohmann::json line =
+        Compare(std::to_string(settings.width) + "x" + std::to_string(settings.height) + " seed " +
+                    std::to_string(settings.seed),
+                ToBurst(synth), synth.truth.depth);
+    line["rotation_deg"] = settings.rotation_deg;
+    std::printf("%s\n", line.dump().c_str());
+    std::fflush(stdout);
+  }
+  return 0;
+}
+
+int RunTum(const std::string& dataset, int start, int step) {
+  const TumSequence sequence(dataset);
+  if (sequence.empty()) {
+    std::fprintf(stderr, "%s: no TUM sequence\n", dataset.c_str());
+    return 1;
+  }
+  for (int first = start; first + 10 <= sequence.frames(); first += step) {
+    std::printf("%s\n", Compare("window " + std::to_string(first), sequence.Window(first, 10),
+                                sequence.ReferenceDepth(first, 10))
+                            .dump()
+                            .c_str());
+    std::fflush(stdout);
+  }
+  return 0;
+}
+
+}  // namespace
+}  // namespace dfsm
+
+int main(int argc, char** argv) {
+  int bursts = 16, start = 1, step = 12;
+  unsigned seed = 3;
+  std::string camera = "phone", tum;
+  try {
+    for (int i = 1; i < argc; ++i) {
+      const bool value = i + 1 < argc;
+      if (!std::strcmp(argv[i], "--bursts") && value)
+        bursts = dfsm::WholeNumber("--bursts", argv[++i], 1);
+      else if (!std::strcmp(argv[i], "--seed") && value)
+        seed = static_cast<unsigned>(dfsm::SeedNumber("--seed", argv[++i]));
+      else if (!std::strcmp(argv[i], "--camera") && value)
+        camera = argv[++i];
+      else if (!std::strcmp(argv[i], "--tum") && value)
+        tum = argv[++i];
+      else if (!std::strcmp(argv[i], "--start") && value)
+        start = dfsm::WholeNumber("--start", argv[++i], 0);
+      else if (!std::strcmp(argv[i], "--step") && value)
+        step = dfsm::WholeNumber("--step", argv[++i], 1);
+      else {
+        std::fprintf(stderr,
+                     "usage: relief_flip [--bursts N] [--seed S] [--camera ideal|webcam|phone]\n"
+                     "       relief_flip --tum DATASET [--start I] [--step J]\n");
+        return 2;
+      }
+    }
+  } catch (const std::invalid_argument& e) {
+    std::fprintf(stderr, "relief_flip: %s\n", e.what());
+    return 2;
+  }
+  try {
+    if (!tum.empty()) return dfsm::RunTum(tum, start, step);
+    return dfsm::RunGenerated(bursts, seed, camera);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "relief_flip: %s\n", e.what());
+    return 1;
+  }
+}
