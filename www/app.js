@@ -476,6 +476,14 @@ async function pollFor(ms, why) {
 // ---------------------------------------------------------------------------
 // Trigger and upload.
 
+// "auto" keeps as many of Frames as the motion needs: ticked, Frames becomes
+// a maximum, 30 where it was lower (and the ring holds that many).
+function autoFramesToggled() {
+  const frames = $('trigger-frames');
+  if ($('trigger-auto').checked && Number(frames.value) < 30)
+    frames.value = String(Math.min(30, Number(frames.max) || 30));
+}
+
 async function trigger(event) {
   event.preventDefault();
   const button = $('trigger-button');
@@ -1009,6 +1017,7 @@ function main() {
   bindDrop();
   bindHover();
   $('trigger-form').addEventListener('submit', trigger);
+  $('trigger-auto').addEventListener('change', autoFramesToggled);
   $('calibration-reset').addEventListener('click', resetFusion);
   refreshJobs().catch((e) => setConnection(e.status === 401 ? 'needs token' : 'offline', 'bad'));
   loadCalibration();

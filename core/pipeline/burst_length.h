@@ -1,9 +1,11 @@
 // dfsmd's "frames": "auto": of the frames a capture took, the burst keeps as
-// many as its motion needs for depth. The parallax is the sparse stage's own
-// (result.json's parallax.median_px: the tracks' motion with the rotation the
-// adjustment found taken out): a cheaper measure before reconstruction could
-// not tell a phone burst that moved 4 mm from one held still
-// (docs/experiments/006-burst-length.md). Lengths are tried fewest first, so
+// many as its motion needs for depth. The parallax is the sparse stage's, as
+// result.json's parallax.median_px measures it (the tracks' motion with the
+// rotation the adjustment found taken out), on the frames as captured: the
+// pipeline's exposure compensation and repeated-frame check come after the
+// choice, so its own figure differs a little. A cheaper measure before
+// reconstruction could not tell a phone burst that moved 4 mm from one held
+// still (docs/experiments/006-burst-length.md). Lengths are tried fewest first, so
 // a burst that moved enough costs one sparse stage more than a fixed one.
 #pragma once
 

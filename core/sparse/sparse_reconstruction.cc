@@ -396,8 +396,8 @@ SparseState MirroredRelief(const SparseState& state, const std::vector<bool>& us
 
 // SparseOptions::mirrored_relief: the solution and its mirror adjusted with
 // the intrinsics (and readout) held, the mirror's kept where its cost is
-// clearly lower; the summary then keeps the first adjustment's runs with the
-// mirror's final cost and RMS.
+// clearly lower, with the camera of the solution; the summary keeps the
+// solution's runs with the mirror's final cost and RMS.
 void TryMirroredRelief(const FeatureTracks& tracks, const BundleAdjustmentOptions& adjust,
                        AdjustmentAttempt* solved, SparseReconstruction* sparse) {
   if (CountUsed(solved->use) < 3) return;
@@ -416,10 +416,15 @@ void TryMirroredRelief(const FeatureTracks& tracks, const BundleAdjustmentOption
   // tolerance of its cost, above or below: only a clearly lower cost is
   // another, better minimum.
   if (!(sparse->mirrored_relief_cost_ratio < kMirrorBetterRatio)) return;
+  // Kept as the held adjustment left it: adjusting the intrinsics again from
+  // the mirror moved f by 8 % on the flower clip's naive start
+  // (docs/experiments/007-relief-flip.md). The noise bias was measured on
+  // the other relief and is dropped.
   SettleSign(&mirrored, &solved->use);
   solved->state = std::move(mirrored);
   solved->summary.final_cost = from_mirror.final_cost;
   solved->summary.rms_reprojection_px = from_mirror.rms_reprojection_px;
+  solved->bias.reset();
   sparse->mirrored_relief_kept = true;
   sparse->warnings.push_back(
       "depth order: the mirrored relief (near and far exchanged) fits the tracks better than "

@@ -87,9 +87,9 @@ struct PipelineSection {
   std::string rolling_shutter = kDefaultRollingShutter;
   bool dense = true;
   int burst_timeout_ms = 5000;  // "next" bursts wait at most this long
-  // A capture of "frames": "auto" (core/sparse/parallax_growth.h) takes at
-  // most max_frames, as few as reach auto_parallax_px of parallax, and is
-  // refused as too still where all max_frames stay below still_parallax_px.
+  // A capture of "frames": "auto" (core/pipeline/burst_length.h) takes
+  // max_frames; its job keeps as few as reach auto_parallax_px of parallax,
+  // and fails as too still where all stay below still_parallax_px.
   int max_frames = 30;
   double auto_parallax_px = 2.0;
   double still_parallax_px = 0.5;

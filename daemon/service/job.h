@@ -30,7 +30,8 @@ inline bool IsFinished(JobStatus status) {
 struct JobOptions {
   int frames = 10;
   // Captures only ("frames": "auto"): `frames` is then the most the capture
-  // takes, and it keeps as many as its parallax needs (burst_trim.h).
+  // takes, and its job keeps as many as its parallax needs
+  // (core/pipeline/burst_length.h).
   bool auto_frames = false;
   // Captures only; an upload has none (stored and reported as "").
   std::optional<BurstWhen> when = BurstWhen::kLast;

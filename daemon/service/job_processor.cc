@@ -115,7 +115,8 @@ void JobProcessor::Process(const std::string& id, std::shared_ptr<const Burst> p
     PipelineOutput output = RunPipeline(*burst, pipeline, report);
     if (length) {
       output.result.extra["auto_frames"] = job.input["auto_frames"];
-      if (length->reason == BurstLengthReason::kAllFrames && output.result.ok)
+      if (length->reason == BurstLengthReason::kAllFrames && output.result.ok &&
+          length->trials.back().error.empty())
         output.result.warnings.push_back(LittleMotion(*length, burst_length_));
     }
     if (calibration_ && output.result.ok && output.sparse)
