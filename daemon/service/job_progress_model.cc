@@ -26,6 +26,7 @@ constexpr Lap kLaps[] = {
     {"later_starts", "sparse", 387},
     {"bias", "sparse", 103},
     {"reweight", "sparse", 33},
+    {"mirrored_relief", "sparse", 40},
     {"uncertainty", "sparse", 13},
     {"lens_check", "sparse", 9},
     {"frames", "dense", 1},
