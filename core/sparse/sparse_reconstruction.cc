@@ -372,11 +372,6 @@ void ScaleToUnitMedianInverseDepth(SparseReconstruction* sparse) {
   for (Pose& pose : result.poses) pose.T *= median;
 }
 
-// Everything after the tracking (`sparse` holds the tracks): the
-// initialization, the adjustment and its outlier rounds, the verdict and any
-// fallback, for a burst of width x height; `measure_lens_relief`: also
-// SparseReconstruction::lens_relief_shift (one adjustment more), which the
-// known-fit check's run of the burst alone does not read.
 // The mirror's cost over the solution's below which the mirror is kept.
 constexpr double kMirrorBetterRatio = 0.99;
 
@@ -432,6 +427,11 @@ void TryMirroredRelief(const FeatureTracks& tracks, const BundleAdjustmentOption
       FixedText(sparse->mirrored_relief_cost_ratio, 3) + ") and was kept");
 }
 
+// Everything after the tracking (`sparse` holds the tracks): the
+// initialization, the adjustment and its outlier rounds, the verdict and any
+// fallback, for a burst of width x height; `measure_lens_relief`: also
+// SparseReconstruction::lens_relief_shift (one adjustment more), which the
+// known-fit check's run of the burst alone does not read.
 SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int height,
                                   const SparseOptions& options, bool measure_lens_relief,
                                   SharedWork* beside, const GivenStart* given = nullptr) {
