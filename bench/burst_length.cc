@@ -28,6 +28,7 @@
 #include <vector>
 
 #include "bench/report_options.h"
+#include "bench/tum_sequence.h"
 #include "core/pipeline/evaluation.h"
 #include "core/pipeline/pipeline.h"
 #include "core/synth/burst_synthesizer.h"
@@ -35,13 +36,6 @@
 
 namespace dfsm {
 namespace {
-
-double Median(std::vector<double> values) {
-  if (values.empty()) return 0.0;
-  std::sort(values.begin(), values.end());
-  const size_t n = values.size();
-  return n % 2 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
-}
 
 struct Outcome {
   std::map<int, double> abs_rel;  // by frames; absent where the pipeline failed
@@ -125,9 +119,9 @@ int RunGenerated(int bursts, unsigned seed, const std::string& camera, int frame
       {"bursts", sweep.size()},
       {"target_parallax_px", options.target_parallax_px},
       {"min_parallax_px", options.min_parallax_px},
-      {"median_abs_rel_chosen", Median(chosen)},
-      {"median_abs_rel_10_frames", Median(ten)},
-      {"median_abs_rel_all_frames", Median(all)},
+      {"median_abs_rel_chosen", WindowMedian(chosen)},
+      {"median_abs_rel_10_frames", WindowMedian(ten)},
+      {"median_abs_rel_all_frames", WindowMedian(all)},
       {"worst_abs_rel_chosen", *std::max_element(chosen.begin(), chosen.end())},
       {"mean_frames_chosen", frames_taken / sweep.size()},
       {"too_still", too_still}};
