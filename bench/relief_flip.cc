@@ -5,11 +5,15 @@
 // (docs/experiments/007-relief-flip.md): per burst, the order of the sparse
 // stage's inverse depths against the truth (Spearman's rho: +1 right, -1
 // inverted), and the adjustment's cost from the mirrored start against the
-// cost at the solution, both with the intrinsics held.
+// cost at the solution, both with the intrinsics held. On a TUM sequence
+// with a motion capture (groundtruth.txt), also the adjustment from its
+// poses and the Kinect's inverse depths: whether the solution's minimum or
+// its start keeps it from the truth (docs/experiments/008-motion-capture-poses.md).
 //
 //   relief_flip [--bursts N] [--seed S] [--camera ideal|webcam|phone]
 //   relief_flip --tum DATASET [--start I] [--step J]
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -80,7 +84,53 @@ SparseState Mirrored(const SparseState& state) {
   return mirrored;
 }
 
-nlohmann::json Compare(const std::string& name, const Burst& burst, const cv::Mat& depth) {
+// `state` moved to the motion capture's poses and the Kinect's inverse depth
+// at each track's reference pixel (the median where it has none), scaled to
+// `state`'s median inverse depth; its camera and readout kept.
+SparseState FromMotionCapture(const SparseReconstruction& sparse, const SparseState& state,
+                              const std::vector<Pose>& truth, const cv::Mat& depth) {
+  SparseState moved = state;
+  const Eigen::Matrix2Xd& pixels = sparse.tracks.pixels[sparse.tracks.reference];
+  std::vector<double> measured;
+  for (int i = 0; i < sparse.tracks.num_tracks(); ++i) {
+    const int x = static_cast<int>(std::lround(pixels(0, i)));
+    const int y = static_cast<int>(std::lround(pixels(1, i)));
+    const bool inside = x >= 0 && y >= 0 && x < depth.cols && y < depth.rows;
+    const float z = inside ? depth.at<float>(y, x) : 0.0f;
+    moved.inverse_depths[i] = z > 0.0f ? 1.0 / z : -1.0;
+    if (z > 0.0f) measured.push_back(1.0 / z);
+  }
+  std::vector<double> sorted = state.inverse_depths;
+  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+  std::nth_element(measured.begin(), measured.begin() + measured.size() / 2, measured.end());
+  const double true_median = measured[measured.size() / 2];
+  const double scale = sorted[sorted.size() / 2] / true_median;
+  for (double& w : moved.inverse_depths) w = scale * (w > 0.0 ? w : true_median);
+  for (size_t i = 0; i < moved.poses.size(); ++i) {
+    moved.poses[i].R = truth[i].R;
+    moved.poses[i].T = truth[i].T / scale;
+  }
+  return moved;
+}
+
+// The residual of `state`'s translations against the truth after one best
+// scale, a fraction of the true translations (0 exact, 1 unrelated).
+double TranslationResidual(const SparseState& state, const std::vector<Pose>& truth) {
+  double dot = 0.0, estimated_sq = 0.0, true_sq = 0.0;
+  for (size_t i = 0; i < truth.size(); ++i) {
+    dot += state.poses[i].T.dot(truth[i].T);
+    estimated_sq += state.poses[i].T.squaredNorm();
+    true_sq += truth[i].T.squaredNorm();
+  }
+  const double scale = estimated_sq > 0.0 ? dot / estimated_sq : 0.0;
+  double residual_sq = 0.0;
+  for (size_t i = 0; i < truth.size(); ++i)
+    residual_sq += (scale * state.poses[i].T - truth[i].T).squaredNorm();
+  return true_sq > 0.0 ? std::sqrt(residual_sq / true_sq) : 0.0;
+}
+
+nlohmann::json Compare(const std::string& name, const Burst& burst, const cv::Mat& depth,
+                       const std::vector<Pose>& truth = {}) {
   nlohmann::json line = {{"burst", name}};
   SparseReconstruction sparse;
   try {
@@ -107,6 +157,17 @@ nlohmann::json Compare(const std::string& name, const Burst& burst, const cv::Ma
   line["cost"] = solution.final_cost;
   line["cost_from_mirror"] = from_mirror.final_cost;
   line["cost_ratio"] = from_mirror.final_cost / std::max(solution.final_cost, 1e-12);
+  if (truth.size() == at_solution.poses.size()) {
+    SparseState from_truth = FromMotionCapture(sparse, at_solution, truth, depth);
+    line["translation_residual"] = TranslationResidual(at_solution, truth);
+    line["order_truth_start"] = OrderAgainstTruth(sparse, from_truth, depth);
+    const BundleAdjustmentSummary truth_run =
+        RunBundleAdjustment(sparse.tracks, sparse.inliers, &from_truth, held);
+    line["cost_from_truth"] = truth_run.final_cost;
+    line["cost_ratio_truth"] = truth_run.final_cost / std::max(solution.final_cost, 1e-12);
+    line["order_from_truth"] = OrderAgainstTruth(sparse, from_truth, depth);
+    line["translation_residual_from_truth"] = TranslationResidual(from_truth, truth);
+  }
   line["tracks"] = CountUsed(sparse.inliers);
   line["f"] = sparse.state.camera.f;
   return line;
@@ -136,7 +197,7 @@ int RunTum(const std::string& dataset, int start, int step) {
   }
   for (int first = start; first + 10 <= sequence.frames(); first += step) {
     std::printf("%s\n", Compare("window " + std::to_string(first), sequence.Window(first, 10),
-                                sequence.ReferenceDepth(first, 10))
+                                sequence.ReferenceDepth(first, 10), sequence.TruePoses(first, 10))
                             .dump()
                             .c_str());
     std::fflush(stdout);

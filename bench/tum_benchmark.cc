@@ -9,9 +9,18 @@
 //   tum_benchmark [--dataset DIR] [--frames N] [--step S] [--start K] [--calibration FILE]
 //                 [--rolling-shutter global|estimate|R] [--pictures DIR]
 //                 [--semi-global off|P1:P2] [--downscale N] [--without LAYER,...]
+//                 [--true-poses R]
 // --without: sparse layers switched off by name (core/sparse/sparse_layers.h).
 // --downscale 2 runs the same windows at 320x240 (frames area-averaged, the
 // Kinect depth and the calibration scaled to match; TumSequence).
+// Where the sequence has groundtruth.txt, each result's JSON line carries
+// `pose_error`: the estimated poses against the motion capture's (rotation
+// error in degrees, and the translations' residual after one best scale, a
+// fraction of the true translations: 0 exact, 1 unrelated, above 1 reversed).
+// --true-poses R adds a row "truth" per window: the dense stage alone with
+// the published camera, the motion capture's poses, readout R (a fraction of
+// the frame interval) and the Kinect's depth range: what the dense stage
+// makes of the window when the geometry is right.
 // --start K: the first window's first frame. ../shared/data/tum_fr1_rpy holds
 // eight windows of 12 frames (one before and one after the 10 that count), so
 // its windows are --dataset ../shared/data/tum_fr1_rpy --start 1 --step 12.
@@ -30,6 +39,7 @@
 #include "bench/report_options.h"
 #include "bench/tum_pictures.h"
 #include "bench/tum_sequence.h"
+#include "core/dense/dense_depth.h"
 #include "core/pipeline/evaluation.h"
 #include "core/pipeline/pipeline.h"
 #include "core/sparse/sparse_layers.h"
@@ -59,6 +69,49 @@ void ParseSemiGlobal(const std::string& text, DenseOptions* dense) {
   dense->semi_global.Check();
 }
 
+// The estimated poses against the true ones (both X_i = R_i X_ref + T_i).
+nlohmann::json PoseError(const std::vector<Pose>& estimated, const std::vector<Pose>& truth) {
+  if (estimated.size() != truth.size() || truth.empty()) return nullptr;
+  double rotation = 0.0, true_rotation = 0.0, dot = 0.0, estimated_sq = 0.0, true_sq = 0.0;
+  for (size_t i = 0; i < truth.size(); ++i) {
+    rotation = std::max(rotation, RotationErrorDeg(estimated[i].R, truth[i].R));
+    true_rotation =
+        std::max(true_rotation, RotationErrorDeg(Eigen::Matrix3d::Identity(), truth[i].R));
+    dot += estimated[i].T.dot(truth[i].T);
+    estimated_sq += estimated[i].T.squaredNorm();
+    true_sq += truth[i].T.squaredNorm();
+  }
+  const double scale = estimated_sq > 0.0 ? dot / estimated_sq : 0.0;
+  double residual_sq = 0.0, true_baseline = 0.0;
+  for (size_t i = 0; i < truth.size(); ++i) {
+    residual_sq += (scale * estimated[i].T - truth[i].T).squaredNorm();
+    true_baseline = std::max(true_baseline, truth[i].T.norm());
+  }
+  return {{"rotation_deg", rotation},
+          {"true_rotation_deg", true_rotation},
+          {"true_translation_mm", 1000.0 * true_baseline},
+          {"translation_residual", true_sq > 0.0 ? std::sqrt(residual_sq / true_sq) : 0.0},
+          {"translation_sign", scale >= 0.0 ? 1 : -1}};
+}
+
+// "0.42"; "-" for a negative value (none measured).
+std::string TwoDecimals(double value) {
+  if (value < 0.0) return "-";
+  char text[32];
+  std::snprintf(text, sizeof(text), "%.2f", value);
+  return text;
+}
+
+// The Kinect's inverse depths on a coarse grid: the swept range of a dense
+// stage given the true poses (metres).
+std::vector<double> TrueInverseDepths(const cv::Mat& truth) {
+  std::vector<double> inverse_depths;
+  for (int y = 0; y < truth.rows; y += 8)
+    for (int x = 0; x < truth.cols; x += 8)
+      if (truth.at<float>(y, x) > 0.0f) inverse_depths.push_back(1.0 / truth.at<float>(y, x));
+  return inverse_depths;
+}
+
 }  // namespace
 }  // namespace dfsm
 
@@ -68,6 +121,7 @@ int main(int argc, char** argv) {
   std::string calibration_file = TumFreiburg1CalibrationFile();
   std::string pictures;
   int frames = 10, step = 3, start = 0, downscale = 1;
+  double true_poses_readout = -1.0;  // --true-poses: none
   RollingShutterOptions rolling_shutter;
   DenseOptions dense;
   std::optional<TumSequence> opened;  // once the options are read
@@ -97,6 +151,8 @@ int main(int argc, char** argv) {
         downscale = WholeNumber("--downscale", value, 1);
       else if (option == "--without")
         sparse = WithoutLayers(sparse, value);
+      else if (option == "--true-poses")
+        true_poses_readout = NonNegativeNumber("--true-poses", value);
       else
         throw std::invalid_argument("unknown option " + option +
                                     " (see the comment at the top of bench/tum_benchmark.cc)");
@@ -129,13 +185,15 @@ int main(int argc, char** argv) {
     double relief_sigma = -1.0;  // the depth check's: the camera's noise on the relief
     std::string known_fit;       // "fits" | "does not fit" | "" (no calibration checked)
     bool ok = false;
-    int frames_left_out = 0;  // by the tracker (result.json's untracked_frames)
+    int frames_left_out = 0;             // by the tracker (result.json's untracked_frames)
+    double translation_residual = -1.0;  // against the motion capture; -1: none
   };
   std::vector<Row> rows;
   for (int first = start; first + frames <= sequence.frames(); first += step) {
     const Burst burst = sequence.Window(first, frames);
     const cv::Mat truth = sequence.ReferenceDepth(first, frames);
     const cv::Mat constant(truth.size(), CV_32FC1, cv::Scalar(1.0f));
+    const std::vector<Pose> true_poses = sequence.TruePoses(first, frames);
     std::vector<cv::Mat> picture_rows;
     for (const std::string mode : {"known", "self"}) {
       PipelineOptions options;
@@ -180,6 +238,19 @@ int main(int argc, char** argv) {
             output.result.extra.value("untracked_frames", nlohmann::json::array());
         line["warnings"] = output.result.warnings;
         line["known_fit"] = fit;
+        if (output.sparse) {
+          // The sparse stage's poses are those of the frames it kept.
+          std::vector<Pose> kept_truth;
+          for (size_t i = 0; i < true_poses.size(); ++i) {
+            bool left_out = false;
+            for (const nlohmann::json& frame : line["untracked_frames"])
+              left_out |= frame.value("frame", -1) == static_cast<int>(i);
+            if (!left_out) kept_truth.push_back(true_poses[i]);
+          }
+          line["pose_error"] = PoseError(output.sparse->state.poses, kept_truth);
+          if (line["pose_error"].is_object())
+            row.translation_residual = line["pose_error"]["translation_residual"];
+        }
         line.update({{"depth", ToJson(row.score)},
                      {"f", row.f},
                      {"rolling_shutter",
@@ -207,6 +278,33 @@ int main(int argc, char** argv) {
             made ? std::string(score) : "failed: " + output.result.error, baseline));
       }
     }
+    if (true_poses_readout >= 0.0 && !true_poses.empty()) {
+      DenseOptions given = dense;
+      given.readout = true_poses_readout;
+      const DenseDepth depth =
+          ComputeDenseDepth(burst, known.camera, true_poses, TrueInverseDepths(truth), given);
+      Row row;
+      row.first = first;
+      row.mode = "truth";
+      row.ok = true;
+      row.f = known.camera.f;
+      row.quality = "given";
+      row.verdict = "-";
+      row.constant = EvaluateDepth(constant, truth, cv::Mat());
+      row.score = EvaluateDepth(depth.depth, truth, cv::Mat());
+      if (!depth.depth_filled.empty())
+        row.filled = EvaluateDepth(depth.depth_filled, truth, cv::Mat());
+      nlohmann::json line = {{"first", first},
+                             {"frames", frames},
+                             {"mode", "truth"},
+                             {"readout", true_poses_readout},
+                             {"depth", ToJson(row.score)},
+                             {"filled", ToJson(row.filled)},
+                             {"constant", ToJson(row.constant)}};
+      std::printf("%s\n", line.dump().c_str());
+      std::fflush(stdout);
+      rows.push_back(row);
+    }
     if (!pictures.empty()) {
       cv::Mat picture;
       cv::vconcat(picture_rows, picture);
@@ -219,27 +317,28 @@ int main(int argc, char** argv) {
   std::printf(
       "\n| window | mode | f (px) | verdict | AbsRel | within 5 %% | within 25 %% | coverage | "
       "filled: AbsRel | filled: within 25 %% | filled: coverage | constant AbsRel | depth check "
-      "| relief sigma | known calibration | frames left out |\n"
-      "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+      "| relief sigma | known calibration | frames left out | translation residual |\n"
+      "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const Row& r : rows) {
     if (!r.ok) {
-      std::printf("| %d-%d | %s | failed |||||||||| %.1f %% |||||\n", r.first, r.first + frames - 1,
-                  r.mode.c_str(), 100.0 * r.constant.abs_rel);
+      std::printf("| %d-%d | %s | failed |||||||||| %.1f %% ||||||\n", r.first,
+                  r.first + frames - 1, r.mode.c_str(), 100.0 * r.constant.abs_rel);
       continue;
     }
     std::printf(
         "| %d-%d | %s | %.0f | %s | %.1f %% | %.1f %% | %.1f %% | %.1f %% | %.1f %% | %.1f %% | "
-        "%.1f %% | %.1f %% | %s (%.1f %%) | %.1f %% | %s | %d |\n",
+        "%.1f %% | %.1f %% | %s (%.1f %%) | %.1f %% | %s | %d | %s |\n",
         r.first, r.first + frames - 1, r.mode.c_str(), r.f, r.quality.c_str(),
         100.0 * r.score.abs_rel, 100.0 * r.score.within_5_percent,
         100.0 * r.score.within_25_percent, 100.0 * r.score.coverage, 100.0 * r.filled.abs_rel,
         100.0 * r.filled.within_25_percent, 100.0 * r.filled.coverage, 100.0 * r.constant.abs_rel,
         r.verdict.c_str(), 100.0 * r.disagreement, 100.0 * r.relief_sigma,
-        r.known_fit.empty() ? "-" : r.known_fit.c_str(), r.frames_left_out);
+        r.known_fit.empty() ? "-" : r.known_fit.c_str(), r.frames_left_out,
+        TwoDecimals(r.translation_residual).c_str());
   }
   // Over the windows with a result: a failed window has no score to count.
-  for (const std::string mode : {"known", "self"}) {
-    std::vector<double> abs_rel, filled, filled_within_25;
+  for (const std::string mode : {"known", "self", "truth"}) {
+    std::vector<double> abs_rel, filled, filled_within_25, translation_residual;
     int windows = 0, better = 0, worse_unflagged = 0;
     for (const Row& r : rows) {
       if (r.mode != mode) continue;
@@ -250,16 +349,19 @@ int main(int argc, char** argv) {
         abs_rel.push_back(r.score.abs_rel);
         filled.push_back(r.filled.abs_rel);
         filled_within_25.push_back(r.filled.within_25_percent);
+        if (r.translation_residual >= 0.0) translation_residual.push_back(r.translation_residual);
       }
     }
     if (!abs_rel.empty())
       std::printf(
           "median, %s: %zu of %d windows with a result, %d better than a constant, %d not "
           "better and not unreliable; AbsRel %.1f %%; filled: AbsRel %.1f %%, within 25 %% "
-          "%.1f %%\n",
+          "%.1f %%; translation residual %s\n",
           mode.c_str(), abs_rel.size(), windows, better, worse_unflagged,
           100.0 * WindowMedian(abs_rel), 100.0 * WindowMedian(filled),
-          100.0 * WindowMedian(filled_within_25));
+          100.0 * WindowMedian(filled_within_25),
+          TwoDecimals(translation_residual.empty() ? -1.0 : WindowMedian(translation_residual))
+              .c_str());
   }
   return 0;
 }

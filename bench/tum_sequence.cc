@@ -24,7 +24,8 @@ TumSequence::TumSequence(std::string dataset, int downscale)
     : dataset_(std::move(dataset)),
       downscale_(downscale),
       rgb_(ReadList(dataset_ + "/rgb.txt")),
-      depths_(ReadList(dataset_ + "/depth.txt")) {
+      depths_(ReadList(dataset_ + "/depth.txt")),
+      trajectory_(ReadTrajectory(dataset_ + "/groundtruth.txt")) {
   if (downscale < 1 || downscale > kMaxDownscale || kWidth % downscale != 0 ||
       kHeight % downscale != 0)
     throw std::invalid_argument(
@@ -42,6 +43,53 @@ std::vector<TumSequence::Stamped> TumSequence::ReadList(const std::string& path)
     if (fields >> s.time >> s.file) list.push_back(s);
   }
   return list;
+}
+
+std::vector<TumSequence::StampedPose> TumSequence::ReadTrajectory(const std::string& path) {
+  std::vector<StampedPose> trajectory;
+  std::ifstream in(path);
+  for (std::string line; std::getline(in, line);) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream fields(line);
+    StampedPose p;
+    double qx, qy, qz, qw;
+    if (fields >> p.time >> p.centre.x() >> p.centre.y() >> p.centre.z() >> qx >> qy >> qz >> qw) {
+      p.orientation = Eigen::Quaterniond(qw, qx, qy, qz).normalized();
+      trajectory.push_back(p);
+    }
+  }
+  return trajectory;
+}
+
+bool TumSequence::PoseAt(double time, Eigen::Vector3d* centre,
+                         Eigen::Quaterniond* orientation) const {
+  const auto after = std::lower_bound(trajectory_.begin(), trajectory_.end(), time,
+                                      [](const StampedPose& p, double t) { return p.time < t; });
+  if (after == trajectory_.begin() || after == trajectory_.end()) return false;
+  const StampedPose& before = *(after - 1);
+  const double w = (time - before.time) / (after->time - before.time);
+  *centre = (1.0 - w) * before.centre + w * after->centre;
+  *orientation = before.orientation.slerp(w, after->orientation);
+  return true;
+}
+
+std::vector<Pose> TumSequence::TruePoses(int first, int frames) const {
+  const int reference = first + frames / 2;
+  Eigen::Vector3d c_ref;
+  Eigen::Quaterniond q_ref;
+  if (!PoseAt(rgb_.at(reference).time, &c_ref, &q_ref)) return {};
+  std::vector<Pose> poses;
+  for (int i = first; i < first + frames; ++i) {
+    Eigen::Vector3d c;
+    Eigen::Quaterniond q;
+    if (!PoseAt(rgb_.at(i).time, &c, &q)) return {};
+    // X_w = R_wi X_i + c_i for every frame, so X_i = R_wi^T (R_wr X_ref + c_r - c_i).
+    Pose pose;
+    pose.R = (q.conjugate() * q_ref).toRotationMatrix();
+    pose.T = q.conjugate() * (c_ref - c);
+    poses.push_back(pose);
+  }
+  return poses;
 }
 
 Burst TumSequence::Window(int first, int frames) const {

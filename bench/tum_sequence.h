@@ -3,11 +3,13 @@
 // per line; depth PNGs are 16-bit, metres * 5000, 0 = no depth).
 #pragma once
 
+#include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 #include <string>
 #include <vector>
 
 #include "core/camera/camera_model.h"
+#include "core/camera/pose.h"
 #include "core/export/calibration_import.h"
 #include "core/io/burst.h"
 
@@ -57,6 +59,14 @@ class TumSequence {
   // surface has), 0 elsewhere.
   cv::Mat ReferenceDepth(int first, int frames) const;
 
+  // The motion-capture poses (groundtruth.txt: "time tx ty tz qx qy qz qw",
+  // the colour camera's centre and orientation in the world) of frames
+  // [first, first + frames), relative to the reference in the middle:
+  // X_i = R_i X_ref + T_i in metres, each interpolated at its frame's time
+  // (linearly, the rotation by slerp). Empty where the sequence has no
+  // ground truth or it does not bracket every frame's time.
+  std::vector<Pose> TruePoses(int first, int frames) const;
+
   // `camera`, calibrated at 640x480, for the frames this sequence serves:
   // f and the principal point scaled (ReducedPixel: block centres aligned as
   // cv::resize aligns them), the distortion, on normalized coordinates,
@@ -73,11 +83,20 @@ class TumSequence {
     double time;
     std::string file;
   };
+  struct StampedPose {
+    double time;
+    Eigen::Vector3d centre;
+    Eigen::Quaterniond orientation;  // camera to world
+  };
   static std::vector<Stamped> ReadList(const std::string& path);
+  static std::vector<StampedPose> ReadTrajectory(const std::string& path);
+  // The world-from-camera pose at `time`; false outside the trajectory.
+  bool PoseAt(double time, Eigen::Vector3d* centre, Eigen::Quaterniond* orientation) const;
 
   std::string dataset_;
   int downscale_;
   std::vector<Stamped> rgb_, depths_;
+  std::vector<StampedPose> trajectory_;
 };
 
 }  // namespace dfsm
