@@ -68,7 +68,7 @@ Outcome RunGeneratedBurst(const SynthOptions& settings, const BurstLengthOptions
   const SynthBurst synth = SynthesizeBurst(settings);
   const Burst burst = ToBurst(synth);
   Outcome outcome;
-  const BurstLength length = ChooseBurstLength(burst, SparseOptions(), options);
+  const BurstLength length = ChooseBurstLength(burst, PipelineOptions(), options);
   outcome.chosen = length.frames;
   outcome.too_still = length.reason == BurstLengthReason::kTooStill;
   nlohmann::json line = {{"width", settings.width},
@@ -133,7 +133,7 @@ int RunBurst(const std::string& dir, const BurstLengthOptions& options) {
   Burst burst = ReadBurst(dir);
   // A recorded clip's reference is often its middle; a capture's is an end.
   if (burst.reference() != 0 && burst.reference() != burst.size() - 1) burst.manifest.reference = 0;
-  const BurstLength length = ChooseBurstLength(burst, SparseOptions(), options);
+  const BurstLength length = ChooseBurstLength(burst, PipelineOptions(), options);
   std::printf("%s\n",
               nlohmann::json({{"burst", dir}, {"choice", ToJson(length, burst.size(), options)}})
                   .dump()

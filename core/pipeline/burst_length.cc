@@ -6,8 +6,7 @@
 
 #include "core/io/burst.h"
 #include "core/pipeline/frame_selection.h"
-#include "core/sparse/parallax.h"
-#include "core/sparse/sparse_reconstruction.h"
+#include "core/pipeline/pipeline.h"
 
 namespace dfsm {
 namespace {
@@ -16,20 +15,19 @@ void Require(bool holds, const std::string& what) {
   if (!holds) throw std::invalid_argument(what);
 }
 
-// The sparse stage's parallax of `burst`: its trial.
-BurstLengthTrial Try(const Burst& burst, const SparseOptions& sparse) {
+// The parallax the pipeline's sparse stage measures on `burst`: its trial.
+// The sparse stage refuses the cameras a run with the dense stage refuses.
+BurstLengthTrial Try(const Burst& burst, PipelineOptions sparse_only) {
+  if (sparse_only.run_dense && !sparse_only.sparse.camera_usable)
+    sparse_only.sparse.camera_usable = UsableByDenseStage;
+  sparse_only.run_dense = false;
+  const Result result = RunPipeline(burst, sparse_only).result;
   BurstLengthTrial trial;
   trial.frames = burst.size();
-  try {
-    const SparseReconstruction reconstruction =
-        ReconstructSparse(burst.gray, burst.reference(), sparse);
-    trial.parallax_px =
-        MeasureParallax(reconstruction.tracks, reconstruction.inliers, reconstruction.state,
-                        reconstruction.bundle_adjustment.rms_reprojection_px)
-            .median_px;
-  } catch (const ReconstructionError& e) {
-    trial.error = e.what();
-  }
+  if (result.ok)
+    trial.parallax_px = result.extra.at("parallax").at("median_px").get<double>();
+  else
+    trial.error = result.error;
   return trial;
 }
 
@@ -62,16 +60,14 @@ Burst FramesFromReference(const Burst& burst, int frames) {
   if (frames < 3 || frames > all)
     throw std::invalid_argument("FramesFromReference: " + std::to_string(frames) + " of " +
                                 std::to_string(all) + " frames");
-  const bool backward = burst.reference() == all - 1 && burst.reference() > 0;
+  const int first = std::clamp(burst.reference() - (frames - 1) / 2, 0, all - frames);
   std::vector<int> kept(frames);
-  for (int i = 0; i < frames; ++i) kept[i] = backward ? all - frames + i : i;
-  if (!backward && burst.reference() != 0)
-    throw std::invalid_argument("FramesFromReference: the reference is neither end of the burst");
+  for (int i = 0; i < frames; ++i) kept[i] = first + i;
   return SelectFrames(burst, kept);
 }
 
-BurstLength ChooseBurstLength(const Burst& burst, const SparseOptions& sparse,
-                              const BurstLengthOptions& options) {
+BurstLength ChooseBurstLength(const Burst& burst, const PipelineOptions& pipeline,
+                              const BurstLengthOptions& options, const ProgressCallback& progress) {
   options.Check();
   std::vector<int> lengths;
   for (const int frames : options.lengths)
@@ -79,7 +75,9 @@ BurstLength ChooseBurstLength(const Burst& burst, const SparseOptions& sparse,
   lengths.push_back(burst.size());
   BurstLength length;
   for (const int frames : lengths) {
-    length.trials.push_back(Try(FramesFromReference(burst, frames), sparse));
+    length.trials.push_back(Try(FramesFromReference(burst, frames), pipeline));
+    ReportProgress(progress, kBurstLengthLap, static_cast<int>(length.trials.size()),
+                   static_cast<int>(lengths.size()));
     const BurstLengthTrial& trial = length.trials.back();
     length.frames = frames;
     length.parallax_px = trial.parallax_px;

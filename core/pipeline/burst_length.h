@@ -1,25 +1,27 @@
 // dfsmd's "frames": "auto": of the frames a capture took, the burst keeps as
-// many as its motion needs for depth. The parallax is the sparse stage's, as
-// result.json's parallax.median_px measures it (the tracks' motion with the
-// rotation the adjustment found taken out), on the frames as captured: the
-// pipeline's exposure compensation and repeated-frame check come after the
-// choice, so its own figure differs a little. A cheaper measure before
-// reconstruction could not tell a phone burst that moved 4 mm from one held
-// still (docs/experiments/006-burst-length.md). Lengths are tried fewest first, so
-// a burst that moved enough costs one sparse stage more than a fixed one.
+// many as its motion needs for depth. The parallax is result.json's
+// parallax.median_px (the tracks' motion with the rotation the adjustment
+// found taken out) of the pipeline run without its dense stage: the same
+// repeated-frame check, exposure compensation and sparse stage as the run
+// that follows. A cheaper measure before reconstruction could not tell a
+// phone burst that moved 4 mm from one held still
+// (docs/experiments/006-burst-length.md). Lengths are tried fewest first, so a
+// burst that moved enough costs one sparse stage more than a fixed one.
 #pragma once
 
 #include <nlohmann/json_fwd.hpp>
 #include <string>
 #include <vector>
 
+#include "core/io/progress.h"
+
 namespace dfsm {
 
 // Declared only: dfsmd's job processor holds the options without the
 // pipeline's headers (Eigen's parameter names clash with <resolv.h>'s
 // macros, which the HTTP server brings in first).
-struct Burst;          // core/io/burst.h
-struct SparseOptions;  // core/sparse/sparse_reconstruction.h
+struct Burst;            // core/io/burst.h
+struct PipelineOptions;  // core/pipeline/pipeline.h
 
 struct BurstLengthOptions {
   // The lengths tried, ascending; those above the burst's frames are left
@@ -57,15 +59,21 @@ struct BurstLength {
   std::vector<BurstLengthTrial> trials;
 };
 
-// The frames of `burst` from its reference on, toward its far end: the
-// first `frames` where the reference is the first frame, the last ones where
-// it is the last (a capture's reference is the frame nearest its trigger).
+// The `frames` frames of `burst` nearest its reference: the first where the
+// reference is the first frame, the last where it is the last (a capture's
+// reference is the frame nearest its trigger), else those around it.
 Burst FramesFromReference(const Burst& burst, int frames);
 
+// The progress lap of the trials (core/io/progress.h): a fraction of the
+// lengths tried so far, of at most how many there are.
+inline constexpr const char* kBurstLengthLap = "auto_frames";
+
 // How many frames of `burst` (counted as FramesFromReference counts them) its
-// parallax needs under `sparse`.
-BurstLength ChooseBurstLength(const Burst& burst, const SparseOptions& sparse,
-                              const BurstLengthOptions& options);
+// parallax needs under `pipeline` (its dense stage is not run); `progress`
+// hears kBurstLengthLap after each trial.
+BurstLength ChooseBurstLength(const Burst& burst, const PipelineOptions& pipeline,
+                              const BurstLengthOptions& options,
+                              const ProgressCallback& progress = {});
 
 // result.json's "auto_frames": frames taken of how many, the parallax, the
 // target, the reason and every length tried.

@@ -5,7 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/io/burst.h"
-#include "core/sparse/sparse_reconstruction.h"
+#include "core/pipeline/pipeline.h"
 #include "core/synth/burst_synthesizer.h"
 
 namespace dfsm {
@@ -60,7 +60,8 @@ TEST(BurstLengthOptions, CheckNamesTheBadOption) {
 }
 
 // The frames nearest the reference: a capture's first frames where it took
-// the next ones, its last where it took those already in the ring.
+// the next ones, its last where it took those already in the ring, and
+// those around a reference between.
 TEST(FramesFromReference, TakesTheFramesNearestTheReference) {
   const Burst forward = FramesFromReference(Numbered(12, 0), 5);
   ASSERT_EQ(forward.size(), 5);
@@ -71,7 +72,11 @@ TEST(FramesFromReference, TakesTheFramesNearestTheReference) {
   EXPECT_EQ(backward.reference(), 4);
   EXPECT_EQ(backward.gray[0].at<uint8_t>(0, 0), 7);
   EXPECT_EQ(backward.gray[4].at<uint8_t>(0, 0), 11);
-  EXPECT_THROW(FramesFromReference(Numbered(12, 5), 5), std::invalid_argument);
+  const Burst around = FramesFromReference(Numbered(12, 5), 5);
+  EXPECT_EQ(around.reference(), 2);
+  EXPECT_EQ(around.gray[0].at<uint8_t>(0, 0), 3);
+  EXPECT_EQ(around.gray[4].at<uint8_t>(0, 0), 7);
+  EXPECT_EQ(FramesFromReference(Numbered(12, 10), 5).gray[0].at<uint8_t>(0, 0), 7);
   EXPECT_THROW(FramesFromReference(Numbered(12, 0), 13), std::invalid_argument);
 }
 
@@ -80,14 +85,14 @@ TEST(ChooseBurstLength, StopsWhereTheParallaxSufficesAndTakesAllWhereItDoesNot) 
   BurstLengthOptions options;
   options.target_parallax_px = 0.3;
   options.min_parallax_px = 0.1;
-  const BurstLength early = ChooseBurstLength(burst, SparseOptions(), options);
+  const BurstLength early = ChooseBurstLength(burst, PipelineOptions(), options);
   EXPECT_EQ(early.reason, BurstLengthReason::kParallaxReached);
   EXPECT_EQ(early.frames, 10);
   ASSERT_EQ(early.trials.size(), 1u);
   EXPECT_GE(early.parallax_px, 0.3);
 
   options.target_parallax_px = 1000.0;
-  const BurstLength all = ChooseBurstLength(burst, SparseOptions(), options);
+  const BurstLength all = ChooseBurstLength(burst, PipelineOptions(), options);
   EXPECT_EQ(all.reason, BurstLengthReason::kAllFrames);
   EXPECT_EQ(all.frames, 20);
   ASSERT_EQ(all.trials.size(), 3u);  // 10, 15, then all 20
@@ -100,11 +105,35 @@ TEST(ChooseBurstLength, StopsWhereTheParallaxSufficesAndTakesAllWhereItDoesNot) 
   EXPECT_EQ(json.at("trials").size(), 3u);
 }
 
+// A trial's parallax is the figure result.json gives for those frames: the
+// pipeline's own, after its exposure compensation (the frames here brighten
+// by 3 % each), and the progress hears each trial.
+TEST(ChooseBurstLength, TakesThePipelinesParallaxAndReportsEachTrial) {
+  Burst burst = Rendered(0.02, 1.0);
+  for (int i = 0; i < burst.size(); ++i) burst.gray[i].convertTo(burst.gray[i], -1, 1.0 + 0.03 * i);
+  BurstLengthOptions options;
+  options.target_parallax_px = 1000.0;
+  std::vector<double> fractions;
+  const BurstLength all = ChooseBurstLength(burst, PipelineOptions(), options,
+                                            [&](const std::string& lap, double fraction) {
+                                              EXPECT_EQ(lap, kBurstLengthLap);
+                                              fractions.push_back(fraction);
+                                            });
+  EXPECT_EQ(fractions, (std::vector<double>{1.0 / 3.0, 2.0 / 3.0, 1.0}));
+  ASSERT_EQ(all.trials.size(), 3u);
+  for (const BurstLengthTrial& trial : all.trials) {
+    const Result result = RunPipeline(FramesFromReference(burst, trial.frames), {}).result;
+    ASSERT_TRUE(result.ok) << result.error;
+    EXPECT_EQ(trial.parallax_px, result.extra.at("parallax").at("median_px").get<double>())
+        << trial.frames << " frames";
+  }
+}
+
 // A camera that turns and does not move shows no depth, however far it
 // turns: the burst is too still.
 TEST(ChooseBurstLength, ACameraThatOnlyTurnsIsTooStill) {
   const BurstLength length =
-      ChooseBurstLength(Rendered(0.0, 1.0), SparseOptions(), BurstLengthOptions());
+      ChooseBurstLength(Rendered(0.0, 1.0), PipelineOptions(), BurstLengthOptions());
   EXPECT_EQ(length.reason, BurstLengthReason::kTooStill) << ToJson(length, 20, {}).dump();
   EXPECT_LT(length.parallax_px, BurstLengthOptions().min_parallax_px);
 }

@@ -181,15 +181,7 @@ PipelineOptions ReportingTo(PipelineOptions options, const ProgressCallback& pro
 SparseOptions SparseOptionsForBurst(const Burst& burst, const PipelineOptions& options) {
   SparseOptions sparse_options = options.sparse;
   if (options.run_dense && !sparse_options.camera_usable)
-    sparse_options.camera_usable = [](const CameraModel& camera, std::string* why) {
-      try {
-        RadialInverse inverse(camera);
-        return true;
-      } catch (const std::invalid_argument& e) {
-        *why = std::string("cannot be inverted for the dense stage (") + e.what() + ")";
-        return false;
-      }
-    };
+    sparse_options.camera_usable = UsableByDenseStage;
   if (!sparse_options.known && burst.exif_focal_35mm && options.exif_focal_sigma_percent > 0.0) {
     KnownCalibration exif;
     exif.camera = CameraModel::Initial(burst.width(), burst.height());
@@ -415,6 +407,16 @@ void RunDenseStage(const Burst& compensated, const SparseReconstruction& sparse,
 }
 
 }  // namespace
+
+bool UsableByDenseStage(const CameraModel& camera, std::string* why) {
+  try {
+    RadialInverse inverse(camera);
+    return true;
+  } catch (const std::invalid_argument& e) {
+    *why = std::string("cannot be inverted for the dense stage (") + e.what() + ")";
+    return false;
+  }
+}
 
 void PipelineOptions::Check() const {
   sparse.Check();

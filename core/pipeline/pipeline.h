@@ -40,6 +40,11 @@ struct PipelineOutput {
   std::optional<DenseDepth> dense;
 };
 
+// Whether the dense stage can invert `camera`'s lens (why not, if not): the
+// SparseOptions::camera_usable a run with the dense stage gives the sparse
+// stage where the caller gave none.
+bool UsableByDenseStage(const CameraModel& camera, std::string* why);
+
 // Never throws for a burst the method cannot handle: the failure is reported in
 // the returned result (status "failed" with a named reason). `progress` hears
 // each lap of the stages as it ends (core/io/progress.h).

@@ -104,7 +104,7 @@ void JobProcessor::Process(const std::string& id, std::shared_ptr<const Burst> p
       pipeline.sparse.known = known;
     std::optional<BurstLength> length;
     if (job.options.auto_frames) {
-      length = ChooseBurstLength(*burst, pipeline.sparse, burst_length_);
+      length = ChooseBurstLength(*burst, pipeline, burst_length_, report);
       job.input["auto_frames"] = ToJson(*length, burst->size(), burst_length_);
       if (length->reason == BurstLengthReason::kTooStill) {
         Finish(&job, false, TooStill(*length, burst_length_));

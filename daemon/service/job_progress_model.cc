@@ -17,6 +17,7 @@ struct Lap {
 // laps (core/sparse), the dense stage's (core/dense), the processor's writing.
 constexpr Lap kLaps[] = {
     {"loading", "loading", 60},
+    {"auto_frames", "auto_frames", 0},  // "frames": "auto" only: the trials (burst_length.h)
     {"features", "features", 257},
     {"known_fit", "sparse", 0},  // under a known calibration only
     {"rotation", "sparse", 1},

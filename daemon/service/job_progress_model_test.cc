@@ -6,6 +6,7 @@
 #include <utility>
 #include <vector>
 
+#include "core/pipeline/burst_length.h"
 #include "core/pipeline/pipeline.h"
 #include "core/synth/burst_synthesizer.h"
 
@@ -61,6 +62,28 @@ TEST(JobProgressModel, KnowsEveryLapOfARealJobInTheOrderTheyRun) {
   EXPECT_EQ(JobProgressModel::StageOf(reports.laps.front()), std::string("features"));
   EXPECT_EQ(JobProgressModel::StageOf(reports.laps.back()), std::string("dense"));
   EXPECT_GT(*model.Progress("writing", 0.0), reports.progress.back() - 1e-12);
+}
+
+// A "frames": "auto" job first tries lengths of its burst (burst_length.h):
+// its own stage, before the features of the run that follows.
+TEST(JobProgressModel, PlacesTheAutoFramesTrialsBeforeTheRun) {
+  JobProgressModel model;
+  model.Learn({{kBurstLengthLap, 900.0}, {"features", 100.0}, {"dense", 500.0}});
+  std::vector<double> progress;
+  const Burst burst = SmallGeneratedBurst();
+  PipelineOptions options;
+  options.run_dense = false;
+  BurstLengthOptions lengths;
+  lengths.lengths = {4, 6};
+  lengths.target_parallax_px = 1000.0;  // every length is tried
+  ChooseBurstLength(burst, options, lengths, [&](const std::string& lap, double fraction) {
+    EXPECT_STREQ(JobProgressModel::StageOf(lap), "auto_frames");
+    progress.push_back(*model.Progress(lap, fraction));
+  });
+  ASSERT_EQ(progress.size(), 3u);  // 4, 6, then all 8 frames
+  EXPECT_GT(progress.front(), *model.Progress("loading", 1.0));
+  EXPECT_LT(progress[0], progress[1]);
+  EXPECT_DOUBLE_EQ(progress.back(), *model.Progress("features", 0.0));
 }
 
 // Under a known calibration the burst is first calibrated alone on the same
