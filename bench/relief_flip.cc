@@ -113,22 +113,6 @@ SparseState FromMotionCapture(const SparseReconstruction& sparse, const SparseSt
   return moved;
 }
 
-// The residual of `state`'s translations against the truth after one best
-// scale, a fraction of the true translations (0 exact, 1 unrelated).
-double TranslationResidual(const SparseState& state, const std::vector<Pose>& truth) {
-  double dot = 0.0, estimated_sq = 0.0, true_sq = 0.0;
-  for (size_t i = 0; i < truth.size(); ++i) {
-    dot += state.poses[i].T.dot(truth[i].T);
-    estimated_sq += state.poses[i].T.squaredNorm();
-    true_sq += truth[i].T.squaredNorm();
-  }
-  const double scale = estimated_sq > 0.0 ? dot / estimated_sq : 0.0;
-  double residual_sq = 0.0;
-  for (size_t i = 0; i < truth.size(); ++i)
-    residual_sq += (scale * state.poses[i].T - truth[i].T).squaredNorm();
-  return true_sq > 0.0 ? std::sqrt(residual_sq / true_sq) : 0.0;
-}
-
 nlohmann::json Compare(const std::string& name, const Burst& burst, const cv::Mat& depth,
                        const std::vector<Pose>& truth = {}) {
   nlohmann::json line = {{"burst", name}};
@@ -159,14 +143,14 @@ nlohmann::json Compare(const std::string& name, const Burst& burst, const cv::Ma
   line["cost_ratio"] = from_mirror.final_cost / std::max(solution.final_cost, 1e-12);
   if (truth.size() == at_solution.poses.size()) {
     SparseState from_truth = FromMotionCapture(sparse, at_solution, truth, depth);
-    line["translation_residual"] = TranslationResidual(at_solution, truth);
+    line["translation_residual"] = TranslationResidual(at_solution.poses, truth);
     line["order_truth_start"] = OrderAgainstTruth(sparse, from_truth, depth);
     const BundleAdjustmentSummary truth_run =
         RunBundleAdjustment(sparse.tracks, sparse.inliers, &from_truth, held);
     line["cost_from_truth"] = truth_run.final_cost;
     line["cost_ratio_truth"] = truth_run.final_cost / std::max(solution.final_cost, 1e-12);
     line["order_from_truth"] = OrderAgainstTruth(sparse, from_truth, depth);
-    line["translation_residual_from_truth"] = TranslationResidual(from_truth, truth);
+    line["translation_residual_from_truth"] = TranslationResidual(from_truth.poses, truth);
   }
   line["tracks"] = CountUsed(sparse.inliers);
   line["f"] = sparse.state.camera.f;

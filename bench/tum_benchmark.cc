@@ -72,25 +72,18 @@ void ParseSemiGlobal(const std::string& text, DenseOptions* dense) {
 // The estimated poses against the true ones (both X_i = R_i X_ref + T_i).
 nlohmann::json PoseError(const std::vector<Pose>& estimated, const std::vector<Pose>& truth) {
   if (estimated.size() != truth.size() || truth.empty()) return nullptr;
-  double rotation = 0.0, true_rotation = 0.0, dot = 0.0, estimated_sq = 0.0, true_sq = 0.0;
+  double rotation = 0.0, true_rotation = 0.0, true_baseline = 0.0, scale = 0.0;
   for (size_t i = 0; i < truth.size(); ++i) {
     rotation = std::max(rotation, RotationErrorDeg(estimated[i].R, truth[i].R));
     true_rotation =
         std::max(true_rotation, RotationErrorDeg(Eigen::Matrix3d::Identity(), truth[i].R));
-    dot += estimated[i].T.dot(truth[i].T);
-    estimated_sq += estimated[i].T.squaredNorm();
-    true_sq += truth[i].T.squaredNorm();
-  }
-  const double scale = estimated_sq > 0.0 ? dot / estimated_sq : 0.0;
-  double residual_sq = 0.0, true_baseline = 0.0;
-  for (size_t i = 0; i < truth.size(); ++i) {
-    residual_sq += (scale * estimated[i].T - truth[i].T).squaredNorm();
     true_baseline = std::max(true_baseline, truth[i].T.norm());
   }
+  const double residual = TranslationResidual(estimated, truth, &scale);
   return {{"rotation_deg", rotation},
           {"true_rotation_deg", true_rotation},
           {"true_translation_mm", 1000.0 * true_baseline},
-          {"translation_residual", true_sq > 0.0 ? std::sqrt(residual_sq / true_sq) : 0.0},
+          {"translation_residual", residual},
           {"translation_sign", scale >= 0.0 ? 1 : -1}};
 }
 
@@ -240,12 +233,11 @@ int main(int argc, char** argv) {
         line["known_fit"] = fit;
         if (output.sparse) {
           // The sparse stage's poses are those of the frames it kept.
-          std::vector<Pose> kept_truth;
-          for (size_t i = 0; i < true_poses.size(); ++i) {
-            bool left_out = false;
-            for (const nlohmann::json& frame : line["untracked_frames"])
-              left_out |= frame.value("frame", -1) == static_cast<int>(i);
-            if (!left_out) kept_truth.push_back(true_poses[i]);
+          const GridedFeatureStats& stats = output.sparse->feature_stats;
+          std::vector<Pose> kept_truth = true_poses;
+          if (!stats.left_out.empty() && !true_poses.empty()) {
+            kept_truth.clear();
+            for (const int frame : stats.kept_frames) kept_truth.push_back(true_poses[frame]);
           }
           line["pose_error"] = PoseError(output.sparse->state.poses, kept_truth);
           if (line["pose_error"].is_object())

@@ -14,6 +14,22 @@ std::string TumFreiburg1CalibrationFile() {
   return std::string(DFSM_SOURCE_DIR) + "/bench/data/tum_freiburg1.yaml";
 }
 
+double TranslationResidual(const std::vector<Pose>& estimated, const std::vector<Pose>& truth,
+                           double* scale) {
+  double dot = 0.0, estimated_sq = 0.0, true_sq = 0.0;
+  for (size_t i = 0; i < truth.size(); ++i) {
+    dot += estimated[i].T.dot(truth[i].T);
+    estimated_sq += estimated[i].T.squaredNorm();
+    true_sq += truth[i].T.squaredNorm();
+  }
+  const double best = estimated_sq > 0.0 ? dot / estimated_sq : 0.0;
+  if (scale) *scale = best;
+  double residual_sq = 0.0;
+  for (size_t i = 0; i < truth.size(); ++i)
+    residual_sq += (best * estimated[i].T - truth[i].T).squaredNorm();
+  return true_sq > 0.0 ? std::sqrt(residual_sq / true_sq) : 0.0;
+}
+
 double WindowMedian(std::vector<double> values) {
   std::sort(values.begin(), values.end());
   const size_t n = values.size();

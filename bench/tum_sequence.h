@@ -19,6 +19,13 @@ namespace dfsm {
 // fitted to ha2016-d2u: bench/data/tum_freiburg1.yaml.
 std::string TumFreiburg1CalibrationFile();
 
+// The residual of `estimated`'s translations against `truth`'s (both
+// X_i = R_i X_ref + T_i, one per frame) after one best scale, a fraction of
+// the true translations: 0 exact, 1 unrelated, above 1 reversed. 0 where
+// the truth does not move; *scale (where given): that best scale.
+double TranslationResidual(const std::vector<Pose>& estimated, const std::vector<Pose>& truth,
+                           double* scale = nullptr);
+
 // The median over windows as the benchmark reports it and the tests bound
 // it: with an even count, the mean of the two middle values (0 when empty).
 double WindowMedian(std::vector<double> values);

@@ -16,12 +16,8 @@ void Require(bool holds, const std::string& what) {
 }
 
 // The parallax the pipeline's sparse stage measures on `burst`: its trial.
-// The sparse stage refuses the cameras a run with the dense stage refuses.
-BurstLengthTrial Try(const Burst& burst, PipelineOptions sparse_only) {
-  if (sparse_only.run_dense && !sparse_only.sparse.camera_usable)
-    sparse_only.sparse.camera_usable = UsableByDenseStage;
-  sparse_only.run_dense = false;
-  const Result result = RunPipeline(burst, sparse_only).result;
+BurstLengthTrial Try(const Burst& burst, const PipelineOptions& pipeline) {
+  const Result result = RunPipeline(burst, SparseStageOf(pipeline)).result;
   BurstLengthTrial trial;
   trial.frames = burst.size();
   if (result.ok)

@@ -175,6 +175,17 @@ PipelineOptions ReportingTo(PipelineOptions options, const ProgressCallback& pro
   return options;
 }
 
+// Whether the dense stage can invert `camera`'s lens (why not, if not).
+bool UsableByDenseStage(const CameraModel& camera, std::string* why) {
+  try {
+    RadialInverse inverse(camera);
+    return true;
+  } catch (const std::invalid_argument& e) {
+    *why = std::string("cannot be inverted for the dense stage (") + e.what() + ")";
+    return false;
+  }
+}
+
 // The sparse stage's options for this burst: where the dense stage runs, a
 // camera it cannot invert is refused (SparseOptions::camera_usable), and
 // without a known calibration the burst's EXIF focal length is a prior on f.
@@ -408,14 +419,11 @@ void RunDenseStage(const Burst& compensated, const SparseReconstruction& sparse,
 
 }  // namespace
 
-bool UsableByDenseStage(const CameraModel& camera, std::string* why) {
-  try {
-    RadialInverse inverse(camera);
-    return true;
-  } catch (const std::invalid_argument& e) {
-    *why = std::string("cannot be inverted for the dense stage (") + e.what() + ")";
-    return false;
-  }
+PipelineOptions SparseStageOf(PipelineOptions options) {
+  if (options.run_dense && !options.sparse.camera_usable)
+    options.sparse.camera_usable = UsableByDenseStage;
+  options.run_dense = false;
+  return options;
 }
 
 void PipelineOptions::Check() const {

@@ -40,10 +40,10 @@ struct PipelineOutput {
   std::optional<DenseDepth> dense;
 };
 
-// Whether the dense stage can invert `camera`'s lens (why not, if not): the
-// SparseOptions::camera_usable a run with the dense stage gives the sparse
-// stage where the caller gave none.
-bool UsableByDenseStage(const CameraModel& camera, std::string* why);
+// `options` without the dense stage, its sparse stage still refusing the
+// cameras the dense stage could not invert where `options` runs it: the
+// sparse stage of that run, as a trial of it (burst_length.h).
+PipelineOptions SparseStageOf(PipelineOptions options);
 
 // Never throws for a burst the method cannot handle: the failure is reported in
 // the returned result (status "failed" with a named reason). `progress` hears
