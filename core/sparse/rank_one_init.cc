@@ -128,31 +128,40 @@ int RefineBilinear(const DerotatedFlow& flow, Factors* f, const std::vector<bool
   int iteration = 0;
   std::vector<Eigen::Matrix<double, 2, 6>> J(frames);
   std::vector<Eigen::Vector2d> g(frames), r(frames);
+  // Per track j: h_ww = d^2 cost / d w_j^2, b_w its gradient and column j of
+  // H_tw = d^2 cost / d theta d w_j (every frame's six unknowns stacked). The
+  // Schur complement's correction H_tw diag(h_ww)^-1 H_tw^T is one
+  // symmetric product over all tracks, not a rank-1 update per track.
+  std::vector<double> h_ww(m), b_w(m);
+  Eigen::MatrixXd H_tw(unknowns, m), scaled(unknowns, m);
   for (; iteration < max_iterations && cost > 1e-30; ++iteration) {
     Eigen::MatrixXd S = Eigen::MatrixXd::Zero(unknowns, unknowns);
     Eigen::VectorXd rhs = Eigen::VectorXd::Zero(unknowns);
-    std::vector<double> h_ww(m, 0.0), b_w(m, 0.0);
-    std::vector<Eigen::VectorXd> h_tw(m);  // d^2 cost / d theta d w_j, all frames stacked
+    Eigen::VectorXd w_gradient = Eigen::VectorXd::Zero(m);  // b_w / h where h > 0
+    H_tw.setZero();
+    scaled.setZero();
     for (int j = 0; j < m; ++j) {
+      h_ww[j] = b_w[j] = 0.0;
       if (!use[j]) continue;
-      h_tw[j] = Eigen::VectorXd::Zero(unknowns);
       for (int k = 0; k < frames; ++k) {
         const Eigen::Vector2d& q = flow.q[k][j];
         g[k] = f->C[k].head<2>() - f->C[k].z() * q;  // d residual / d w, negated
         r[k] = Residual(flow.p[j], q, f->C[k], f->delta[k], f->w[j]);
-        J[k] << f->w[j], 0.0, -f->w[j] * q.x(), RotationalFlow(q).row(0), 0.0, f->w[j],
-            -f->w[j] * q.y(), RotationalFlow(q).row(1);
+        const Eigen::Matrix<double, 2, 3> B = RotationalFlow(q);
+        J[k] << f->w[j], 0.0, -f->w[j] * q.x(), B.row(0), 0.0, f->w[j], -f->w[j] * q.y(), B.row(1);
         h_ww[j] += g[k].squaredNorm();
         b_w[j] += g[k].dot(r[k]);
-        h_tw[j].segment<6>(6 * k) = J[k].transpose() * g[k];
+        H_tw.block<6, 1>(6 * k, j) = J[k].transpose() * g[k];
         S.block<6, 6>(6 * k, 6 * k) += J[k].transpose() * J[k];
         rhs.segment<6>(6 * k) += J[k].transpose() * r[k];
       }
       const double h = h_ww[j] * (1.0 + lambda);
       if (h <= 0.0) continue;
-      rhs -= h_tw[j] * (b_w[j] / h);
-      S.selfadjointView<Eigen::Lower>().rankUpdate(h_tw[j], -1.0 / h);
+      w_gradient(j) = b_w[j] / h;
+      scaled.col(j) = H_tw.col(j) / std::sqrt(h);
     }
+    rhs.noalias() -= H_tw * w_gradient;
+    S.selfadjointView<Eigen::Lower>().rankUpdate(scaled, -1.0);
     S = S.selfadjointView<Eigen::Lower>();
     // Damping also handles the scale gauge (C, w) -> (sC, w/s), along which S is singular.
     S.diagonal().array() += lambda * S.diagonal().array() + 1e-15;
@@ -162,10 +171,11 @@ int RefineBilinear(const DerotatedFlow& flow, Factors* f, const std::vector<bool
       trial.C[k] += step.segment<3>(6 * k);
       trial.delta[k] += step.segment<3>(6 * k + 3);
     }
+    const Eigen::VectorXd w_step = H_tw.transpose() * step;
     for (int j = 0; j < m; ++j) {
       const double h = h_ww[j] * (1.0 + lambda);
       if (!use[j] || h <= 0.0) continue;
-      trial.w[j] += (b_w[j] - h_tw[j].dot(step)) / h;
+      trial.w[j] += (b_w[j] - w_step(j)) / h;
     }
     NormalizeGauge(&trial, use);
     const double trial_cost = Cost(flow, trial, use);
