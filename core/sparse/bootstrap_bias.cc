@@ -9,9 +9,10 @@
 namespace dfsm {
 
 void BootstrapBiasOptions::Check() const {
-  if (replicas < 0 || replicas > 64)
-    throw std::invalid_argument("bootstrap replicas must be 0 (off) to 64, got " +
-                                std::to_string(replicas));
+  if (replicas < 0 || replicas > 64 || replicas % 2 != 0)
+    throw std::invalid_argument(
+        "bootstrap replicas must be an even number from 0 (off) to 64 (antithetic pairs), got " +
+        std::to_string(replicas));
   if (!(min_sigma_f_percent >= 0.0))
     throw std::invalid_argument("bootstrap min_sigma_f_percent must be >= 0");
   if (!(max_correction_percent > 0.0))
@@ -43,20 +44,21 @@ FeatureTracks ExplainedTracks(const FeatureTracks& tracks, const std::vector<boo
 }
 
 FeatureTracks ReplicaTracks(const FeatureTracks& explained, const std::vector<bool>& use,
-                            double noise_px, uint64_t seed) {
-  std::mt19937_64 rng(seed);
+                            double noise_px, uint64_t seed, int replica) {
+  std::mt19937_64 rng(seed + 7919 * static_cast<uint64_t>(replica / 2));
+  const double signed_noise_px = replica % 2 == 0 ? noise_px : -noise_px;
   std::normal_distribution<double> normal(0.0, 1.0);
-  FeatureTracks replica = explained;
+  FeatureTracks noisy = explained;
   for (int i = 0; i < explained.num_frames(); ++i) {
     if (i == explained.reference) continue;
     for (int j = 0; j < explained.num_tracks(); ++j) {
       // Drawn for every observation, used or not, so that a track's noise
       // does not depend on which others are used.
       const Eigen::Vector2d noise(normal(rng), normal(rng));
-      if (use[j]) replica.pixels[i].col(j) += noise_px * noise;
+      if (use[j]) noisy.pixels[i].col(j) += signed_noise_px * noise;
     }
   }
-  return replica;
+  return noisy;
 }
 
 double ResidualNoisePx(const FeatureTracks& tracks, const std::vector<bool>& use,
@@ -105,8 +107,7 @@ IntrinsicsBias EstimateIntrinsicsBias(const FeatureTracks& tracks, const std::ve
   std::vector<ReplicaEstimate> estimates(replicas);
   cv::parallel_for_(cv::Range(0, replicas), [&](const cv::Range& range) {
     for (int r = range.start; r < range.end; ++r) {
-      const FeatureTracks replica =
-          ReplicaTracks(explained, use, noise_px, bootstrap.seed + 7919 * r);
+      const FeatureTracks replica = ReplicaTracks(explained, use, noise_px, bootstrap.seed, r);
       const BundleAdjustmentSummary summary =
           RunBundleAdjustment(replica, use, &adjusted[r], replica_options);
       estimates[r] = {adjusted[r].camera, adjusted[r].readout,

@@ -47,7 +47,7 @@ TEST(ReplicaTracks, WithoutNoiseTheStateExplainsThemExactly) {
     std::vector<bool> use(sim.tracks.num_tracks(), true);
     use[3] = false;
     const FeatureTracks replica =
-        ReplicaTracks(ExplainedTracks(sim.tracks, use, truth), use, 0.0, 1);
+        ReplicaTracks(ExplainedTracks(sim.tracks, use, truth), use, 0.0, 1, 0);
     const std::vector<double> noisy = TrackReprojectionErrors(sim.tracks, truth);
     const std::vector<double> exact = TrackReprojectionErrors(replica, truth);
     for (int j = 0; j < sim.tracks.num_tracks(); ++j) {
@@ -106,6 +106,23 @@ TEST(EstimateIntrinsicsBias, TakesTheBiasOffTheFocalLength) {
   }
   EXPECT_LT(corrected, 0.6 * estimated) << "mean |f error| " << estimated / (2 * seeds)
                                         << " px before, " << corrected / (2 * seeds) << " px after";
+}
+
+// Replicas 2k and 2k + 1 carry one draw of noise with opposite signs, so
+// their mean is the explained tracks; the next pair draws anew.
+TEST(ReplicaTracks, PairsCarryOneDrawWithOppositeSigns) {
+  const TrackSimulation sim = SmallBurst(2, 0.05);
+  const std::vector<bool> use(sim.tracks.num_tracks(), true);
+  const FeatureTracks explained = ExplainedTracks(sim.tracks, use, SimulatedState(sim, 0.0));
+  const FeatureTracks first = ReplicaTracks(explained, use, 0.3, 7, 2);
+  const FeatureTracks second = ReplicaTracks(explained, use, 0.3, 7, 3);
+  const FeatureTracks next = ReplicaTracks(explained, use, 0.3, 7, 4);
+  const int frame = sim.tracks.reference == 0 ? 1 : 0;
+  const Eigen::Matrix2Xd up = first.pixels[frame] - explained.pixels[frame];
+  const Eigen::Matrix2Xd down = second.pixels[frame] - explained.pixels[frame];
+  EXPECT_GT(up.norm(), 0.1);
+  EXPECT_LT((up + down).norm(), 1e-9 * up.norm());
+  EXPECT_GT((next.pixels[frame] - first.pixels[frame]).norm(), 0.1);
 }
 
 // The replicas run on OpenCV's pool with noise of their own seeds: the
@@ -225,6 +242,8 @@ TEST(BootstrapBiasOptions, CheckNamesTheOptionOutOfRange) {
   BootstrapBiasOptions options;
   EXPECT_NO_THROW(options.Check());
   options.replicas = -1;
+  EXPECT_THROW(options.Check(), std::invalid_argument);
+  options.replicas = 3;  // an antithetic pair incomplete
   EXPECT_THROW(options.Check(), std::invalid_argument);
   options = {};
   options.max_correction_percent = 0.0;

@@ -325,8 +325,8 @@ std::optional<IntrinsicsBias> JointBias(const std::vector<JointBurst>& bursts,
       for (size_t b = 0; b < round.active.size(); ++b) {
         const JointBurst& burst = bursts[round.active[b]];
         JointBurst& copy = replica[round.active[b]];
-        copy.tracks = ReplicaTracks(explained[b], burst.use, noise[b],
-                                    bootstrap.seed + 7919 * r + 104729 * b);
+        copy.tracks =
+            ReplicaTracks(explained[b], burst.use, noise[b], bootstrap.seed + 104729 * b, r);
         copy.use = burst.use;
         copy.state = burst.state;
       }
