@@ -19,6 +19,7 @@
 #include "core/io/exif_focal.h"
 #include "core/io/file_util.h"
 #include "core/pipeline/evaluation.h"
+#include "core/sparse/bootstrap_bias.h"
 #include "core/sparse/calibration_fusion.h"
 #include "core/synth/burst_synthesizer.h"
 #include "core/synth/camera_effects.h"
@@ -323,7 +324,7 @@ TEST(Pipeline, ReportsTheNoiseBiasOfTheSelfCalibration) {
   ASSERT_TRUE(self.result.ok) << self.result.error;
   const nlohmann::json& bias = self.result.calibration_detail.at("noise_bias");
   EXPECT_EQ(bias.at("of"), "calibration");
-  EXPECT_EQ(bias.at("replicas"), 8);
+  EXPECT_EQ(bias.at("replicas"), BootstrapBiasOptions{}.replicas);
   EXPECT_GT(bias.at("replica_noise_px").get<double>(), 0.0);
   ASSERT_TRUE(bias.at("usable").get<bool>());
   EXPECT_DOUBLE_EQ(bias.at("debiased").at("fx").get<double>(),
