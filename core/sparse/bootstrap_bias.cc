@@ -127,13 +127,17 @@ bool BiasMatters(double sigma_f_noise_px, double f, const BootstrapBiasOptions& 
 IntrinsicsBias MeanShift(const std::vector<ReplicaEstimate>& replicas, const CameraModel& camera,
                          double readout, const BootstrapBiasOptions& bootstrap) {
   IntrinsicsBias bias;
-  for (const ReplicaEstimate& replica : replicas) {
-    if (!replica.solved) continue;
-    ++bias.replicas;
-    bias.f += replica.camera.f - camera.f;
-    bias.k1 += replica.camera.k1 - camera.k1;
-    bias.k2 += replica.camera.k2 - camera.k2;
-    bias.readout += replica.readout - readout;
+  // Whole pairs only: a pair's shifts linear in the noise cancel only when
+  // both of its replicas solved.
+  for (size_t r = 0; r + 1 < replicas.size(); r += 2) {
+    if (!replicas[r].solved || !replicas[r + 1].solved) continue;
+    for (const ReplicaEstimate& replica : {replicas[r], replicas[r + 1]}) {
+      ++bias.replicas;
+      bias.f += replica.camera.f - camera.f;
+      bias.k1 += replica.camera.k1 - camera.k1;
+      bias.k2 += replica.camera.k2 - camera.k2;
+      bias.readout += replica.readout - readout;
+    }
   }
   if (bias.replicas > 0) {
     bias.f /= bias.replicas;
@@ -141,7 +145,7 @@ IntrinsicsBias MeanShift(const std::vector<ReplicaEstimate>& replicas, const Cam
     bias.k2 /= bias.replicas;
     bias.readout /= bias.replicas;
   }
-  bias.usable = 2 * bias.replicas >= static_cast<int>(replicas.size()) &&
+  bias.usable = bias.replicas > 0 && 2 * bias.replicas >= static_cast<int>(replicas.size()) &&
                 std::abs(bias.f) <= bootstrap.max_correction_percent / 100.0 * camera.f;
   return bias;
 }

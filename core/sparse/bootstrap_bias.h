@@ -63,11 +63,11 @@ struct BootstrapBiasOptions {
 struct IntrinsicsBias {
   double f = 0.0, k1 = 0.0, k2 = 0.0, readout = 0.0;
   double noise_px = 0.0;  // the replicas' tracking noise, per coordinate
-  int replicas = 0;       // adjusted (a replica whose adjustment failed is left out)
+  int replicas = 0;       // counted: both replicas of a pair adjusted
   // Set by MeasureBiasIfItMatters: the sigma_f the tracks' noise alone gives
   // the solution (before the uncertainty's inflation).
   double sigma_f_noise_px = 0.0;
-  // Whether the bias can be taken off: at least half the replicas adjusted,
+  // Whether the bias can be taken off: at least half the replicas counted,
   // and within BootstrapBiasOptions::max_correction_percent of f.
   bool usable = false;
 };
@@ -85,8 +85,11 @@ struct ReplicaEstimate {
   bool solved = false;
 };
 
-// The solved replicas' mean camera and readout less the solution's, with
-// `replicas` and `usable` set. A replica that ran out of iterations counts:
+// The mean camera and readout less the solution's over the antithetic pairs
+// (ReplicaTracks) whose two replicas both solved, with `replicas` and
+// `usable` set; a pair with one failed replica is left out whole, as its
+// partner's shift linear in the noise would no longer cancel. A replica that
+// ran out of iterations counts:
 // leaving out the slow ones would draw the mean towards the quick, small
 // shifts.
 IntrinsicsBias MeanShift(const std::vector<ReplicaEstimate>& replicas, const CameraModel& camera,

@@ -164,25 +164,27 @@ TEST(Debiased, TakesAUsableBiasOffTheCameraOnly) {
   EXPECT_EQ(Debiased(camera, std::nullopt).f, camera.f);
 }
 
-// The bias is the solved replicas' mean shift; it is usable only where at
-// least half of them solved and it stays within max_correction_percent of f.
-TEST(MeanShift, AveragesTheSolvedReplicasAndJudgesTheShift) {
+// The bias is the mean shift over the pairs whose two replicas solved; it is
+// usable only where at least half the replicas count and it stays within
+// max_correction_percent of f.
+TEST(MeanShift, AveragesTheSolvedPairsAndJudgesTheShift) {
   const CameraModel camera = CameraModel::Initial(320, 240);
   BootstrapBiasOptions bootstrap;
   std::vector<ReplicaEstimate> replicas(4, ReplicaEstimate{camera, 0.5, true});
   replicas[0].camera.f += 4.0;
   replicas[1].camera.f += 8.0;
   replicas[1].readout = 0.7;
-  replicas[2].camera.f += 1000.0;  // failed: not counted
+  replicas[2].camera.f += 1000.0;  // failed: its pair is not counted
   replicas[2].solved = false;
+  replicas[3].camera.f -= 500.0;  // solved, but its partner failed
   IntrinsicsBias bias = MeanShift(replicas, camera, 0.5, bootstrap);
-  EXPECT_EQ(bias.replicas, 3);
-  EXPECT_DOUBLE_EQ(bias.f, 4.0);
-  EXPECT_NEAR(bias.readout, 0.2 / 3.0, 1e-12);
+  EXPECT_EQ(bias.replicas, 2);
+  EXPECT_DOUBLE_EQ(bias.f, 6.0);
+  EXPECT_NEAR(bias.readout, 0.1, 1e-12);
   EXPECT_TRUE(bias.usable);
-  replicas[3].solved = false;
-  replicas[0].solved = false;  // one of four solved
+  replicas[0].solved = false;  // no whole pair left
   EXPECT_FALSE(MeanShift(replicas, camera, 0.5, bootstrap).usable);
+  EXPECT_EQ(MeanShift(replicas, camera, 0.5, bootstrap).replicas, 0);
   bootstrap.max_correction_percent = 1.0;  // 8 px is 2.5 % of f = 320
   EXPECT_FALSE(MeanShift({replicas[1], replicas[1]}, camera, 0.5, bootstrap).usable);
   EXPECT_TRUE(BiasMatters(0.01 * camera.f, camera.f, bootstrap));
