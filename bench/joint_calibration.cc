@@ -4,21 +4,26 @@
 // calibrate's default). One JSON line per burst, then one per method, each
 // scored against the true camera.
 //   joint_calibration --dataset DIR [--start K] [--step S] [--frames N]
-//                     [--downscale D] [--calibration FILE] [--consistency P]
+//                     [--windows W] [--downscale D] [--calibration FILE]
+//                     [--consistency P]
 //       windows of a TUM sequence (as tum_benchmark reads them), scored
 //       against the published calibration;
 //   joint_calibration --sequence DIR [--start K] [--step S] [--frames N]
+//                     [--windows W]
 //       windows of a folder (or glob) of images, the first of each its
 //       reference (a real clip without ground truth: not scored);
 //   joint_calibration BURST...
 //       dfsm-burst/1 directories with ground_truth.json (dfsm synth writes
 //       them), scored against each one's camera (the first burst's for the
 //       fused and joint ones).
+// --windows W: at most the first W windows (issue 54's split of one clip into
+// halves: --windows 4, then --start at the fifth window's first frame).
 // --consistency P: JointAdjustmentOptions::consistency_probability.
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <functional>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
@@ -28,6 +33,7 @@
 #include "bench/tum_sequence.h"
 #include "core/io/ground_truth.h"
 #include "core/io/image_sequence.h"
+#include "core/pipeline/pipeline.h"
 #include "core/sparse/calibration_fusion.h"
 #include "core/sparse/joint_adjustment.h"
 #include "core/sparse/sparse_reconstruction.h"
@@ -59,7 +65,7 @@ void Score(const CameraModel& camera, const std::optional<CameraModel>& truth,
 }
 
 int Run(const std::vector<Input>& inputs, double consistency_probability) {
-  const SparseOptions options;
+  const PipelineOptions options;  // each burst's sparse stage as `dfsm process` runs it
   CalibrationFusion fusion;
   std::vector<JointBurst> bursts;
   double alone_ms = 0.0;
@@ -68,7 +74,7 @@ int Run(const std::vector<Input>& inputs, double consistency_probability) {
     const auto start = std::chrono::steady_clock::now();
     try {
       const Burst burst = input.read();
-      const SparseReconstruction sparse = ReconstructSparse(burst.gray, burst.reference(), options);
+      const SparseReconstruction sparse = ReconstructSparseStage(burst, options);
       const double ms = Milliseconds(start);
       alone_ms += ms;
       const CameraModel& camera = sparse.state.camera;
@@ -112,7 +118,7 @@ int Run(const std::vector<Input>& inputs, double consistency_probability) {
   nlohmann::json joint_line = {{"method", "joint"}, {"bursts", inputs.size()}};
   const auto start = std::chrono::steady_clock::now();
   try {
-    JointAdjustmentOptions joint_options = JointOptionsFor(options);
+    JointAdjustmentOptions joint_options = JointOptionsFor(options.sparse);
     if (consistency_probability > 0.0)
       joint_options.consistency_probability = consistency_probability;
     const JointCalibration joint = AdjustJointly(bursts, joint_options);
@@ -148,6 +154,7 @@ int main(int argc, char** argv) {
   using namespace dfsm;
   std::string dataset, images, calibration_file = TumFreiburg1CalibrationFile();
   int frames = 10, step = 12, start = 1, downscale = 1;
+  int windows = std::numeric_limits<int>::max();
   double consistency_probability = 0.0;  // the option's default
   std::vector<std::string> burst_dirs;
   try {
@@ -169,6 +176,8 @@ int main(int argc, char** argv) {
         step = WholeNumber("--step", value, 1);
       else if (option == "--start")
         start = WholeNumber("--start", value, 0);
+      else if (option == "--windows")
+        windows = WholeNumber("--windows", value, 1);
       else if (option == "--downscale")
         downscale = WholeNumber("--downscale", value, 1);
       else if (option == "--calibration")
@@ -194,13 +203,16 @@ int main(int argc, char** argv) {
       return 77;
     }
     const CameraModel truth = sequence->ReadCalibration(calibration_file).camera;
-    for (int first = start; first + frames <= sequence->frames(); first += step)
+    for (int first = start;
+         first + frames <= sequence->frames() && static_cast<int>(inputs.size()) < windows;
+         first += step)
       inputs.push_back({"window " + std::to_string(first),
                         [&sequence, first, frames] { return sequence->Window(first, frames); },
                         truth});
   } else if (!images.empty()) {
     const int count = static_cast<int>(ListImageSequence(images).size());
-    for (int first = start; first + frames <= count; first += step)
+    for (int first = start; first + frames <= count && static_cast<int>(inputs.size()) < windows;
+         first += step)
       inputs.push_back(
           {"frames " + std::to_string(first) + "-" + std::to_string(first + frames - 1),
            [images, first, frames] {

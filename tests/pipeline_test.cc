@@ -261,6 +261,41 @@ TEST(Pipeline, AStillBurstFailsWithAReasonAndAResultFile) {
   std::filesystem::remove_all(dir);
 }
 
+// What a calibration over several bursts starts from is each burst's sparse
+// stage as a job runs it: on frames whose exposure drifts, the compensated
+// ones (the raw frames' own sparse stage gives another camera), with the
+// pipeline's reasons where the burst fails.
+TEST(ReconstructSparseStage, IsThePipelinesSparseStageAndThrowsItsReasons) {
+  SynthOptions drifting;
+  drifting.width = 320;
+  drifting.height = 240;
+  drifting.rotation_deg = 2.0;
+  drifting.supersampling = 1;
+  drifting.seed = 4;
+  drifting.effects.exposure_drift = 0.1;
+  Burst burst = ToBurst(SynthesizeBurst(drifting));
+  PipelineOptions sparse_only;
+  sparse_only.run_dense = false;
+  const PipelineOutput job = RunPipeline(burst, sparse_only);
+  ASSERT_TRUE(job.result.ok) << job.result.error;
+  const SparseReconstruction stage = ReconstructSparseStage(burst, PipelineOptions());
+  EXPECT_EQ(stage.state.camera.f, job.sparse->state.camera.f);
+  EXPECT_EQ(stage.inliers, job.sparse->inliers);
+  const SparseReconstruction raw = ReconstructSparse(burst.gray, burst.reference(), {});
+  EXPECT_NE(stage.state.camera.f, raw.state.camera.f);
+
+  PipelineOptions bad;
+  bad.sparse.features.klt_window = 4;
+  EXPECT_THROW(ReconstructSparseStage(burst, bad), std::invalid_argument);
+  for (cv::Mat& frame : burst.gray) frame = burst.gray[0].clone();
+  try {
+    ReconstructSparseStage(burst, PipelineOptions());
+    ADD_FAILURE() << "a still burst was reconstructed";
+  } catch (const ReconstructionError& e) {
+    EXPECT_NE(std::string(e.what()).find("insufficient parallax"), std::string::npos) << e.what();
+  }
+}
+
 // |f - f_true| / f_true of a run.
 double FocalError(const PipelineOutput& output, const SynthBurst& generated) {
   return std::abs(output.result.calibration.f - generated.truth.camera.f) /

@@ -426,6 +426,14 @@ PipelineOptions SparseStageOf(PipelineOptions options) {
   return options;
 }
 
+SparseReconstruction ReconstructSparseStage(const Burst& burst, PipelineOptions options) {
+  options.run_dense = false;
+  options.Check();
+  PipelineOutput output = RunPipeline(burst, options);
+  if (!output.result.ok || !output.sparse) throw ReconstructionError(output.result.error);
+  return std::move(*output.sparse);
+}
+
 void PipelineOptions::Check() const {
   sparse.Check();
   if (run_dense) dense.Check();

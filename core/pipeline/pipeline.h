@@ -45,6 +45,15 @@ struct PipelineOutput {
 // sparse stage of that run, as a trial of it (burst_length.h).
 PipelineOptions SparseStageOf(PipelineOptions options);
 
+// The sparse stage of `burst` as RunPipeline runs it (repeated frames and
+// frames the tracker loses left out, exposure compensated, the frames'
+// capture times, an EXIF prior), without the dense stage: the tracks and own
+// calibration that a calibration over several bursts starts from, the same
+// as a job of `dfsm process` or dfsmd would give. Throws std::invalid_argument
+// for options out of range, ReconstructionError with the pipeline's reason
+// where the burst fails.
+SparseReconstruction ReconstructSparseStage(const Burst& burst, PipelineOptions options);
+
 // Never throws for a burst the method cannot handle: the failure is reported in
 // the returned result (status "failed" with a named reason). `progress` hears
 // each lap of the stages as it ends (core/io/progress.h).

@@ -35,7 +35,8 @@ std::optional<KnownCalibration> PriorOf(const nlohmann::json& joint, std::string
 
 // Each item's sparse stage alone, of the image size most items have.
 std::vector<JointBurst> BurstsToJoin(const std::vector<BatchItem>& items,
-                                     const BatchRunOptions& options, const SparseOptions& sparse) {
+                                     const BatchRunOptions& options,
+                                     const PipelineOptions& pipeline) {
   std::vector<JointBurst> bursts;
   std::map<std::pair<int, int>, int> sizes;
   for (const BatchItem& item : items) {
@@ -44,7 +45,7 @@ std::vector<JointBurst> BurstsToJoin(const std::vector<BatchItem>& items,
                              (".calibration-" + std::to_string(getpid()) + "-" + item.name);
     try {
       const SparseReconstruction own =
-          ReconstructAlone(item, options.process.frames, sparse, scratch);
+          ReconstructAlone(item, options.process.frames, pipeline, scratch);
       ++sizes[{own.state.camera.width, own.state.camera.height}];
       bursts.push_back(JointBurstOf(item.name, own));
     } catch (const BurstError& e) {
@@ -72,7 +73,7 @@ std::vector<JointBurst> BurstsToJoin(const std::vector<BatchItem>& items,
 }  // namespace
 
 SparseReconstruction ReconstructAlone(const BatchItem& item, int max_frames,
-                                      const SparseOptions& sparse, const fs::path& scratch) {
+                                      const PipelineOptions& pipeline, const fs::path& scratch) {
   struct Scratch {
     const fs::path& dir;
     ~Scratch() {
@@ -82,7 +83,7 @@ SparseReconstruction ReconstructAlone(const BatchItem& item, int max_frames,
   } removed_after{scratch};
   fs::path burst_dir;
   const Burst burst = ReadBatchItem(item, max_frames, scratch, &burst_dir);
-  return ReconstructSparse(burst.gray, burst.reference(), sparse);
+  return ReconstructSparseStage(burst, pipeline);
 }
 
 std::optional<KnownCalibration> CalibrateFirst(const std::vector<BatchItem>& items,
@@ -91,15 +92,15 @@ std::optional<KnownCalibration> CalibrateFirst(const std::vector<BatchItem>& ite
   std::error_code error;
   if (fs::is_regular_file(dir / "joint.json", error))
     return PriorOf(nlohmann::json::parse(ReadFileToString(dir / "joint.json")), said);
-  const SparseOptions sparse = ParsedPipelineOptions(options.process).sparse;
-  const std::vector<JointBurst> bursts = BurstsToJoin(items, options, sparse);
+  const PipelineOptions pipeline = ParsedPipelineOptions(options.process);
+  const std::vector<JointBurst> bursts = BurstsToJoin(items, options, pipeline);
   if (bursts.empty()) {
     *said = "no burst could be calibrated; each burst calibrates itself";
     return std::nullopt;
   }
   JointCalibration joint;
   try {
-    joint = AdjustJointly(bursts, JointOptionsFor(sparse));
+    joint = AdjustJointly(bursts, JointOptionsFor(pipeline.sparse));
   } catch (const ReconstructionError& e) {
     *said = std::string("no joint calibration (") + e.what() + "); each burst calibrates itself";
     return std::nullopt;

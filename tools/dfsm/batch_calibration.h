@@ -12,19 +12,19 @@
 #include <string>
 #include <vector>
 
+#include "core/pipeline/pipeline.h"
 #include "core/sparse/sparse_reconstruction.h"
 #include "tools/dfsm/batch_inputs.h"
 #include "tools/dfsm/batch_runner.h"
 
 namespace dfsm::tools {
 
-// The sparse stage of `item` alone (at most `max_frames` of a burst or tar;
-// a tar extracted into `scratch`, removed after): its tracks and own
-// calibration, where a joint adjustment or a fusion of several bursts
-// starts (dfsm calibrate, --calibrate-first). Throws BurstError or
-// ReconstructionError naming the problem.
+// The sparse stage of `item` alone, as the pipeline runs it (at most `max_frames` of a burst or
+// tar; a tar extracted into `scratch`, removed after): its tracks and own calibration, where a
+// joint adjustment or a fusion of several bursts starts (dfsm calibrate, --calibrate-first). Throws
+// BurstError or ReconstructionError naming the problem.
 SparseReconstruction ReconstructAlone(const BatchItem& item, int max_frames,
-                                      const SparseOptions& sparse,
+                                      const PipelineOptions& pipeline,
                                       const std::filesystem::path& scratch);
 
 // The prior of the joint calibration of `items` (all of the batch's, every

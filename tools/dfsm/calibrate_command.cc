@@ -30,8 +30,8 @@ enum class CalibrateMethod { kJoint, kFusion };
 struct CalibrateInputs {
   std::vector<BatchItem> bursts;  // each named by its input (and window)
   std::filesystem::path out_dir;
-  int frames = 0;  // of each burst (0: all), as --frames
-  SparseOptions sparse_options;
+  int frames = 0;            // of each burst (0: all), as --frames
+  PipelineOptions pipeline;  // its sparse stage: each burst's own calibration
 };
 
 // One burst's sparse stage, alone; nullopt where it fails, with why. Prints
@@ -43,8 +43,7 @@ std::optional<SparseReconstruction> CalibrateAlone(const BatchItem& item,
   try {
     const std::filesystem::path scratch =
         inputs.out_dir / (".burst-" + std::to_string(getpid()));  // a tar's files
-    SparseReconstruction sparse =
-        ReconstructAlone(item, inputs.frames, inputs.sparse_options, scratch);
+    SparseReconstruction sparse = ReconstructAlone(item, inputs.frames, inputs.pipeline, scratch);
     const CameraModel& camera = sparse.state.camera;
     std::printf("%s: f %.2f px (sigma %.2f %%), k1 %.5f, k2 %.5f, %s", burst_dir, camera.f,
                 sparse.uncertainty.available ? sparse.uncertainty.sigma_f_percent(camera.f) : 0.0,
@@ -168,7 +167,7 @@ int RunJoint(const CalibrateInputs& inputs) {
   }
   JointCalibration joint;
   try {
-    joint = AdjustJointly(bursts, JointOptionsFor(inputs.sparse_options));
+    joint = AdjustJointly(bursts, JointOptionsFor(inputs.pipeline.sparse));
   } catch (const ReconstructionError& e) {
     std::fprintf(stderr, "dfsm calibrate: %s\n", e.what());
     return 1;
@@ -237,7 +236,7 @@ int RunCalibrateCommand(const Args& args) {
     }
   }
   try {
-    inputs.sparse_options.rolling_shutter = ParseRollingShutter(rolling_shutter);
+    inputs.pipeline.sparse.rolling_shutter = ParseRollingShutter(rolling_shutter);
   } catch (const std::invalid_argument& e) {
     throw UsageError(std::string("--rolling-shutter: ") + e.what());
   }

@@ -4,7 +4,8 @@
 # camera's bursts, leaves the other camera's out as disagreeing and names the
 # unreadable one; the fusion runs on the same bursts; no usable burst is exit
 # 1 with the reason; a burst.tar reads as its directory; a folder of images
-# is cut into windows. Usage:
+# is cut into windows; a burst whose exposure drifts gets the focal length
+# that 'dfsm process' gives it (the same sparse stage). Usage:
 # calibrate_test.sh DFSM WORKDIR
 set -eu
 dfsm="$1" work="$2"
@@ -43,6 +44,18 @@ if "$dfsm" calibrate "$work/camera-1/frames" --windows 20 --out "$work/none" >"$
   fail "a window longer than the clip was read"
 fi
 grep -q "fewer than one window of 20" "$work/log" || fail "the short clip is not named"
+# Each burst's own calibration is its sparse stage as 'dfsm process' runs it:
+# exposure compensated (f 340.22 instead of 347.42 px here without it).
+synth --out "$work/drift" --seed 4 --exposure-drift 0.1
+"$dfsm" process "$work/drift" --no-dense --out "$work/drift-process" >/dev/null 2>&1 ||
+  fail "dfsm process of the drifting burst exited $?"
+processed=$(tr -d ' \n' <"$work/drift-process/calibration.json" |
+  sed -n 's/.*"camera_matrix":{"cols":3,"data":\[\([0-9.e+-]*\),.*/\1/p')
+"$dfsm" calibrate "$work/drift" "$work/camera-1" --out "$work/drift-joint" >"$work/log" 2>&1 ||
+  fail "the calibration with the drifting burst exited $?"
+own=$(sed -n 's/^.*drift: f \([0-9.]*\) px.*/\1/p' "$work/log")
+[ -n "$processed" ] && [ "$(printf '%.2f' "$processed")" = "$own" ] ||
+  fail "the drifting burst's own f $own px is not dfsm process's $processed px"
 if "$dfsm" calibrate "$work/missing" --out "$work/none" >"$work/log" 2>&1; then
   fail "no usable burst gave a calibration"
 fi
