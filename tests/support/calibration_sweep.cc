@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "core/pipeline/evaluation.h"
+#include "core/pipeline/pipeline.h"
 
 namespace dfsm {
 
@@ -116,11 +117,12 @@ SweepOutcome RunSweepBurst(const SynthOptions& settings, const SparseOptions& op
   SweepOutcome outcome;
   outcome.settings = settings;
   const SynthBurst burst = SynthesizeBurst(settings);
-  std::vector<cv::Mat> gray;
-  for (const cv::Mat& frame : burst.frames) gray.push_back(ToGray8(frame));
+  const Burst frames = ToBurst(burst);
+  PipelineOptions pipeline;
+  pipeline.sparse = options;
   const auto start = std::chrono::steady_clock::now();
   try {
-    const SparseReconstruction sparse = ReconstructSparse(gray, burst.manifest.reference, options);
+    const SparseReconstruction sparse = ReconstructSparseStage(frames, pipeline);
     outcome.reconstructed = true;
     const CameraModel& camera =
         sparse.rejected_camera ? *sparse.rejected_camera : sparse.state.camera;

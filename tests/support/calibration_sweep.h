@@ -82,6 +82,9 @@ struct SweepOutcome {
 // A sweep burst's settings as its JSON line names them (f_true: the true f).
 nlohmann::json SweepSettingsJson(const SynthOptions& settings);
 
+// The burst `settings` render through the sparse stage as a job runs it
+// (ReconstructSparseStage: exposure compensated, frames the tracker loses left
+// out), under `options`.
 SweepOutcome RunSweepBurst(const SynthOptions& settings, const SparseOptions& options = {});
 
 nlohmann::json ToJson(const SweepOutcome& outcome);
