@@ -593,6 +593,28 @@ return [...document.querySelectorAll(
 """
 
 
+def accessible_names(js, tries=5):
+    """Counts the visible controls with and without an accessible name, as
+    the browser's accessibility tree computes it. The job list and the
+    calibration panel re-render on events, so an element found by the query
+    can be gone before its name is read: the whole scan is then taken again."""
+    from selenium.common.exceptions import StaleElementReferenceException
+    for attempt in range(tries):
+        unnamed, named = [], 0
+        try:
+            for element in js(UNNAMED_CANDIDATES):
+                name = element.accessible_name
+                if name and name.strip():
+                    named += 1
+                else:
+                    unnamed.append(element.get_attribute('outerHTML')[:120])
+            return unnamed, named
+        except StaleElementReferenceException:
+            if attempt == tries - 1:
+                raise
+            time.sleep(0.2)
+
+
 def touch(driver, kind, points):
     driver.execute_cdp_cmd('Input.dispatchTouchEvent', {
         'type': kind, 'touchPoints': [{'x': x, 'y': y, 'id': i} for i, (x, y) in enumerate(points)]})
@@ -725,13 +747,7 @@ def phone_tests(driver, dfsmd, out):
         raise Failure(f'{live_paused} live frames fetched while a result is open')
     log(f'result open: heading in view and focused, no sideways scroll ({widths}), live view paused')
 
-    unnamed, named = [], 0
-    for element in js(UNNAMED_CANDIDATES):
-        name = element.accessible_name
-        if name and name.strip():
-            named += 1
-        else:
-            unnamed.append(element.get_attribute('outerHTML')[:120])
+    unnamed, named = accessible_names(js)
     if unnamed:
         raise Failure(f'{len(unnamed)} controls or images without an accessible name: {unnamed}')
     log(f'accessible names: all {named} controls and images named')
