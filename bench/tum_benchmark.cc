@@ -30,9 +30,7 @@
 #include <filesystem>
 #include <limits>
 #include <nlohmann/json.hpp>
-#include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -41,7 +39,6 @@
 #include "bench/report_options.h"
 #include "bench/tum_pictures.h"
 #include "bench/tum_sequence.h"
-#include "core/camera/camera_model.h"
 #include "core/dense/dense_depth.h"
 #include "core/pipeline/evaluation.h"
 #include "core/pipeline/pipeline.h"
@@ -110,44 +107,6 @@ std::vector<double> TrueInverseDepths(const cv::Mat& truth) {
 
 }  // namespace
 }  // namespace dfsm
-
-// EXPERIMENT: frames resampled so that their lens is exactly the ha2016 fit of the file's model.
-static cv::Mat HaToFileMap(const dfsm::CameraModel& ha, const cv::Matx33d& K,
-                           const std::vector<double>& D, int w, int h, cv::Mat* back) {
-  cv::Mat map(h, w, CV_32FC2);
-  std::vector<cv::Point3f> rays;
-  rays.reserve(w * h);
-  for (int v = 0; v < h; ++v)
-    for (int u = 0; u < w; ++u) {
-      const double xd = (u - ha.cx) / ha.f, yd = (v - ha.cy) / ha.f, r2 = xd * xd + yd * yd,
-                   s = 1 + ha.k1 * r2 + ha.k2 * r2 * r2;
-      rays.emplace_back(xd * s, yd * s, 1.0f);
-    }
-  std::vector<cv::Point2f> image;
-  cv::projectPoints(rays, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), K, D, image);
-  for (int v = 0; v < h; ++v)
-    for (int u = 0; u < w; ++u)
-      map.at<cv::Vec2f>(v, u) = cv::Vec2f(image[v * w + u].x, image[v * w + u].y);
-  // back: captured pixel -> corrected pixel
-  std::vector<cv::Point2f> px;
-  for (int v = 0; v < h; ++v)
-    for (int u = 0; u < w; ++u) px.emplace_back(u, v);
-  std::vector<cv::Point2f> und;
-  cv::undistortPoints(px, und, K, D);
-  back->create(h, w, CV_32FC2);
-  for (int v = 0; v < h; ++v)
-    for (int u = 0; u < w; ++u) {
-      const cv::Point2f xu = und[v * w + u];
-      double x = xu.x, y = xu.y;
-      for (int it = 0; it < 50; ++it) {
-        const double r2 = x * x + y * y, s = 1 + ha.k1 * r2 + ha.k2 * r2 * r2;
-        x = xu.x / s;
-        y = xu.y / s;
-      }
-      back->at<cv::Vec2f>(v, u) = cv::Vec2f(ha.f * x + ha.cx, ha.f * y + ha.cy);
-    }
-  return map;
-}
 
 int main(int argc, char** argv) {
   using namespace dfsm;
@@ -241,36 +200,7 @@ int main(int argc, char** argv) {
         fixed.source = calibration_file;
         options.sparse.known = fixed;
       }
-      static const bool correct = getenv("DFSM_EXP_LENS") != nullptr;
-      static cv::Mat to_file, to_corrected;
-      if (correct && to_file.empty())
-        to_file = HaToFileMap(known.camera, cv::Matx33d(517.3, 0, 318.6, 0, 516.5, 255.3, 0, 0, 1),
-                              {0.2624, -0.9531, -0.0054, 0.0026, 1.1633}, burst.width(),
-                              burst.height(), &to_corrected);
-      Burst corrected = burst;
-      if (correct) {
-        for (cv::Mat& g : corrected.gray) {
-          cv::Mat out;
-          cv::remap(g, out, to_file, cv::noArray(), cv::INTER_CUBIC, cv::BORDER_REPLICATE);
-          g = out;
-        }
-        cv::Mat out;
-        cv::remap(burst.reference_color, out, to_file, cv::noArray(), cv::INTER_CUBIC,
-                  cv::BORDER_REPLICATE);
-        corrected.reference_color = out;
-      }
-      PipelineOutput output = RunPipeline(correct ? corrected : burst, options);
-      if (correct && output.dense) {
-        cv::Mat d;
-        cv::remap(output.dense->depth, d, to_corrected, cv::noArray(), cv::INTER_NEAREST,
-                  cv::BORDER_CONSTANT, 0);
-        output.dense->depth = d;
-        if (!output.dense->depth_filled.empty()) {
-          cv::remap(output.dense->depth_filled, d, to_corrected, cv::noArray(), cv::INTER_NEAREST,
-                    cv::BORDER_CONSTANT, 0);
-          output.dense->depth_filled = d;
-        }
-      }
+      const PipelineOutput output = RunPipeline(burst, options);
       Row row;
       row.first = first;
       row.mode = mode;

@@ -3,8 +3,6 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
@@ -12,7 +10,6 @@
 #include <stdexcept>
 
 #include "core/parallel/parallel_for.h"
-#include "core/sparse/blur_matching.h"
 
 namespace dfsm {
 
@@ -40,7 +37,6 @@ void GridedFeatureOptions::Check() const {
     throw std::invalid_argument("min_frame_share must be in [0, 1], got " +
                                 std::to_string(min_frame_share));
   alignment.Check();
-  blur_matching.Check();
 }
 
 int MinGridCellSize(int width, int height) {
@@ -126,192 +122,6 @@ bool ShapeMovesTheWindow(const std::array<float, 4>& shape, const GridedFeatureO
   return moved >= options.min_shape_px;
 }
 
-// KLT's matches of `corners` in one frame from the reference's pyramid,
-// starting from `*positions` and left there: those that pass the
-// forward-backward check (a bound that grows with the travel) inside the frame.
-std::vector<uchar> MatchFrame(const std::vector<cv::Mat>& ref_pyramid, const cv::Mat& frame,
-                              const std::vector<cv::Point2f>& corners,
-                              const GridedFeatureOptions& options,
-                              std::vector<cv::Point2f>* positions) {
-  const cv::Size window(options.klt_window, options.klt_window);
-  const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 30, 0.01);
-  std::vector<cv::Mat> pyramid;
-  cv::buildOpticalFlowPyramid(frame, pyramid, window, options.klt_levels, true);
-  std::vector<cv::Point2f>& forward = *positions;
-  std::vector<cv::Point2f> backward = corners;
-  std::vector<uchar> status_forward, status_backward;
-  std::vector<float> error;
-  cv::calcOpticalFlowPyrLK(ref_pyramid, pyramid, corners, forward, status_forward, error, window,
-                           options.klt_levels, criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
-  cv::calcOpticalFlowPyrLK(pyramid, ref_pyramid, forward, backward, status_backward, error, window,
-                           options.klt_levels, criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
-  std::vector<uchar> valid(corners.size(), 0);
-  for (size_t j = 0; j < corners.size(); ++j) {
-    const cv::Point2f d = backward[j] - corners[j];
-    const bool inside = forward[j].x >= 0 && forward[j].y >= 0 && forward[j].x <= frame.cols - 1 &&
-                        forward[j].y <= frame.rows - 1;
-    const cv::Point2f travel = forward[j] - corners[j];
-    const double bound =
-        std::max(options.max_forward_backward_px,
-                 options.max_forward_backward_fraction * std::hypot(travel.x, travel.y));
-    valid[j] = status_forward[j] && status_backward[j] && inside && d.dot(d) <= bound * bound;
-  }
-  return valid;
-}
-
-// The realignment of one match (GainBiasAligner), through the patch's shape
-// in the frame where the frame's motion is known and turns the window enough.
-bool Realign(const GainBiasAligner& aligner, const GainBiasAligner::Patch& patch,
-             const cv::Mat& frame, const std::optional<cv::Matx33d>& motion,
-             const GridedFeatureOptions& options, cv::Point2f* position) {
-  const std::optional<std::array<float, 4>> shape =
-      motion && options.predicted_shape ? std::optional(PatchShape(*motion, patch.corner))
-                                        : std::nullopt;
-  return shape && ShapeMovesTheWindow(*shape, options)
-             ? aligner.Align(patch, frame, shape->data(), position)
-             : aligner.Align(patch, frame, position);
-}
-
-// Frame i matched again between the reference blurred by the frame's blur
-// and the frame blurred by the reference's (blur_matching.h), from the
-// plain matches where they held and the frame's motion elsewhere. Returns
-// how many matches pass the check and the realignment.
-int MatchBlurred(const cv::Mat& blurred_ref, const cv::Mat& blurred_frame,
-                 const std::vector<cv::Point2f>& corners, const std::optional<cv::Matx33d>& motion,
-                 const GridedFeatureOptions& options, std::vector<cv::Point2f>* positions,
-                 std::vector<uchar>* valid) {
-  const cv::Size window(options.klt_window, options.klt_window);
-  std::vector<cv::Mat> ref_pyramid;
-  cv::buildOpticalFlowPyramid(blurred_ref, ref_pyramid, window, options.klt_levels, true);
-  std::vector<cv::Point2f> start = *positions;
-  if (motion) {
-    std::vector<cv::Point2f> predicted;
-    cv::perspectiveTransform(corners, predicted, cv::Mat(*motion));
-    for (size_t j = 0; j < corners.size(); ++j)
-      if (!(*valid)[j]) start[j] = predicted[j];
-  }
-  std::vector<cv::Point2f> matched = start;
-  std::vector<uchar> kept = MatchFrame(ref_pyramid, blurred_frame, corners, options, &matched);
-  if (options.gain_bias) {
-    GainBiasAlignmentOptions alignment = options.alignment;
-    alignment.window = options.klt_window;
-    const GainBiasAligner aligner(blurred_ref, alignment);
-    cv::parallel_for_(cv::Range(0, static_cast<int>(corners.size())), [&](const cv::Range& range) {
-      GainBiasAligner::Patch patch;
-      for (int j = range.start; j < range.end; ++j)
-        kept[j] = kept[j] && aligner.Prepare(corners[j], &patch) &&
-                  Realign(aligner, patch, blurred_frame, motion, options, &matched[j]);
-    });
-  }
-  for (size_t j = 0; j < corners.size(); ++j)
-    if (!kept[j]) matched[j] = start[j];
-  *positions = std::move(matched);
-  *valid = std::move(kept);
-  return static_cast<int>(std::count(valid->begin(), valid->end(), 1));
-}
-
-// `image` blurred tile by tile along each tile's velocity (velocity[t], row-major tiles x tiles).
-cv::Mat BlurTiles(const cv::Mat& image, const std::vector<cv::Point2d>& velocity, int tiles,
-                  double fraction) {
-  cv::Mat out(image.size(), image.type());
-  for (int ty = 0; ty < tiles; ++ty)
-    for (int tx = 0; tx < tiles; ++tx) {
-      const cv::Rect tile(tx * image.cols / tiles, ty * image.rows / tiles,
-                          (tx + 1) * image.cols / tiles - tx * image.cols / tiles,
-                          (ty + 1) * image.rows / tiles - ty * image.rows / tiles);
-      const cv::Mat kernel = MotionBlurKernel(velocity[ty * tiles + tx], fraction);
-      const int m = kernel.rows;
-      const cv::Rect grown =
-          cv::Rect(tile.x - m, tile.y - m, tile.width + 2 * m, tile.height + 2 * m) &
-          cv::Rect(0, 0, image.cols, image.rows);
-      cv::Mat filtered;
-      cv::filter2D(image(grown), filtered, -1, kernel, cv::Point(-1, -1), 0, cv::BORDER_REPLICATE);
-      filtered(cv::Rect(tile.x - grown.x, tile.y - grown.y, tile.width, tile.height))
-          .copyTo(out(tile));
-    }
-  return out;
-}
-
-// Blur matching (GridedFeatureOptions::blur_matching): the frames whose
-// blur differs from the reference's are matched again under each exposure
-// fraction; the fraction whose matches survive best replaces those frames'
-// plain matches where it keeps more of them. Returns the fraction used (0:
-// none).
-double MatchBlurs(const std::vector<cv::Mat>& frames, int reference,
-                  const std::vector<cv::Point2f>& corners,
-                  const std::vector<std::optional<cv::Matx33d>>& motion,
-                  const GridedFeatureOptions& options,
-                  std::vector<std::vector<cv::Point2f>>* positions,
-                  std::vector<std::vector<uchar>>* valid) {
-  const BlurMatchingOptions& blur = options.blur_matching;
-  const cv::Mat& ref = frames[reference];
-  const int n = static_cast<int>(frames.size());
-  const int tiles = getenv("DFSM_BLUR_TILES") ? atoi(getenv("DFSM_BLUR_TILES")) : 1;
-  std::vector<std::vector<cv::Point2d>> velocity(n);  // per frame, per tile
-  std::vector<bool> known(n, true);
-  for (int ty = 0; ty < tiles; ++ty)
-    for (int tx = 0; tx < tiles; ++tx) {
-      const cv::Point2f centre((tx + 0.5f) * ref.cols / tiles, (ty + 0.5f) * ref.rows / tiles);
-      const std::vector<std::optional<cv::Point2d>> v = FrameVelocities(motion, centre);
-      for (int i = 0; i < n; ++i) {
-        if (!v[i]) known[i] = false;
-        velocity[i].push_back(v[i].value_or(cv::Point2d()));
-      }
-    }
-  if (!known[reference]) return 0.0;
-  const double longest =
-      *std::max_element(blur.exposure_fractions.begin(), blur.exposure_fractions.end());
-  std::vector<int> blurred;
-  for (int i = 0; i < n; ++i) {
-    if (i == reference || !known[i]) continue;
-    double difference = 0.0;
-    for (int t = 0; t < tiles * tiles; ++t)
-      difference = std::max(difference, BlurDifference(velocity[i][t], velocity[reference][t]));
-    if (longest * difference >= blur.min_blur_difference_px) blurred.push_back(i);
-  }
-  if (getenv("DFSM_BLUR_ONLY")) {
-    const int mode = atoi(getenv("DFSM_BLUR_ONLY"));
-    const int ref_reach =
-        static_cast<int>(std::count((*valid)[reference].begin(), (*valid)[reference].end(), 1));
-    std::vector<int> keep;
-    for (int i : blurred) {
-      const int reach = static_cast<int>(std::count((*valid)[i].begin(), (*valid)[i].end(), 1));
-      const bool lossy = reach < ref_reach / 3;
-      if ((mode == 1 && !lossy) || (mode == 2 && lossy)) keep.push_back(i);
-    }
-    blurred = keep;
-  }
-  if (blurred.empty()) return 0.0;
-  const auto surviving = [&](const std::vector<std::vector<uchar>>& matches) {
-    int count = 0;
-    for (const int i : blurred)
-      count += static_cast<int>(std::count(matches[i].begin(), matches[i].end(), 1));
-    return count;
-  };
-  int best = surviving(*valid);
-  double best_fraction = 0.0;
-  std::vector<std::vector<cv::Point2f>> best_positions;
-  std::vector<std::vector<uchar>> best_valid;
-  for (const double fraction : blur.exposure_fractions) {
-    std::vector<std::vector<cv::Point2f>> trial_positions = *positions;
-    std::vector<std::vector<uchar>> trial_valid = *valid;
-    for (const int i : blurred)
-      MatchBlurred(BlurTiles(ref, velocity[i], tiles, fraction),
-                   BlurTiles(frames[i], velocity[reference], tiles, fraction), corners, motion[i],
-                   options, &trial_positions[i], &trial_valid[i]);
-    const int count = surviving(trial_valid);
-    if (count > best) {
-      best = count, best_fraction = fraction;
-      best_positions = std::move(trial_positions), best_valid = std::move(trial_valid);
-    }
-  }
-  if (best_fraction > 0.0) *positions = std::move(best_positions), *valid = std::move(best_valid);
-  if (getenv("DFSM_DEBUG_BLUR"))
-    fprintf(stderr, "blur: frames %zu fraction %.2f survivors %d\n", blurred.size(), best_fraction,
-            best);
-  return best_fraction;
-}
-
 }  // namespace
 
 std::array<float, 4> PatchShape(const cv::Matx33d& H, cv::Point2f corner) {
@@ -391,6 +201,7 @@ FeatureTracks TrackGridedFeatures(const std::vector<cv::Mat>& frames, int refere
   ReportProgress(options.progress, "features", 1, steps);
 
   const cv::Size window(options.klt_window, options.klt_window);
+  const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 30, 0.01);
   std::vector<cv::Mat> ref_pyramid;
   cv::buildOpticalFlowPyramid(ref, ref_pyramid, window, options.klt_levels, true);
 
@@ -410,27 +221,41 @@ FeatureTracks TrackGridedFeatures(const std::vector<cv::Mat>& frames, int refere
     if (reference + d < n) order.push_back(reference + d);
     if (reference - d >= 0) order.push_back(reference - d);
   }
+  std::vector<cv::Mat> pyramid;
   int tracked_frames = 0;
   for (const int i : order) {
     if (m == 0) break;
     const int neighbour = i > reference ? i - 1 : i + 1;
-    positions[i] = positions[neighbour];
-    valid[i] = MatchFrame(ref_pyramid, frames[i], corners, options, &positions[i]);
-    // A lost track keeps its neighbour's position as the next frame's guess.
-    for (int j = 0; j < m; ++j)
-      if (!valid[i][j]) positions[i][j] = positions[neighbour][j];
+    cv::buildOpticalFlowPyramid(frames[i], pyramid, window, options.klt_levels, true);
+    std::vector<cv::Point2f> forward = positions[neighbour], backward = corners;
+    std::vector<uchar> status_forward, status_backward;
+    std::vector<float> error;
+    cv::calcOpticalFlowPyrLK(ref_pyramid, pyramid, corners, forward, status_forward, error, window,
+                             options.klt_levels, criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
+    cv::calcOpticalFlowPyrLK(pyramid, ref_pyramid, forward, backward, status_backward, error,
+                             window, options.klt_levels, criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
+    for (int j = 0; j < m; ++j) {
+      const cv::Point2f d = backward[j] - corners[j];
+      const bool inside = forward[j].x >= 0 && forward[j].y >= 0 &&
+                          forward[j].x <= frames[i].cols - 1 && forward[j].y <= frames[i].rows - 1;
+      const cv::Point2f travel = forward[j] - corners[j];
+      const double bound =
+          std::max(options.max_forward_backward_px,
+                   options.max_forward_backward_fraction * std::hypot(travel.x, travel.y));
+      valid[i][j] = status_forward[j] && status_backward[j] && inside && d.dot(d) <= bound * bound;
+      // A lost track keeps its neighbour's position as the next frame's guess.
+      if (!valid[i][j]) forward[j] = positions[neighbour][j];
+    }
+    positions[i] = std::move(forward);
     ReportProgress(options.progress, "features", ++tracked_frames + 1, steps);
   }
 
   // Each frame's motion as the homography that fits KLT's matches: its
-  // Jacobian at a corner is how that corner's patch turned and sheared, and
-  // its change from frame to frame the blur.
+  // Jacobian at a corner is how that corner's patch turned and sheared.
   std::vector<std::optional<cv::Matx33d>> motion(n);
-  const bool blur_matching = options.blur_matching.enabled && m > 0;
-  if ((options.gain_bias && options.predicted_shape) || blur_matching)
+  if (options.gain_bias && options.predicted_shape)
     for (int i = 0; i < n; ++i)
-      motion[i] = i == reference ? std::optional(cv::Matx33d::eye())
-                                 : FitFrameMotion(corners, positions[i], valid[i]);
+      if (i != reference) motion[i] = FitFrameMotion(corners, positions[i], valid[i]);
   if (options.gain_bias && m > 0) {
     // Track by track, so that each reference patch is prepared once for all
     // of its frames; every match KLT kept, so that a frame that loses the
@@ -444,16 +269,17 @@ FeatureTracks TrackGridedFeatures(const std::vector<cv::Mat>& frames, int refere
         const bool prepared = aligner.Prepare(corners[j], &patch);
         for (int i = 0; i < n; ++i) {
           if (!valid[i][j] || i == reference) continue;
+          const std::optional<std::array<float, 4>> shape =
+              motion[i] ? std::optional(PatchShape(*motion[i], corners[j])) : std::nullopt;
           valid[i][j] =
-              prepared && Realign(aligner, patch, frames[i], motion[i], options, &positions[i][j]);
+              prepared && (shape && ShapeMovesTheWindow(*shape, options)
+                               ? aligner.Align(patch, frames[i], shape->data(), &positions[i][j])
+                               : aligner.Align(patch, frames[i], &positions[i][j]));
         }
         if (!prepared) valid[reference][j] = 0;
       }
     });
   }
-  const double exposure_fraction =
-      blur_matching ? MatchBlurs(frames, reference, corners, motion, options, &positions, &valid)
-                    : 0.0;
   std::vector<GridedFeatureStats::LeftOut> left_out = FramesToLeaveOut(valid, reference, options);
   std::vector<int> kept_frames;
   for (int i = 0; i < n; ++i)
@@ -482,7 +308,6 @@ FeatureTracks TrackGridedFeatures(const std::vector<cv::Mat>& frames, int refere
       stats->reached.push_back(static_cast<int>(std::count(valid[i].begin(), valid[i].end(), 1)));
     stats->kept_frames = kept_frames;
     stats->left_out = std::move(left_out);
-    stats->blur_exposure_fraction = exposure_fraction;
   }
   return tracks;
 }

@@ -11,7 +11,6 @@
 #include <vector>
 
 #include "core/io/progress.h"
-#include "core/sparse/blur_matching.h"
 #include "core/sparse/feature_tracks.h"
 #include "core/sparse/gain_bias_alignment.h"
 
@@ -62,11 +61,6 @@ struct GridedFeatureOptions {
   // against a translation (a roll of 0.5 deg moves them 0.09 px).
   double min_shape_px = 0.1;
   GainBiasAlignmentOptions alignment;
-  // Frames smeared by the motion are matched again with the reference
-  // blurred alike (blur_matching.h). On tum_fr1_rpy's fastest turn the end
-  // frames kept 16-25 and 3 of 183 matches against a sharp reference
-  // (docs/experiments/013-blur-matching.md).
-  BlurMatchingOptions blur_matching;
   // A frame is left out of the tracks where keeping it would lose more than
   // this share of the tracks that every other frame keeps: one frame of blur
   // or a jolt then costs that frame, not the burst. Hand-held real bursts
@@ -120,9 +114,6 @@ struct GridedFeatureStats {
     int tracks_with = 0;
   };
   std::vector<LeftOut> left_out;
-  // The exposure fraction whose matched blurs replaced the plain matches of
-  // the blurred frames; 0 where none did.
-  double blur_exposure_fraction = 0.0;
 };
 
 // Detects one corner per cell of `frames[reference]` and tracks it to every

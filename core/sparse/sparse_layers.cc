@@ -8,12 +8,6 @@ namespace dfsm {
 
 const std::vector<SparseLayerInfo>& SparseLayers() {
   static const std::vector<SparseLayerInfo> layers = {
-      {SparseLayer::kBlurMatching, "blur-matching",
-       "frames whose motion blur differs from the reference's by a pixel or more",
-       "those frames' matches, where the blurred ones survive better",
-       "features.blur_matching.enabled",
-       [](const SparseOptions& o) { return o.features.blur_matching.enabled; },
-       [](SparseOptions* o) { o->features.blur_matching.enabled = false; }},
       {SparseLayer::kFramesLeftOut, "frames-left-out",
        "a frame that would cut the tracks the others share by more than the bound",
        "the frames used (fewer), the tracks (more)", "features.max_frame_track_loss",

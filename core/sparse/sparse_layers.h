@@ -17,7 +17,6 @@
 namespace dfsm {
 
 enum class SparseLayer {
-  kBlurMatching,         // blurred frames matched with the reference blurred alike
   kFramesLeftOut,        // frames the tracker lost, left out of the burst
   kFocalStarts,          // the focal starts after the first
   kNaiveProbe,           // the naive start beside the rank-1 ones
