@@ -26,15 +26,23 @@ int JointCalibration::Joined() const {
 }
 
 JointBurst JointBurstOf(const std::string& name, const SparseReconstruction& sparse) {
+  const std::optional<CameraModel> own = sparse.OwnCamera();
+  if (!own)
+    throw std::invalid_argument(name + ": no calibration of its own to join (" +
+                                CalibrationSourceName(sparse.calibration_used) + ")");
   JointBurst burst;
   burst.name = name;
   burst.tracks = sparse.tracks;
   burst.tracks.weights.clear();
   burst.use = sparse.inliers;
+  // The poses and inverse depths start where the burst's solution left them;
+  // its camera is its own, not a known prior's pull or a fallback's.
   burst.state = sparse.state;
-  burst.noise_px = sparse.uncertainty.residual_sigma_px;
-  if (sparse.uncertainty.available)
-    burst.sigma_f_percent = sparse.uncertainty.sigma_f_percent(sparse.state.camera.f);
+  burst.state.camera = *own;
+  const CalibrationUncertainty& uncertainty =
+      sparse.self_estimate ? sparse.self_estimate->uncertainty : sparse.uncertainty;
+  burst.noise_px = uncertainty.residual_sigma_px;
+  if (uncertainty.available) burst.sigma_f_percent = uncertainty.sigma_f_percent(own->f);
   return burst;
 }
 

@@ -46,7 +46,9 @@ struct JointBurst {
 
 // The burst `sparse` as the joint adjustment takes it: its tracks (weighed
 // alike, as one burst's adjustment of the intrinsics weighs them), its inlier
-// tracks, its solution and noise.
+// tracks, its solution, with its own camera (SparseReconstruction::
+// OwnCamera: what its disagreement is measured from), and its noise. Throws
+// std::invalid_argument where the burst has no camera of its own.
 JointBurst JointBurstOf(const std::string& name, const SparseReconstruction& sparse);
 
 struct JointAdjustmentOptions {

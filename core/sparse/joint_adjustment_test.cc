@@ -112,6 +112,53 @@ TEST(JointAdjustment, TwoBurstsOfTwoCamerasAreSaidToDisagree) {
       << joint.verdict.reasons.back();
 }
 
+// A burst adjusted under a known prior (EXIF, the daemon's joint or fused
+// camera) or refitted under a fallback joins with the camera its own tracks
+// chose: its disagreement is measured from its own minimum, so it is never
+// negative. One without a camera of its own cannot join.
+TEST(JointBurstOf, TakesTheBurstsOwnCameraNotAPriorsPullNorAFallbacks) {
+  std::vector<SparseReconstruction> alone;
+  std::vector<JointBurst> bursts;
+  for (int b = 0; b < 4; ++b) {
+    TrackSimulatorOptions simulate;
+    simulate.width = 640;
+    simulate.height = 480;
+    simulate.tracks = 150;
+    simulate.f = 704.0;
+    simulate.k1 = -0.06;
+    simulate.noise_px = 0.1;
+    simulate.seed = 31 + b;
+    SparseOptions options;
+    options.rolling_shutter.mode = RollingShutterOptions::Mode::kGlobal;
+    KnownCalibration prior;
+    prior.camera = CameraModel::Initial(640, 480);
+    prior.camera.f = 760.0;  // 8 % off, held within 1 %
+    prior.also_self_calibrate = true;
+    prior.check_fit = false;
+    options.known = prior;
+    alone.push_back(ReconstructFromTracks(SimulateTracks(simulate).tracks, 640, 480, options));
+    ASSERT_TRUE(alone.back().self_estimate.has_value());
+    bursts.push_back(JointBurstOf("burst " + std::to_string(b), alone.back()));
+    EXPECT_EQ(bursts.back().state.camera.f, alone.back().self_estimate->camera.f);
+    EXPECT_GT(std::abs(alone.back().state.camera.f - bursts.back().state.camera.f), 1.0)
+        << "the prior did not pull the burst's adjustment: the test shows nothing";
+  }
+  const JointCalibration joint = AdjustJointly(bursts, GlobalShutter());
+  for (const JointBurstResult& burst : joint.bursts) EXPECT_GE(burst.disagreement, -1e-3);
+
+  SparseReconstruction fallback = alone.front();
+  fallback.self_estimate.reset();
+  fallback.calibration_used = CalibrationSource::kFallbackK1;
+  fallback.rejected_camera = CameraModel::Initial(640, 480);
+  fallback.rejected_camera->f = 690.0;
+  EXPECT_EQ(JointBurstOf("fallback", fallback).state.camera.f, 690.0);
+
+  SparseReconstruction held = alone.front();
+  held.self_estimate.reset();
+  held.calibration_used = CalibrationSource::kKnownFixed;
+  EXPECT_THROW(JointBurstOf("held", held), std::invalid_argument);
+}
+
 TEST(JointAdjustment, RefusesBurstsOfDifferentSizes) {
   std::vector<JointBurst> bursts = BurstsOfOneCamera(704.0, -0.06, 2, 11, 1.0, 0.05);
   bursts[1].state.camera.width = 320;

@@ -185,6 +185,13 @@ std::optional<CameraModel> SparseReconstruction::DebiasedCamera() const {
   return std::nullopt;
 }
 
+std::optional<CameraModel> SparseReconstruction::OwnCamera() const {
+  if (self_estimate) return self_estimate->camera;
+  if (calibration_used == CalibrationSource::kSelf) return state.camera;
+  if (DroppedLensTerms() && rejected_camera) return rejected_camera;
+  return std::nullopt;
+}
+
 bool SparseReconstruction::DroppedLensTerms() const {
   return calibration_used == CalibrationSource::kFallbackK1 ||
          calibration_used == CalibrationSource::kFallbackK0;

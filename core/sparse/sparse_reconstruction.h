@@ -307,6 +307,14 @@ struct SparseReconstruction {
   // bursts should take (its mean keeps a bias that no number of bursts
   // averages out); empty where the burst did not calibrate itself.
   std::optional<CameraModel> DebiasedCamera() const;
+  // The camera the burst's tracks chose by themselves, where they chose one:
+  // its self-calibration beside a known prior, the camera of `state` where
+  // it calibrated itself, or the one it estimated before a fallback dropped
+  // lens terms (no known calibration was given then). Empty under a known
+  // camera with no self-calibration beside it. Not debiased: the minimum of
+  // its own tracks' cost, which a joint calibration measures a burst's
+  // disagreement from.
+  std::optional<CameraModel> OwnCamera() const;
   // Whether the tracks were refitted with fewer lens terms than the
   // adjustment estimated (calibration_used kFallbackK1 or kFallbackK0): the
   // relief is then one the burst's own lens model did not choose.

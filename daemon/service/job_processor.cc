@@ -122,13 +122,17 @@ void JobProcessor::Process(const std::string& id, std::shared_ptr<const Burst> p
     if (calibration_ && output.result.ok && output.sparse)
       output.result.extra["calibration_fusion"] =
           calibration_->Record(id, job.options, NowUnixMs(), *output.sparse);
+    // A job whose camera was given (a known camera held, no self-calibration
+    // beside it) has no calibration of its own to join.
+    const bool joins_calibration =
+        calibration_ && output.result.ok && output.sparse && output.sparse->OwnCamera();
     report("writing", 0.0);
     const auto writing_start = std::chrono::steady_clock::now();
     const std::filesystem::path staged = store_->NewStagingDir();
     try {
       WritePipelineOutputs(staged, *burst, &output);
       // What a later joint calibration of the camera reads of this job.
-      if (calibration_ && output.result.ok && output.sparse)
+      if (joins_calibration)
         WriteJointBurst(staged / kTracksFile, JointBurstOf(id, *output.sparse));
       store_->CommitOutput(id, staged);
     } catch (const std::exception& e) {
@@ -144,8 +148,7 @@ void JobProcessor::Process(const std::string& id, std::shared_ptr<const Burst> p
     job.warnings = output.result.warnings;
     job.calibration_quality = output.result.calibration_detail.value("quality", "");
     Finish(&job, output.result.ok, output.result.error);
-    if (calibration_ && output.result.ok && output.sparse)
-      JoinCalibration(job, burst->width(), burst->height());
+    if (joins_calibration) JoinCalibration(job, burst->width(), burst->height());
   } catch (const std::exception& e) {
     Finish(&job, false, e.what());
   }

@@ -151,13 +151,17 @@ int RunJoint(const CalibrateInputs& inputs) {
     entries.push_back(OwnCalibrationJson(burst_dir, sparse ? &*sparse : nullptr, failure));
     if (!sparse) {
       std::printf(" -> not joined: %s\n", failure.c_str());
+    } else if (!sparse->OwnCamera()) {
+      std::printf(" -> not joined: no calibration of its own (%s)\n",
+                  CalibrationSourceName(sparse->calibration_used));
     } else if (sparse->calibration_used != CalibrationSource::kSelf) {
-      // A fallback's camera is not the burst's estimate: its tracks still join.
+      // A fallback's camera is not the burst's estimate: its tracks join
+      // with the camera it estimated.
       std::printf(" (%s)\n", CalibrationSourceName(sparse->calibration_used));
     } else {
       std::printf("\n");
     }
-    if (!sparse) continue;
+    if (!sparse || !sparse->OwnCamera()) continue;
     entry_of.push_back(static_cast<int>(entries.size()) - 1);
     bursts.push_back(JointBurstOf(burst_dir, *sparse));
   }
