@@ -3,12 +3,12 @@
 // with the translation reversed move the tracks almost as the true ones do,
 // the rotation taking up the rest. A JSON report, not a timing benchmark
 // (docs/experiments/007-relief-flip.md): per burst, the order of the sparse
-// stage's inverse depths against the truth (Spearman's rho: +1 right, -1
-// inverted), and the adjustment's cost from the mirrored start against the
-// cost at the solution, both with the intrinsics held. On a TUM sequence
-// with a motion capture (groundtruth.txt), also the adjustment from its
-// poses and the Kinect's inverse depths: whether the solution's minimum or
-// its start keeps it from the truth (docs/experiments/008-motion-capture-poses.md).
+// stage's inverse depths (the stage as a job runs it, ReconstructSparseStage) against the truth
+// (Spearman's rho: +1 right, -1 inverted), and the adjustment's cost from the mirrored start
+// against the cost at the solution, both with the intrinsics held. On a TUM sequence with a motion
+// capture (groundtruth.txt), also the adjustment from its poses and the Kinect's inverse depths:
+// whether the solution's minimum or its start keeps it from the truth
+// (docs/experiments/008-motion-capture-poses.md).
 //
 //   relief_flip [--bursts N] [--seed S] [--camera ideal|webcam|phone]
 //   relief_flip --tum DATASET [--start I] [--step J]
@@ -24,6 +24,7 @@
 
 #include "bench/report_options.h"
 #include "bench/tum_sequence.h"
+#include "core/pipeline/pipeline.h"
 #include "core/sparse/sparse_reconstruction.h"
 #include "core/synth/burst_synthesizer.h"
 #include "tests/support/calibration_sweep.h"
@@ -118,13 +119,17 @@ nlohmann::json Compare(const std::string& name, const Burst& burst, const cv::Ma
   nlohmann::json line = {{"burst", name}};
   SparseReconstruction sparse;
   try {
-    SparseOptions options;
-    options.mirrored_relief = false;  // the ambiguity as the adjustment leaves it
-    sparse = ReconstructSparse(burst.gray, burst.reference(), options);
+    PipelineOptions options;
+    options.sparse.mirrored_relief = false;  // the ambiguity as the adjustment leaves it
+    sparse = ReconstructSparseStage(burst, options);
   } catch (const ReconstructionError& e) {
     line["error"] = e.what();
     return line;
   }
+  // The poses are those of the frames the tracks run through.
+  std::vector<Pose> kept_truth;
+  if (!truth.empty())
+    for (const int frame : sparse.feature_stats.kept_frames) kept_truth.push_back(truth[frame]);
   BundleAdjustmentOptions held;
   held.fix_intrinsics = true;
   held.max_iterations = 100;
@@ -141,18 +146,19 @@ nlohmann::json Compare(const std::string& name, const Burst& burst, const cv::Ma
   line["cost"] = solution.final_cost;
   line["cost_from_mirror"] = from_mirror.final_cost;
   line["cost_ratio"] = from_mirror.final_cost / std::max(solution.final_cost, 1e-12);
-  if (truth.size() == at_solution.poses.size()) {
-    SparseState from_truth = FromMotionCapture(sparse, at_solution, truth, depth);
-    line["translation_residual"] = TranslationResidual(at_solution.poses, truth);
+  if (!kept_truth.empty() && kept_truth.size() == at_solution.poses.size()) {
+    SparseState from_truth = FromMotionCapture(sparse, at_solution, kept_truth, depth);
+    line["translation_residual"] = TranslationResidual(at_solution.poses, kept_truth);
     line["order_truth_start"] = OrderAgainstTruth(sparse, from_truth, depth);
     const BundleAdjustmentSummary truth_run =
         RunBundleAdjustment(sparse.tracks, sparse.inliers, &from_truth, held);
     line["cost_from_truth"] = truth_run.final_cost;
     line["cost_ratio_truth"] = truth_run.final_cost / std::max(solution.final_cost, 1e-12);
     line["order_from_truth"] = OrderAgainstTruth(sparse, from_truth, depth);
-    line["translation_residual_from_truth"] = TranslationResidual(from_truth.poses, truth);
+    line["translation_residual_from_truth"] = TranslationResidual(from_truth.poses, kept_truth);
   }
   line["tracks"] = CountUsed(sparse.inliers);
+  line["frames_left_out"] = sparse.feature_stats.left_out.size();
   line["f"] = sparse.state.camera.f;
   return line;
 }
