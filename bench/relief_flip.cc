@@ -127,9 +127,7 @@ nlohmann::json Compare(const std::string& name, const Burst& burst, const cv::Ma
     return line;
   }
   // The poses are those of the frames the tracks run through.
-  std::vector<Pose> kept_truth;
-  if (!truth.empty())
-    for (const int frame : sparse.feature_stats.kept_frames) kept_truth.push_back(truth[frame]);
+  const std::vector<Pose> kept_truth = PosesOfFrames(truth, sparse.feature_stats.kept_frames);
   BundleAdjustmentOptions held;
   held.fix_intrinsics = true;
   held.max_iterations = 100;
@@ -146,7 +144,7 @@ nlohmann::json Compare(const std::string& name, const Burst& burst, const cv::Ma
   line["cost"] = solution.final_cost;
   line["cost_from_mirror"] = from_mirror.final_cost;
   line["cost_ratio"] = from_mirror.final_cost / std::max(solution.final_cost, 1e-12);
-  if (!kept_truth.empty() && kept_truth.size() == at_solution.poses.size()) {
+  if (!kept_truth.empty()) {
     SparseState from_truth = FromMotionCapture(sparse, at_solution, kept_truth, depth);
     line["translation_residual"] = TranslationResidual(at_solution.poses, kept_truth);
     line["order_truth_start"] = OrderAgainstTruth(sparse, from_truth, depth);

@@ -233,13 +233,9 @@ int main(int argc, char** argv) {
         line["known_fit"] = fit;
         if (output.sparse) {
           // The sparse stage's poses are those of the frames it kept.
-          const GridedFeatureStats& stats = output.sparse->feature_stats;
-          std::vector<Pose> kept_truth = true_poses;
-          if (!stats.left_out.empty() && !true_poses.empty()) {
-            kept_truth.clear();
-            for (const int frame : stats.kept_frames) kept_truth.push_back(true_poses[frame]);
-          }
-          line["pose_error"] = PoseError(output.sparse->state.poses, kept_truth);
+          line["pose_error"] =
+              PoseError(output.sparse->state.poses,
+                        PosesOfFrames(true_poses, output.sparse->feature_stats.kept_frames));
           if (line["pose_error"].is_object())
             row.translation_residual = line["pose_error"]["translation_residual"];
         }

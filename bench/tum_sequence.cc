@@ -14,6 +14,13 @@ std::string TumFreiburg1CalibrationFile() {
   return std::string(DFSM_SOURCE_DIR) + "/bench/data/tum_freiburg1.yaml";
 }
 
+std::vector<Pose> PosesOfFrames(const std::vector<Pose>& poses, const std::vector<int>& kept) {
+  std::vector<Pose> selected;
+  if (!poses.empty())
+    for (const int frame : kept) selected.push_back(poses[frame]);
+  return selected;
+}
+
 double TranslationResidual(const std::vector<Pose>& estimated, const std::vector<Pose>& truth,
                            double* scale) {
   double dot = 0.0, estimated_sq = 0.0, true_sq = 0.0;

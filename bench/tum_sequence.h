@@ -26,6 +26,11 @@ std::string TumFreiburg1CalibrationFile();
 double TranslationResidual(const std::vector<Pose>& estimated, const std::vector<Pose>& truth,
                            double* scale = nullptr);
 
+// The poses of the frames `kept` (GridedFeatureStats::kept_frames: the frames
+// the sparse stage's poses are of), to compare with those; empty where
+// `poses` is.
+std::vector<Pose> PosesOfFrames(const std::vector<Pose>& poses, const std::vector<int>& kept);
+
 // The median over windows as the benchmark reports it and the tests bound
 // it: with an even count, the mean of the two middle values (0 when empty).
 double WindowMedian(std::vector<double> values);

@@ -149,9 +149,10 @@ int RunJoint(const CalibrateInputs& inputs) {
     const std::optional<SparseReconstruction> sparse = CalibrateAlone(item, inputs, &failure);
     // Its tracks only are kept: memory stays one burst's frames at a time.
     entries.push_back(OwnCalibrationJson(burst_dir, sparse ? &*sparse : nullptr, failure));
+    const bool joins = sparse && sparse->OwnCamera();
     if (!sparse) {
       std::printf(" -> not joined: %s\n", failure.c_str());
-    } else if (!sparse->OwnCamera()) {
+    } else if (!joins) {
       std::printf(" -> not joined: no calibration of its own (%s)\n",
                   CalibrationSourceName(sparse->calibration_used));
     } else if (sparse->calibration_used != CalibrationSource::kSelf) {
@@ -161,7 +162,7 @@ int RunJoint(const CalibrateInputs& inputs) {
     } else {
       std::printf("\n");
     }
-    if (!sparse || !sparse->OwnCamera()) continue;
+    if (!joins) continue;
     entry_of.push_back(static_cast<int>(entries.size()) - 1);
     bursts.push_back(JointBurstOf(burst_dir, *sparse));
   }
