@@ -13,11 +13,19 @@
 namespace dfsm {
 namespace {
 
+// A global shutter, as simulated.
+SparseOptions GlobalShutterSparse() {
+  SparseOptions options;
+  options.rolling_shutter.mode = RollingShutterOptions::Mode::kGlobal;
+  return options;
+}
+
 // Bursts of one 640x480 camera (f `f`), seeds from `first_seed`, each through
-// the whole sparse stage alone (a global shutter, as simulated).
+// the whole sparse stage alone under `options`.
 std::vector<JointBurst> BurstsOfOneCamera(double f, double k1, int count, uint64_t first_seed,
                                           double rotation_deg, double noise_px,
-                                          std::vector<SparseReconstruction>* alone = nullptr) {
+                                          std::vector<SparseReconstruction>* alone = nullptr,
+                                          const SparseOptions& options = GlobalShutterSparse()) {
   std::vector<JointBurst> bursts;
   for (int b = 0; b < count; ++b) {
     TrackSimulatorOptions simulate;
@@ -30,8 +38,6 @@ std::vector<JointBurst> BurstsOfOneCamera(double f, double k1, int count, uint64
     simulate.noise_px = noise_px;
     simulate.seed = first_seed + b;
     const TrackSimulation sim = SimulateTracks(simulate);
-    SparseOptions options;
-    options.rolling_shutter.mode = RollingShutterOptions::Mode::kGlobal;
     const SparseReconstruction sparse = ReconstructFromTracks(sim.tracks, 640, 480, options);
     if (alone) alone->push_back(sparse);
     bursts.push_back(JointBurstOf("burst " + std::to_string(first_seed + b), sparse));
@@ -39,11 +45,7 @@ std::vector<JointBurst> BurstsOfOneCamera(double f, double k1, int count, uint64
   return bursts;
 }
 
-JointAdjustmentOptions GlobalShutter() {
-  SparseOptions sparse;
-  sparse.rolling_shutter.mode = RollingShutterOptions::Mode::kGlobal;
-  return JointOptionsFor(sparse);
-}
+JointAdjustmentOptions GlobalShutter() { return JointOptionsFor(GlobalShutterSparse()); }
 
 double SigmaF(const CalibrationUncertainty& uncertainty, const CameraModel& camera) {
   return uncertainty.available ? uncertainty.sigma_f_percent(camera.f) : 100.0;
@@ -117,30 +119,20 @@ TEST(JointAdjustment, TwoBurstsOfTwoCamerasAreSaidToDisagree) {
 // chose: its disagreement is measured from its own minimum, so it is never
 // negative. One without a camera of its own cannot join.
 TEST(JointBurstOf, TakesTheBurstsOwnCameraNotAPriorsPullNorAFallbacks) {
+  SparseOptions options = GlobalShutterSparse();
+  KnownCalibration prior;
+  prior.camera = CameraModel::Initial(640, 480);
+  prior.camera.f = 760.0;  // 8 % off, held within 1 %
+  prior.also_self_calibrate = true;
+  prior.check_fit = false;
+  options.known = prior;
   std::vector<SparseReconstruction> alone;
-  std::vector<JointBurst> bursts;
-  for (int b = 0; b < 4; ++b) {
-    TrackSimulatorOptions simulate;
-    simulate.width = 640;
-    simulate.height = 480;
-    simulate.tracks = 150;
-    simulate.f = 704.0;
-    simulate.k1 = -0.06;
-    simulate.noise_px = 0.1;
-    simulate.seed = 31 + b;
-    SparseOptions options;
-    options.rolling_shutter.mode = RollingShutterOptions::Mode::kGlobal;
-    KnownCalibration prior;
-    prior.camera = CameraModel::Initial(640, 480);
-    prior.camera.f = 760.0;  // 8 % off, held within 1 %
-    prior.also_self_calibrate = true;
-    prior.check_fit = false;
-    options.known = prior;
-    alone.push_back(ReconstructFromTracks(SimulateTracks(simulate).tracks, 640, 480, options));
-    ASSERT_TRUE(alone.back().self_estimate.has_value());
-    bursts.push_back(JointBurstOf("burst " + std::to_string(b), alone.back()));
-    EXPECT_EQ(bursts.back().state.camera.f, alone.back().self_estimate->camera.f);
-    EXPECT_GT(std::abs(alone.back().state.camera.f - bursts.back().state.camera.f), 1.0)
+  const std::vector<JointBurst> bursts =
+      BurstsOfOneCamera(704.0, -0.06, 4, 31, 0.5, 0.1, &alone, options);
+  for (size_t b = 0; b < bursts.size(); ++b) {
+    ASSERT_TRUE(alone[b].self_estimate.has_value());
+    EXPECT_EQ(bursts[b].state.camera.f, alone[b].self_estimate->camera.f);
+    EXPECT_GT(std::abs(alone[b].state.camera.f - bursts[b].state.camera.f), 1.0)
         << "the prior did not pull the burst's adjustment: the test shows nothing";
   }
   const JointCalibration joint = AdjustJointly(bursts, GlobalShutter());
