@@ -4,7 +4,8 @@
 // the rotation taking up the rest. A JSON report, not a timing benchmark
 // (docs/experiments/007-relief-flip.md): per burst, the order of the sparse
 // stage's inverse depths (the stage as a job runs it, ReconstructSparseStage) against the truth
-// (Spearman's rho: +1 right, -1 inverted), and the adjustment's cost from the mirrored start
+// (Spearman's rho: +1 right, -1 inverted) and how much relief they hold beyond a smooth surface
+// (relief_against_truth), and the adjustment's cost from the mirrored start
 // against the cost at the solution, both with the intrinsics held. On a TUM sequence with a motion
 // capture (groundtruth.txt), also the adjustment from its poses and the Kinect's inverse depths:
 // whether the solution's minimum or its start keeps it from the truth
@@ -73,6 +74,57 @@ double OrderAgainstTruth(const SparseReconstruction& sparse, const SparseState& 
   return Spearman(estimated, truth);
 }
 
+// The mean relative depth error, over the rows of `model`, of the truth's
+// inverse depths fitted by least squares in relative inverse depth; a
+// prediction behind the camera counts as 100 %.
+double FitError(const Eigen::MatrixXd& model, const Eigen::VectorXd& truth) {
+  Eigen::MatrixXd relative = model;
+  for (int i = 0; i < model.rows(); ++i) relative.row(i) /= truth(i);
+  const Eigen::VectorXd fit =
+      relative.colPivHouseholderQr().solve(Eigen::VectorXd::Ones(truth.size()));
+  const Eigen::VectorXd predicted = model * fit;
+  double sum = 0.0;
+  for (int i = 0; i < truth.size(); ++i)
+    sum += predicted(i) > 0.0 ? std::min(1.0, std::abs(truth(i) / predicted(i) - 1.0)) : 1.0;
+  return sum / truth.size();
+}
+
+// How much relief the used tracks hold against the truth's inverse depth at
+// their reference pixels: the fit error (FitError) of s w, of s w + b + c x +
+// d y, and of a quadric in the pixel coordinates alone, the tracks' depths
+// unused (a smooth surface through the truth's points).
+nlohmann::json ReliefAgainstTruth(const SparseReconstruction& sparse, const SparseState& state,
+                                  const cv::Mat& depth) {
+  const Eigen::Matrix2Xd& pixels = sparse.tracks.pixels[sparse.tracks.reference];
+  std::vector<Eigen::Vector3d> rows;  // w, x, y
+  std::vector<double> truth;
+  for (int i = 0; i < sparse.tracks.num_tracks(); ++i) {
+    const int x = static_cast<int>(std::lround(pixels(0, i)));
+    const int y = static_cast<int>(std::lround(pixels(1, i)));
+    if (!sparse.inliers[i] || x < 0 || y < 0 || x >= depth.cols || y >= depth.rows) continue;
+    const float z = depth.at<float>(y, x);
+    if (!(z > 0.0f)) continue;
+    rows.emplace_back(state.inverse_depths[i], (pixels(0, i) - state.camera.cx) / state.camera.f,
+                      (pixels(1, i) - state.camera.cy) / state.camera.f);
+    truth.push_back(1.0 / z);
+  }
+  const int n = static_cast<int>(rows.size());
+  if (n < 8) return nullptr;
+  Eigen::MatrixXd scale(n, 1), tilted(n, 4), quadric(n, 6);
+  Eigen::VectorXd true_w(n);
+  for (int i = 0; i < n; ++i) {
+    const double w = rows[i](0), x = rows[i](1), y = rows[i](2);
+    scale.row(i) << w;
+    tilted.row(i) << w, 1.0, x, y;
+    quadric.row(i) << 1.0, x, y, x * x, x * y, y * y;
+    true_w(i) = truth[i];
+  }
+  return {{"tracks", n},
+          {"scale", FitError(scale, true_w)},
+          {"scale_offset_tilt", FitError(tilted, true_w)},
+          {"quadric_alone", FitError(quadric, true_w)}};
+}
+
 // `state` with its relief mirrored about the median inverse depth and its
 // translations reversed (kept in front of the camera).
 SparseState Mirrored(const SparseState& state) {
@@ -139,6 +191,7 @@ nlohmann::json Compare(const std::string& name, const Burst& burst, const cv::Ma
   const BundleAdjustmentSummary from_mirror =
       RunBundleAdjustment(sparse.tracks, sparse.inliers, &mirrored, held);
   line["order"] = OrderAgainstTruth(sparse, at_solution, depth);
+  line["relief_against_truth"] = ReliefAgainstTruth(sparse, at_solution, depth);
   line["order_mirrored_start"] = order_mirrored_start;
   line["order_from_mirror"] = OrderAgainstTruth(sparse, mirrored, depth);
   line["cost"] = solution.final_cost;

@@ -278,6 +278,16 @@ TEST(SyntheticSparseCalibration, AKnownCalibrationIsHeldOrUsedAsAPrior) {
   EXPECT_TRUE(both.self_estimate->uncertainty.available);
   EXPECT_NEAR(both.self_estimate->camera.f, self.state.camera.f, 0.005 * truth_f);
   EXPECT_GT(both.self_estimate->uncertainty.sigma_f_px(), prior.uncertainty.sigma_f_px());
+  // Unchecked (the daemon's fused prior), the relief under the prior is
+  // compared with the self-estimate's; the true camera's barely moves.
+  known.check_fit = false;
+  options.known = known;
+  const SparseReconstruction unchecked = ReconstructSparse(burst.gray, burst.reference(), options);
+  ASSERT_TRUE(unchecked.self_estimate.has_value());
+  EXPECT_FALSE(unchecked.known_fit.has_value());
+  EXPECT_GE(unchecked.camera_relief_disagreement, 0.0);
+  EXPECT_LT(unchecked.camera_relief_disagreement, 0.03);
+  known.check_fit = true;
 
   // A calibration of another size is refused by name.
   known.camera.width = 1920;

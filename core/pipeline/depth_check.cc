@@ -46,6 +46,9 @@ void JudgeAsAWhole(const DepthCheckOptions& options, DepthCheck* check) {
   if (check->lens_relief_shift >= options.unreliable_relief)
     reasons.push_back("the relief moves by " + Percent(check->lens_relief_shift) +
                       " with the lens model");
+  if (check->camera_relief_disagreement >= options.unreliable_relief)
+    reasons.push_back("the relief moves by " + Percent(check->camera_relief_disagreement) +
+                      " with the camera");
   if (check->median_disagreement >= options.unreliable_relief)
     reasons.push_back("the map disagrees with the tracks by a median of " +
                       Percent(check->median_disagreement));
@@ -115,6 +118,13 @@ DepthCheck CheckDepthAgainstTracks(const SparseReconstruction& sparse, const Den
         Percent(check.lens_relief_shift) +
         " (median); the lens distorts more than k1 and k2 describe (a wide angle?), and the "
         "depth may be wrong as a whole");
+  check.camera_relief_disagreement = sparse.camera_relief_disagreement;
+  if (check.camera_relief_disagreement > options.max_camera_relief_disagreement)
+    check.warnings.push_back(
+        "depth relief depends on the camera: with the camera the burst calibrates alone, the "
+        "tracks' relative depths move by " +
+        Percent(check.camera_relief_disagreement) +
+        " (median); a camera slightly off bends this depth, which may be wrong as a whole");
   check.range_extended = dense.range_extended;
   check.known_calibration_fits = !sparse.known_fit || sparse.known_fit->fits;
   check.estimated_camera_used = !sparse.DroppedLensTerms();
@@ -149,6 +159,9 @@ const char* DepthQualityName(DepthQuality quality) {
 }
 
 void DepthCheckOptions::Check() const {
+  if (!(max_camera_relief_disagreement > 0.0))
+    throw std::invalid_argument("max_camera_relief_disagreement must be > 0, got " +
+                                std::to_string(max_camera_relief_disagreement));
   if (!(unreliable_relief > 0.0))
     throw std::invalid_argument("unreliable_relief must be > 0, got " +
                                 std::to_string(unreliable_relief));
@@ -169,6 +182,7 @@ nlohmann::json ToJson(const DepthCheck& check) {
           {"outlier_fraction", check.outlier_fraction},
           {"relief_sigma", check.relief_sigma},
           {"lens_relief_shift", check.lens_relief_shift},
+          {"camera_relief_disagreement", check.camera_relief_disagreement},
           {"at_nearest_plane", check.at_nearest_plane},
           {"at_farthest_plane", check.at_farthest_plane},
           {"range_extended", check.range_extended},

@@ -45,6 +45,13 @@ struct DepthCheckOptions {
   // score 0.8-6.7 % AbsRel, 5 % on two webcam bursts at 5.4 and 8.8 %, 34 and
   // 46 % on two wide-angle phone bursts at 12 and 22 %; 0.05-4 % on TUM).
   double max_lens_relief_shift = 0.10;
+  // Warn when the relief moves by more than this with the camera
+  // (SparseReconstruction::camera_relief_disagreement: the burst calibrated
+  // alone beside a known camera; docs/experiments/016-camera-relief-disagreement.md:
+  // at most 4.9 % on TUM fr1/xyz and on the one fr1/rpy window better than
+  // 11 %, at most 2.6 % on the generator's confirmed maps; 10.6 % on an
+  // fr1/rpy window worse than a constant depth that was confirmed).
+  double max_camera_relief_disagreement = 0.075;
   // Warn when more than this share of the measured pixels sit within one
   // plane of either end of the swept range. The range is the tracks' widened
   // by DenseOptions::inverse_depth_margin, so a surface nearer (or farther)
@@ -59,8 +66,9 @@ struct DepthCheckOptions {
   double max_range_end_fraction = 0.03;
 
   // The map is likely wrong as a whole (DepthQuality::kUnreliable) where the
-  // relief's sigma, its shift with the lens model or the map's median
-  // disagreement with the tracks reaches unreliable_relief, where
+  // relief's sigma, its shift with the lens model, its disagreement with the
+  // burst's own camera or the map's median disagreement with the tracks
+  // reaches unreliable_relief, where
   // unreliable_range_end_fraction of its pixels sit at one end of the swept
   // range, and wherever a known calibration does not fit the burst.
   // docs/experiments/142-depth-verdict.md: on TUM fr1/rpy every window worse
@@ -91,6 +99,8 @@ struct DepthCheck {
   double outlier_fraction = 0.0;     // DenseDepth::outlier_fraction
   double relief_sigma = -1.0;        // CalibrationUncertainty::relief_sigma
   double lens_relief_shift = -1.0;   // SparseReconstruction::lens_relief_shift
+  // SparseReconstruction::camera_relief_disagreement
+  double camera_relief_disagreement = -1.0;
   // Shares of the measured pixels within one plane of the swept range's
   // nearest and farthest ends.
   double at_nearest_plane = 0.0, at_farthest_plane = 0.0;

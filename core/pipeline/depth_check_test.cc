@@ -74,6 +74,39 @@ TEST(DepthCheck, AReliefThatDependsOnTheLensModelWarns) {
   EXPECT_TRUE(CheckDepthAgainstTracks(burst.sparse, burst.dense).warnings.empty());
 }
 
+// A relief that moves with the camera (SparseReconstruction::
+// camera_relief_disagreement: the burst calibrated alone beside a known
+// camera) withholds `confirmed` from 7.5 % and makes the map unreliable from a
+// quarter; -1 (not measured) says nothing.
+TEST(DepthCheck, AReliefThatDependsOnTheCameraIsNotConfirmed) {
+  AgreeingBurst burst;
+  burst.sparse.camera_relief_disagreement = 0.05;
+  DepthCheck check = CheckDepthAgainstTracks(burst.sparse, burst.dense);
+  EXPECT_EQ(check.quality, DepthQuality::kConfirmed);
+
+  burst.sparse.camera_relief_disagreement = 0.11;
+  check = CheckDepthAgainstTracks(burst.sparse, burst.dense);
+  ASSERT_EQ(check.warnings.size(), 1u);
+  EXPECT_NE(check.warnings[0].find("depth relief depends on the camera"), std::string::npos);
+  EXPECT_NE(check.warnings[0].find("by 11 %"), std::string::npos) << check.warnings[0];
+  EXPECT_EQ(check.quality, DepthQuality::kUncertain);
+  EXPECT_DOUBLE_EQ(ToJson(check).at("camera_relief_disagreement").get<double>(), 0.11);
+
+  burst.sparse.camera_relief_disagreement = 0.66;
+  check = CheckDepthAgainstTracks(burst.sparse, burst.dense);
+  EXPECT_EQ(check.quality, DepthQuality::kUnreliable);
+  ASSERT_EQ(check.unreliable_reasons.size(), 1u);
+  EXPECT_NE(check.unreliable_reasons[0].find("moves by 66 % with the camera"), std::string::npos)
+      << check.unreliable_reasons[0];
+
+  burst.sparse.camera_relief_disagreement = -1.0;
+  EXPECT_EQ(CheckDepthAgainstTracks(burst.sparse, burst.dense).quality, DepthQuality::kConfirmed);
+
+  DepthCheckOptions bad;
+  bad.max_camera_relief_disagreement = 0.0;
+  EXPECT_THROW(CheckDepthAgainstTracks(burst.sparse, burst.dense, bad), std::invalid_argument);
+}
+
 // A map computed with a camera refitted with fewer lens terms than the
 // adjustment estimated (the dense stage could not invert the estimate) agrees
 // with the refit's tracks, which confirms nothing: the check says so in its

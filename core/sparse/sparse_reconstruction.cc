@@ -12,6 +12,7 @@
 #include "core/io/stage_timer.h"
 #include "core/parallel/parallel_for.h"
 #include "core/sparse/adjustment_starts.h"
+#include "core/sparse/camera_relief_disagreement.h"
 #include "core/sparse/fixed_text.h"
 #include "core/sparse/lens_relief_shift.h"
 
@@ -216,14 +217,20 @@ BundleAdjustmentOptions AdjustmentOptionsFor(const SparseOptions& options,
 }
 
 // The burst's own calibration beside a known prior (KnownCalibration::
-// also_self_calibrate): the solution adjusted once more without the prior.
+// also_self_calibrate): the solution adjusted once more without the prior;
+// `relief_disagreement`: SparseReconstruction::camera_relief_disagreement.
 SparseReconstruction::SelfEstimate EstimateAlone(const FeatureTracks& tracks,
-                                                 const std::vector<bool>& use, SparseState state,
-                                                 const SparseOptions& options) {
+                                                 const std::vector<bool>& use,
+                                                 const SparseState& solution,
+                                                 const SparseOptions& options,
+                                                 double* relief_disagreement) {
   SparseReconstruction::SelfEstimate estimate;
   const BundleAdjustmentOptions alone = AdjustmentOptionsFor(options, nullptr);
+  SparseState state = solution;
   const BundleAdjustmentSummary summary =
       RunBundleAdjustment(tracks, use, &state, alone, &estimate.uncertainty);
+  *relief_disagreement =
+      CameraReliefDisagreement(solution.inverse_depths, use, state.inverse_depths, use);
   CalibrationEvidence evidence;
   evidence.tracks = CountUsed(use);
   evidence.rms_reprojection_px = summary.rms_reprojection_px;
@@ -461,12 +468,14 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
       AdjustmentOptionsFor(options, options.known ? &*options.known : nullptr);
   AdjustmentAttempt solved =
       AdjustFromStarts(sparse.tracks, initial, options, adjust, &timer, beside, given);
-  if (options.known && options.known->mode == KnownCalibrationMode::kPrior &&
-      options.known->also_self_calibrate)
-    sparse.self_estimate = EstimateAlone(sparse.tracks, solved.use, solved.state, options);
   SettleSign(&solved.state, &solved.use);
   if (options.mirrored_relief) TryMirroredRelief(sparse.tracks, adjust, &solved, &sparse);
   timer.Lap("mirrored_relief");
+  // From the solution as reported: the mirror, where it was kept.
+  if (options.known && options.known->mode == KnownCalibrationMode::kPrior &&
+      options.known->also_self_calibrate)
+    sparse.self_estimate = EstimateAlone(sparse.tracks, solved.use, solved.state, options,
+                                         &sparse.camera_relief_disagreement);
   if (CountUsed(solved.use) < options.min_tracks)
     throw ReconstructionError("too few consistent tracks after bundle adjustment: " +
                               std::to_string(CountUsed(solved.use)) +
@@ -602,6 +611,8 @@ SparseReconstruction AdjustCheckedKnown(SparseReconstruction tracked, int width,
     fit.free_quality = free->verdict.quality;
     fit.fits = fit.Fits(options.max_known_fit_ratio);
     sparse.known_fit = fit;
+    sparse.camera_relief_disagreement = CameraReliefDisagreement(
+        sparse.state.inverse_depths, sparse.inliers, free->state.inverse_depths, free->inliers);
     if (!fit.fits) {
       const std::string reason =
           "known calibration does not fit this burst: under it " +

@@ -274,6 +274,15 @@ struct SparseReconstruction {
   // -1: not measured (intrinsics held or given as a
   // prior with its distortion, or a fallback camera).
   double lens_relief_shift = -1.0;
+  // How far the relief depends on the camera: where the burst was also
+  // calibrated alone beside a known camera (the known fit's solution, or
+  // self_estimate), CameraReliefDisagreement of the solution's inverse
+  // depths and that one's. A relief the tracks determine barely moves with
+  // the camera (TUM fr1/xyz: at most 5 % with free focal lengths 2 % to 130 %
+  // off); where the rotation takes up the translation's work, it moves with
+  // any camera error, the known camera's or the lens model's
+  // (docs/experiments/016-camera-relief-disagreement.md). -1: not measured.
+  double camera_relief_disagreement = -1.0;
   // The adjustment from the mirrored relief (SparseOptions::mirrored_relief):
   // its cost over the solution's, both with the intrinsics held (1: it came
   // back to the solution; -1: not run), and whether it replaced the solution.

@@ -113,7 +113,8 @@ TEST(ReconstructFromTracks, TheMirroredReliefOfARightSolutionIsNotKept) {
 }
 
 // A known camera 15 % off fits the tracks worse than the burst's own: the
-// check says so in the verdict and a warning, and never calls it reliable.
+// check says so in the verdict and a warning, and never calls it reliable;
+// the relief it gives is not the burst's own.
 TEST(ReconstructFromTracks, AKnownCameraThatDoesNotFitIsSaidSo) {
   const TrackSimulation sim = SimulateTracks(RollingShutterCamera());
   SparseOptions options = EstimatingTheReadout();
@@ -136,6 +137,11 @@ TEST(ReconstructFromTracks, AKnownCameraThatDoesNotFitIsSaidSo) {
   ASSERT_TRUE(right.known_fit.has_value());
   EXPECT_TRUE(right.known_fit->fits)
       << right.known_fit->known_rms_px << " px against " << right.known_fit->free_rms_px;
+  // The relief moves with the camera: little from the true one to the
+  // burst's own, past the depth check's bound from one 15 % off.
+  EXPECT_GE(right.camera_relief_disagreement, 0.0);
+  EXPECT_LT(right.camera_relief_disagreement, 0.03);
+  EXPECT_GT(sparse.camera_relief_disagreement, 0.075);
 }
 
 TEST(ReconstructFromTracks, TooFewTracksAreCounted) {
