@@ -55,11 +55,14 @@ double Spearman(const std::vector<double>& a, const std::vector<double>& b) {
   return ab / std::sqrt(aa * bb);
 }
 
-// The order of `state`'s inverse depths against the true inverse depth at
-// each used track's reference pixel (0 where the truth has none: skipped).
-double OrderAgainstTruth(const SparseReconstruction& sparse, const SparseState& state,
-                         const cv::Mat& depth) {
-  std::vector<double> estimated, truth;
+// The inlier tracks whose reference pixel has a true depth, with the true
+// inverse depth there.
+struct TrackTruth {
+  int track;
+  double inverse_depth;
+};
+std::vector<TrackTruth> TruthAtInliers(const SparseReconstruction& sparse, const cv::Mat& depth) {
+  std::vector<TrackTruth> found;
   const Eigen::Matrix2Xd& pixels = sparse.tracks.pixels[sparse.tracks.reference];
   for (int i = 0; i < sparse.tracks.num_tracks(); ++i) {
     if (!sparse.inliers[i]) continue;
@@ -67,9 +70,19 @@ double OrderAgainstTruth(const SparseReconstruction& sparse, const SparseState& 
     const int y = static_cast<int>(std::lround(pixels(1, i)));
     if (x < 0 || y < 0 || x >= depth.cols || y >= depth.rows) continue;
     const float z = depth.at<float>(y, x);
-    if (!(z > 0.0f)) continue;
-    estimated.push_back(state.inverse_depths[i]);
-    truth.push_back(1.0 / z);
+    if (z > 0.0f) found.push_back({i, 1.0 / z});
+  }
+  return found;
+}
+
+// The order of `state`'s inverse depths against the true inverse depth at
+// each used track's reference pixel (0 where the truth has none: skipped).
+double OrderAgainstTruth(const SparseReconstruction& sparse, const SparseState& state,
+                         const cv::Mat& depth) {
+  std::vector<double> estimated, truth;
+  for (const TrackTruth& found : TruthAtInliers(sparse, depth)) {
+    estimated.push_back(state.inverse_depths[found.track]);
+    truth.push_back(found.inverse_depth);
   }
   return Spearman(estimated, truth);
 }
@@ -96,28 +109,20 @@ double FitError(const Eigen::MatrixXd& model, const Eigen::VectorXd& truth) {
 nlohmann::json ReliefAgainstTruth(const SparseReconstruction& sparse, const SparseState& state,
                                   const cv::Mat& depth) {
   const Eigen::Matrix2Xd& pixels = sparse.tracks.pixels[sparse.tracks.reference];
-  std::vector<Eigen::Vector3d> rows;  // w, x, y
-  std::vector<double> truth;
-  for (int i = 0; i < sparse.tracks.num_tracks(); ++i) {
-    const int x = static_cast<int>(std::lround(pixels(0, i)));
-    const int y = static_cast<int>(std::lround(pixels(1, i)));
-    if (!sparse.inliers[i] || x < 0 || y < 0 || x >= depth.cols || y >= depth.rows) continue;
-    const float z = depth.at<float>(y, x);
-    if (!(z > 0.0f)) continue;
-    rows.emplace_back(state.inverse_depths[i], (pixels(0, i) - state.camera.cx) / state.camera.f,
-                      (pixels(1, i) - state.camera.cy) / state.camera.f);
-    truth.push_back(1.0 / z);
-  }
-  const int n = static_cast<int>(rows.size());
+  const std::vector<TrackTruth> truth = TruthAtInliers(sparse, depth);
+  const int n = static_cast<int>(truth.size());
   if (n < 8) return nullptr;
   Eigen::MatrixXd scale(n, 1), tilted(n, 4), quadric(n, 6);
   Eigen::VectorXd true_w(n);
   for (int i = 0; i < n; ++i) {
-    const double w = rows[i](0), x = rows[i](1), y = rows[i](2);
+    const int j = truth[i].track;
+    const double w = state.inverse_depths[j];
+    const double x = (pixels(0, j) - state.camera.cx) / state.camera.f;
+    const double y = (pixels(1, j) - state.camera.cy) / state.camera.f;
     scale.row(i) << w;
     tilted.row(i) << w, 1.0, x, y;
     quadric.row(i) << 1.0, x, y, x * x, x * y, y * y;
-    true_w(i) = truth[i];
+    true_w(i) = truth[i].inverse_depth;
   }
   return {{"tracks", n},
           {"scale", FitError(scale, true_w)},

@@ -3,6 +3,7 @@
 // adjustment, scored with the metrics of Ha et al.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <opencv2/core.hpp>
 #include <ostream>
@@ -287,6 +288,8 @@ TEST(SyntheticSparseCalibration, AKnownCalibrationIsHeldOrUsedAsAPrior) {
   EXPECT_FALSE(unchecked.known_fit.has_value());
   EXPECT_GE(unchecked.camera_relief_disagreement, 0.0);
   EXPECT_LT(unchecked.camera_relief_disagreement, 0.03);
+  EXPECT_TRUE(std::any_of(unchecked.timings_ms.begin(), unchecked.timings_ms.end(),
+                          [](const auto& lap) { return lap.first == "self_estimate"; }));
   known.check_fit = true;
 
   // A calibration of another size is refused by name.

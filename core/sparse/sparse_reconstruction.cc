@@ -473,9 +473,11 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
   timer.Lap("mirrored_relief");
   // From the solution as reported: the mirror, where it was kept.
   if (options.known && options.known->mode == KnownCalibrationMode::kPrior &&
-      options.known->also_self_calibrate)
+      options.known->also_self_calibrate) {
     sparse.self_estimate = EstimateAlone(sparse.tracks, solved.use, solved.state, options,
                                          &sparse.camera_relief_disagreement);
+    timer.Lap("self_estimate");
+  }
   if (CountUsed(solved.use) < options.min_tracks)
     throw ReconstructionError("too few consistent tracks after bundle adjustment: " +
                               std::to_string(CountUsed(solved.use)) +

@@ -275,9 +275,10 @@ struct SparseReconstruction {
   // prior with its distortion, or a fallback camera).
   double lens_relief_shift = -1.0;
   // How far the relief depends on the camera: where the burst was also
-  // calibrated alone beside a known camera (the known fit's solution, or
-  // self_estimate), CameraReliefDisagreement of the solution's inverse
-  // depths and that one's. A relief the tracks determine barely moves with
+  // calibrated alone beside a known camera, CameraReliefDisagreement of the
+  // solution's inverse depths and those of the known fit's solution (from
+  // the burst's own starts) where the check ran, else of self_estimate's
+  // (from the solution under the prior). A relief the tracks determine barely moves with
   // the camera (TUM fr1/xyz: at most 5 % with free focal lengths 2 % to 130 %
   // off); where the rotation takes up the translation's work, it moves with
   // any camera error, the known camera's or the lens model's

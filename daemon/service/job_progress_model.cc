@@ -28,6 +28,7 @@ constexpr Lap kLaps[] = {
     {"bias", "sparse", 103},
     {"reweight", "sparse", 33},
     {"mirrored_relief", "sparse", 40},
+    {"self_estimate", "sparse", 0},  // beside a known prior only (also_self_calibrate)
     {"uncertainty", "sparse", 13},
     {"lens_check", "sparse", 9},
     {"frames", "dense", 1},
