@@ -36,6 +36,9 @@ void GridedFeatureOptions::Check() const {
   if (!(min_frame_share >= 0.0 && min_frame_share <= 1.0))
     throw std::invalid_argument("min_frame_share must be in [0, 1], got " +
                                 std::to_string(min_frame_share));
+  if (!(min_shared_tracks >= 0))
+    throw std::invalid_argument("min_shared_tracks must be >= 0, got " +
+                                std::to_string(min_shared_tracks));
   alignment.Check();
 }
 
@@ -155,7 +158,8 @@ std::vector<GridedFeatureStats::LeftOut> FramesToLeaveOut(
   };
   const auto keeps_enough = [&](int frame) {
     const int before = static_cast<int>(std::count(shared.begin(), shared.end(), 1));
-    return count(frame) >= (1.0 - options.max_frame_track_loss) * before;
+    return count(frame) >= (1.0 - options.max_frame_track_loss) * before &&
+           count(frame) >= options.min_shared_tracks;
   };
   // The frames most tracks reach first, the nearer the reference the earlier
   // among equals.

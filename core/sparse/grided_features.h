@@ -74,6 +74,15 @@ struct GridedFeatureOptions {
   double max_frame_track_loss = 2.0 / 3.0;
   // ... while at least this share of the frames (and 3) stay.
   double min_frame_share = 0.5;
+  // A frame is also left out where keeping it would leave the frames kept
+  // sharing fewer tracks than this (the sparse stage's min_tracks). The loss
+  // bound is a share of what the frames kept so far share, so blurred frames
+  // in a row, each within it, compound to fewer tracks than a burst needs
+  // where the frames that track well would have given one: tum_fr1_rpy
+  // window 13 kept 8 tracks through 8 frames, and has 40 through the 5 that
+  // track (docs/experiments/018-frames-kept-above-the-track-floor.md).
+  // 0: no floor.
+  int min_shared_tracks = 0;
   // Hears "features" after the detection and after each tracked frame.
   ProgressCallback progress;
 
@@ -129,7 +138,8 @@ FeatureTracks TrackGridedFeatures(const std::vector<cv::Mat>& frames, int refere
 // (reached[frame][track], after every check). Starting from the reference,
 // frames join in the order of how many tracks reach them (the nearer the
 // reference the earlier among equals), each unless it would cut the tracks
-// the frames kept so far share by more than options.max_frame_track_loss.
+// the frames kept so far share by more than options.max_frame_track_loss, or
+// below options.min_shared_tracks.
 // Where fewer than options.min_frame_share of the frames (and 3) are kept,
 // those that keep the most tracks join until there are; then each frame left
 // out joins if it keeps enough of what remains. Never the reference. Each

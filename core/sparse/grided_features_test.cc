@@ -243,6 +243,26 @@ TEST(FramesToLeaveOut, AFrameThatLosesLessThanTheBoundStays) {
   EXPECT_EQ(left_out[0].frame, 3);
 }
 
+TEST(FramesToLeaveOut, LossesThatCompoundStopAtTheTrackFloor) {
+  // Frames 2, 1 and 0 each keep half of what the frames nearer the
+  // reference share (a blur that grows toward the burst's start): each within
+  // the loss bound, 12 tracks through them all.
+  const auto reached =
+      Reached(10, 100, [](int i, int j) { return i < 3 && j >= (100 >> (3 - i)); });
+  EXPECT_TRUE(FramesToLeaveOut(reached, 5, {}).empty());
+  GridedFeatureOptions floor;
+  floor.min_shared_tracks = 20;
+  const auto left_out = FramesToLeaveOut(reached, 5, floor);
+  ASSERT_EQ(left_out.size(), 1u);
+  EXPECT_EQ(left_out[0].frame, 0);
+  EXPECT_EQ(left_out[0].tracks_without, 25);
+  EXPECT_EQ(left_out[0].tracks_with, 12);
+  // The floor does not override the frames that must stay: with every frame
+  // required, frame 0 joins although the tracks fall below it.
+  floor.min_frame_share = 1.0;
+  EXPECT_TRUE(FramesToLeaveOut(reached, 5, floor).empty());
+}
+
 TEST(FramesToLeaveOut, NeverTheReferenceNorBelowTheFramesKept) {
   // Every frame but the reference (2) loses ten tracks of its own: each
   // keeps at least half of what the frames before it share.

@@ -664,7 +664,9 @@ SparseReconstruction TrackForSparse(const std::vector<cv::Mat>& frames, int refe
   options.Check();
   SparseReconstruction tracked;
   StageTimer timer(&tracked.timings_ms, options.progress);
-  tracked.tracks = TrackGridedFeatures(frames, reference, options.features, &tracked.feature_stats);
+  GridedFeatureOptions features = options.features;
+  features.min_shared_tracks = options.min_tracks;
+  tracked.tracks = TrackGridedFeatures(frames, reference, features, &tracked.feature_stats);
   timer.Lap("features");
   if (tracked.tracks.num_tracks() < options.min_tracks)
     throw TooFewTracks(frames[reference], tracked, options);
