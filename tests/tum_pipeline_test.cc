@@ -30,19 +30,28 @@ struct WindowScore {
   bool confirmed = false;  // the result's depth_check
 };
 
-// Every window of the sequence through the pipeline, with the published
-// calibration held fixed (`known`, scaled to the sequence's frames) or
-// self-calibrated.
-std::vector<WindowScore> ScoreWindows(const TumSequence& sequence, bool known) {
-  const std::string calibration_file = TumFreiburg1CalibrationFile();
+// The pipeline's options with the published calibration held fixed
+// (`known`, scaled to the sequence's frames), or self-calibrating.
+PipelineOptions TumOptions(const TumSequence& sequence, bool known) {
   PipelineOptions options;
-  if (known) {
-    KnownCalibration fixed;
-    fixed.camera = sequence.ReadCalibration(calibration_file).camera;
-    fixed.mode = KnownCalibrationMode::kFixed;
-    fixed.source = calibration_file;
-    options.sparse.known = fixed;
-  }
+  if (!known) return options;
+  const std::string calibration_file = TumFreiburg1CalibrationFile();
+  KnownCalibration fixed;
+  fixed.camera = sequence.ReadCalibration(calibration_file).camera;
+  fixed.mode = KnownCalibrationMode::kFixed;
+  fixed.source = calibration_file;
+  options.sparse.known = fixed;
+  return options;
+}
+
+// A constant depth against the truth: the baseline a map must beat.
+DepthEvaluation ConstantDepth(const cv::Mat& truth) {
+  return EvaluateDepth(cv::Mat(truth.size(), CV_32FC1, cv::Scalar(1.0f)), truth, cv::Mat());
+}
+
+// Every window of the sequence through the pipeline (TumOptions).
+std::vector<WindowScore> ScoreWindows(const TumSequence& sequence, bool known) {
+  const PipelineOptions options = TumOptions(sequence, known);
   std::vector<WindowScore> scores;
   for (int first = 0; first + kFrames <= sequence.frames(); first += kStep) {
     const Burst burst = sequence.Window(first, kFrames);
@@ -54,8 +63,7 @@ std::vector<WindowScore> ScoreWindows(const TumSequence& sequence, bool known) {
     score.first = first;
     score.measured = EvaluateDepth(output.dense->depth, truth, cv::Mat());
     score.filled = EvaluateDepth(output.dense->depth_filled, truth, cv::Mat());
-    score.constant =
-        EvaluateDepth(cv::Mat(truth.size(), CV_32FC1, cv::Scalar(1.0f)), truth, cv::Mat());
+    score.constant = ConstantDepth(truth);
     score.confirmed = output.result.extra.at("depth_check").at("confirmed").get<bool>();
     scores.push_back(score);
   }
@@ -183,15 +191,8 @@ TEST(TumRpy, FramesThatBlurAwayTheTracksAreLeftOutNotTheBurst) {
   if (sequence.empty())
     GTEST_SKIP() << "TUM fr1/rpy not found at " << sequence.dataset()
                  << " (rgb.txt, depth.txt; it lives in ../shared/data beside the repository)";
-  const Burst burst = sequence.Window(13, kFrames);
-  PipelineOptions options;
-  const std::string calibration_file = TumFreiburg1CalibrationFile();
-  KnownCalibration fixed;
-  fixed.camera = sequence.ReadCalibration(calibration_file).camera;
-  fixed.mode = KnownCalibrationMode::kFixed;
-  fixed.source = calibration_file;
-  options.sparse.known = fixed;
-  const PipelineOutput output = RunPipeline(burst, options);
+  const PipelineOutput output =
+      RunPipeline(sequence.Window(13, kFrames), TumOptions(sequence, /*known=*/true));
   ASSERT_TRUE(output.result.ok && output.dense) << output.result.error;
   const nlohmann::json& untracked = output.result.extra.at("untracked_frames");
   EXPECT_GE(untracked.size(), 1u);
@@ -201,12 +202,13 @@ TEST(TumRpy, FramesThatBlurAwayTheTracksAreLeftOutNotTheBurst) {
     EXPECT_LT(frame.at("tracks_with").get<int>(), frame.at("tracks_without").get<int>());
   }
   const cv::Mat truth = sequence.ReferenceDepth(13, kFrames);
-  const DepthEvaluation measured = EvaluateDepth(output.dense->depth, truth, cv::Mat());
-  const DepthEvaluation constant =
-      EvaluateDepth(cv::Mat(truth.size(), CV_32FC1, cv::Scalar(1.0f)), truth, cv::Mat());
-  if (measured.abs_rel > 0.5 * constant.abs_rel) {
+  WindowScore score;
+  score.measured = EvaluateDepth(output.dense->depth, truth, cv::Mat());
+  score.constant = ConstantDepth(truth);
+  if (!ClearlyBetter(score)) {
     EXPECT_NE(output.result.extra.at("depth_verdict").at("quality"), "confirmed")
-        << 100.0 * measured.abs_rel << " % against " << 100.0 * constant.abs_rel << " %";
+        << 100.0 * score.measured.abs_rel << " % against " << 100.0 * score.constant.abs_rel
+        << " %";
     EXPECT_FALSE(output.result.extra.at("depth_check").at("confirmed").get<bool>());
     EXPECT_TRUE(std::any_of(output.result.warnings.begin(), output.result.warnings.end(),
                             [](const std::string& w) { return w.rfind("depth ", 0) == 0; }));

@@ -158,8 +158,9 @@ std::vector<GridedFeatureStats::LeftOut> FramesToLeaveOut(
   };
   const auto keeps_enough = [&](int frame) {
     const int before = static_cast<int>(std::count(shared.begin(), shared.end(), 1));
-    return count(frame) >= (1.0 - options.max_frame_track_loss) * before &&
-           count(frame) >= options.min_shared_tracks;
+    const int after = count(frame);
+    return after >= (1.0 - options.max_frame_track_loss) * before &&
+           after >= options.min_shared_tracks;
   };
   // The frames most tracks reach first, the nearer the reference the earlier
   // among equals.
