@@ -9,6 +9,12 @@ capture="$2"
 vimc="${3:-}"
 vivid_options="n_devs=1 node_types=0x1 num_inputs=2 input_types=0xc"  # input 0 webcam, 1 HDMI
 device=/dev/video0
+# The 640x480 colour scenarios check formats, recordings and faults, not the
+# frame rate: at 25 fps an emulated guest on a busy host converts too slowly
+# and drops about every second frame, so bursts of consecutive frames time
+# out. 5 fps leaves it 200 ms a frame (scenario 2's 1080p5 keeps up under
+# load). Frame rate and drops are scenario 2's to check.
+webcam_fps=5
 
 log() { echo "scenario: $(cut -d' ' -f1 /proc/uptime) s: $*"; }
 timed() {  # NAME COMMAND...: runs COMMAND, records its wall time in OUT/NAME.time
@@ -46,7 +52,7 @@ v4l2-ctl -d $device --info >"$out/v4l2-info.txt" 2>&1
 v4l2-ctl -d $device --set-input 0 >/dev/null
 for format in YUYV UYVY NV12 YU12 GREY; do
   timed "format-$format" "$capture" --source v4l2:$device --format $format --width 640 --height 480 \
-    --fps 25 --duration 1 --burst 3 --when next --out "$out/format-$format" \
+    --fps $webcam_fps --duration 1 --burst 3 --when next --out "$out/format-$format" \
     --report "$out/format-$format.json"
 done
 
@@ -77,17 +83,16 @@ wait $load 2>/dev/null
 # 3. A burst grabbed and recorded (colour, webcam input), then 4. replayed and
 #    recorded again: the two recordings must be identical. What is checked is
 #    the recording, not the frame rate: 20 s (not 5) to find 10 consecutive
-#    frames, as an emulated guest on a busy host drops some (once in CI: 28
-#    sequence gaps, 3 consecutive frames in 5 s).
+#    frames, as an emulated guest on a busy host still drops some.
 v4l2-ctl -d $device --set-input 0 >/dev/null
-timed burst-v4l2 "$capture" --source v4l2:$device --width 640 --height 480 --fps 25 --duration 1 \
-  --burst 10 --when last --timeout-ms 20000 --out "$out/burst-v4l2" --report "$out/burst-v4l2.json"
+timed burst-v4l2 "$capture" --source v4l2:$device --width 640 --height 480 --fps $webcam_fps \
+  --duration 1 --burst 10 --when last --timeout-ms 20000 --out "$out/burst-v4l2" --report "$out/burst-v4l2.json"
 timed burst-replayed "$capture" --source replay:"$out/burst-v4l2" --fps -1 --ring 32 \
   --burst 10 --when next --out "$out/burst-replayed" --report "$out/burst-replayed.json"
 
 # 5. Faults the real driver injects: a buffer flagged with an error, then a
 #    fatal streaming error (DQBUF answers EIO).
-"$capture" --source v4l2:$device --width 640 --height 480 --fps 25 --duration 8 --burst 5 \
+"$capture" --source v4l2:$device --width 640 --height 480 --fps $webcam_fps --duration 8 --burst 5 \
   --when next --report "$out/injected-errors.json" --ready-file /tmp/injected.ready &
 pid=$!
 wait_ready /tmp/injected.ready $pid
@@ -104,7 +109,7 @@ echo "$?" >"$out/injected-errors.exit"
 #    remove the module meanwhile, so the reopen first finds no device at all;
 #    the module is then loaded again. Capture must report the loss, keep
 #    retrying, and deliver bursts again.
-"$capture" --source v4l2:$device --width 640 --height 480 --fps 25 --backoff-ms 3000 \
+"$capture" --source v4l2:$device --width 640 --height 480 --fps $webcam_fps --backoff-ms 3000 \
   --duration 2 --until-reconnected 60 --burst 5 --when next --report "$out/removal.json" \
   --ready-file /tmp/removal.ready &
 pid=$!
