@@ -173,6 +173,7 @@ class ScriptedSource : public FrameSource {
   struct Step {
     uint64_t dropped_before = 0;
     bool fail_gone = false;
+    bool restarted = false;  // the stream restarted in place before this frame
   };
   explicit ScriptedSource(std::vector<Step> steps) : steps_(std::move(steps)) {}
   void Open() override {
@@ -193,7 +194,8 @@ class ScriptedSource : public FrameSource {
     slot.timestamp_ns = static_cast<int64_t>(next_) * 1000;
     slot.source_sequence = static_cast<int64_t>(next_);
     slot.dropped_before = step.dropped_before;
-    slot.discontinuity = false;
+    slot.discontinuity = step.restarted;
+    restarts_ += step.restarted;
     std::this_thread::sleep_for(milliseconds(1));
     return ReadResult::kFrame;
   }
@@ -201,6 +203,7 @@ class ScriptedSource : public FrameSource {
     SourceDescription d;
     d.kind = "scripted";
     d.width = d.height = 2;
+    d.details = {{"stream_restarts", restarts_}};
     return d;
   }
   int opens_ = 0;
@@ -208,6 +211,7 @@ class ScriptedSource : public FrameSource {
  private:
   std::vector<Step> steps_;
   size_t next_ = 0;
+  int restarts_ = 0;
 };
 
 CaptureConfig SmallConfig() {
@@ -303,6 +307,21 @@ TEST(CaptureServiceGaps, ABurstNeverSpansAGap) {
   } catch (const CaptureUnavailable& e) {
     EXPECT_NE(std::string(e.what()).find("consecutive"), std::string::npos) << e.what();
   }
+}
+
+TEST(CaptureServiceGaps, ABurstAfterARestartInPlaceReportsTheRestart) {
+  // Frames 1-4, the stream restarted in place, frames 5-9: a burst of the
+  // last 5 follows the restart, and its provenance must say so.
+  std::vector<ScriptedSource::Step> steps(9);
+  steps[4].restarted = true;
+  StreamingCaptureService service(SmallConfig(), std::make_unique<ScriptedSource>(steps));
+  service.Start();
+  ASSERT_TRUE(WaitFor([&] { return service.Status().frames_captured == 9; }));
+  const auto burst = service.GrabBurst(5, BurstWhen::kLast, milliseconds(1000));
+  EXPECT_EQ(burst.manifest.source["source_sequence_first"], 5);
+  EXPECT_EQ(burst.manifest.source["details"]["stream_restarts"], 1);
+  // The restart is a discontinuity: no burst spans it.
+  EXPECT_THROW(service.GrabBurst(6, BurstWhen::kLast, milliseconds(50)), CaptureUnavailable);
 }
 
 TEST(CaptureServiceGaps, DeviceGoneMidBurstIsReportedAndReopenIsADiscontinuity) {

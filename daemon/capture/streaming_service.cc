@@ -214,6 +214,13 @@ void StreamingCaptureService::Run() {
       continue;
     }
     last_frame = now;
+    // A stream restarted in place (slot->discontinuity) changes the source's
+    // provenance (its count of restarts): the bursts from now on report it.
+    if (slot->discontinuity) {
+      SourceDescription refreshed = source_->Describe();
+      std::lock_guard<std::mutex> lock(status_mutex_);
+      description_.details = std::move(refreshed.details);
+    }
 
     int64_t sequence = next_sequence_ + static_cast<int64_t>(slot->dropped_before);
     if (!first_frame && (discontinuity || slot->discontinuity) && slot->dropped_before == 0)

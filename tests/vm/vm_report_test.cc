@@ -165,6 +165,10 @@ TEST_F(VividVm, InjectedDriverErrorsAreCountedAndSurvived) {
   ASSERT_TRUE(r["ok"].get<bool>()) << r.value("error", "");
   EXPECT_GE(r["final"]["frames_dropped"].get<int>(), 1);  // the flagged buffer
   EXPECT_TRUE(r["final"]["streaming"].get<bool>());
+  // The fatal error restarted the stream in place, without a reopen, before
+  // the burst, whose provenance says so.
+  EXPECT_EQ(r["final"]["reconnects"].get<int>(), 0);
+  EXPECT_GE(r["burst"]["manifest"]["source"]["details"]["stream_restarts"].get<int>(), 1);
   ExpectConsecutive(r["burst"], 5);
   std::cout << "errors seen: " << r["errors_seen"].dump() << "\n";
 }
