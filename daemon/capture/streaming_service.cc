@@ -214,8 +214,9 @@ void StreamingCaptureService::Run() {
       continue;
     }
     last_frame = now;
-    // A stream restarted in place (slot->discontinuity) changes the source's
-    // provenance (its count of restarts): the bursts from now on report it.
+    // A discontinuity within the source (a stream restarted in place, a
+    // replay's next recording) changes its provenance (the count of restarts,
+    // the recording playing): the bursts from now on report the new one.
     if (slot->discontinuity) {
       SourceDescription refreshed = source_->Describe();
       std::lock_guard<std::mutex> lock(status_mutex_);

@@ -86,7 +86,8 @@ wait $load 2>/dev/null
 #    frames, as an emulated guest on a busy host still drops some.
 v4l2-ctl -d $device --set-input 0 >/dev/null
 timed burst-v4l2 "$capture" --source v4l2:$device --width 640 --height 480 --fps $webcam_fps \
-  --duration 1 --burst 10 --when last --timeout-ms 20000 --out "$out/burst-v4l2" --report "$out/burst-v4l2.json"
+  --duration 1 --burst 10 --when last --timeout-ms 20000 --out "$out/burst-v4l2" \
+  --report "$out/burst-v4l2.json"
 timed burst-replayed "$capture" --source replay:"$out/burst-v4l2" --fps -1 --ring 32 \
   --burst 10 --when next --out "$out/burst-replayed" --report "$out/burst-replayed.json"
 
