@@ -171,7 +171,6 @@ SparseState FromMotionCapture(const SparseReconstruction& sparse, const SparseSt
   return moved;
 }
 
-const KnownCalibration* g_known = nullptr;
 nlohmann::json Compare(const std::string& name, const Burst& burst, const cv::Mat& depth,
                        const std::vector<Pose>& truth = {}) {
   nlohmann::json line = {{"burst", name}};
@@ -179,7 +178,6 @@ nlohmann::json Compare(const std::string& name, const Burst& burst, const cv::Ma
   try {
     PipelineOptions options;
     options.sparse.mirrored_relief = false;  // the ambiguity as the adjustment leaves it
-    if (g_known) options.sparse.known = *g_known;
     sparse = ReconstructSparseStage(burst, options);
   } catch (const ReconstructionError& e) {
     line["error"] = e.what();
@@ -214,50 +212,6 @@ nlohmann::json Compare(const std::string& name, const Burst& burst, const cv::Ma
     line["cost_ratio_truth"] = truth_run.final_cost / std::max(solution.final_cost, 1e-12);
     line["order_from_truth"] = OrderAgainstTruth(sparse, from_truth, depth);
     line["translation_residual_from_truth"] = TranslationResidual(from_truth.poses, kept_truth);
-    SparseState held_t = FromMotionCapture(sparse, at_solution, kept_truth, depth);
-    setenv("DFSM_SCRATCH_HOLD_T", "1", 1);
-    BundleAdjustmentOptions relaxed = held;
-    if (getenv("DFSM_SCRATCH_FREE_READOUT")) relaxed.estimate_readout = true;
-    if (getenv("DFSM_SCRATCH_FREE_CAMERA")) relaxed.fix_intrinsics = false;
-    const BundleAdjustmentSummary held_run =
-        RunBundleAdjustment(sparse.tracks, sparse.inliers, &held_t, relaxed);
-    line["held_t_f"] = held_t.camera.f;
-    line["held_t_readout"] = held_t.readout;
-    line["sol_readout"] = at_solution.readout;
-    unsetenv("DFSM_SCRATCH_HOLD_T");
-    line["cost_held_t"] = held_run.final_cost;
-    line["cost_ratio_held_t"] = held_run.final_cost / std::max(solution.final_cost, 1e-12);
-    line["order_held_t"] = OrderAgainstTruth(sparse, held_t, depth);
-    line["relief_held_t"] = ReliefAgainstTruth(sparse, held_t, depth);
-    int obs = 0;
-    for (size_t j = 0; j < sparse.inliers.size(); ++j) if (sparse.inliers[j]) obs += 2 * (sparse.tracks.num_frames() - 1);
-    line["observations"] = obs;
-    nlohmann::json tp = nlohmann::json::array(), sp = nlohmann::json::array();
-    for (const Pose& pose : kept_truth) tp.push_back(ToJson(pose));
-    for (const Pose& pose : at_solution.poses) sp.push_back(ToJson(pose));
-    line["truth_poses"] = tp;
-    {
-      const auto rs = ObservationResiduals(sparse.tracks, at_solution);
-      const auto rh = ObservationResiduals(sparse.tracks, held_t);
-      nlohmann::json obs_dump = nlohmann::json::array();
-      const Eigen::Matrix2Xd& ref = sparse.tracks.pixels[sparse.tracks.reference];
-      for (int j = 0; j < sparse.tracks.num_tracks(); ++j) {
-        if (!sparse.inliers[j]) continue;
-        nlohmann::json t = {{"x", ref(0, j)}, {"y", ref(1, j)}, {"w_sol", at_solution.inverse_depths[j]}, {"w_held", held_t.inverse_depths[j]}};
-        nlohmann::json a = nlohmann::json::array(), b = nlohmann::json::array(), px = nlohmann::json::array();
-        for (int i = 0; i < sparse.tracks.num_frames(); ++i) {
-          a.push_back({rs[i](0, j), rs[i](1, j)});
-          b.push_back({rh[i](0, j), rh[i](1, j)});
-          px.push_back({sparse.tracks.pixels[i](0, j), sparse.tracks.pixels[i](1, j)});
-        }
-        t["r_sol"] = a; t["r_held"] = b; t["px"] = px;
-        obs_dump.push_back(t);
-      }
-      line["obs"] = obs_dump;
-      line["reference"] = sparse.tracks.reference;
-    }
-    line["solution_poses"] = sp;
-    line["rms_px"] = std::sqrt(2.0 * solution.final_cost / std::max(obs, 1));
   }
   line["tracks"] = CountUsed(sparse.inliers);
   line["frames_left_out"] = sparse.feature_stats.left_out.size();
@@ -286,13 +240,6 @@ int RunTum(const std::string& dataset, int start, int step) {
   if (sequence.empty()) {
     std::fprintf(stderr, "%s: no TUM sequence\n", dataset.c_str());
     return 1;
-  }
-  KnownCalibration fixed;
-  if (getenv("DFSM_SCRATCH_KNOWN")) {
-    fixed.camera = sequence.ReadCalibration(TumFreiburg1CalibrationFile()).camera;
-    fixed.mode = KnownCalibrationMode::kFixed;
-    fixed.source = "published";
-    g_known = &fixed;
   }
   for (int first = start; first + 10 <= sequence.frames(); first += step) {
     std::printf("%s\n", Compare("window " + std::to_string(first), sequence.Window(first, 10),

@@ -1,8 +1,5 @@
 #include "core/camera/rolling_shutter.h"
 
-#include <array>
-#include <cstdlib>
-
 #include <Eigen/Geometry>
 #include <charconv>
 #include <cmath>
@@ -127,19 +124,8 @@ RowPoses::RowPoses(const std::vector<Pose>& poses, double readout, int height,
   for (const Pose& pose : poses) poses_.push_back(ToPoseParameters(pose));
 }
 
-std::vector<std::array<double, 3>> g_scratch_omega;
 Pose RowPoses::At(int frame, double v) const {
   const double dt = RowTime(readout_, v, height_);
-  if (g_scratch_omega.size() == poses_.size()) {
-    PoseParameters p = poses_[frame] + dt * steps_.Step(frame, dt);
-    for (int k = 0; k < 3; ++k) p[k] = poses_[frame][k] + dt * g_scratch_omega[frame][k];
-    return FromPoseParameters(p);
-  }
-  if (getenv("DFSM_SCRATCH_SMOOTH_RS")) {
-    const PoseParameters a = 0.5 * (steps_.Step(frame, 1.0) + steps_.Step(frame, -1.0));
-    const PoseParameters b = 0.5 * (steps_.Step(frame, 1.0) - steps_.Step(frame, -1.0));
-    return FromPoseParameters(poses_[frame] + dt * a + dt * dt * b);
-  }
   return FromPoseParameters(poses_[frame] + dt * steps_.Step(frame, dt));
 }
 

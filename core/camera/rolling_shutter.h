@@ -19,13 +19,11 @@
 
 #include <Eigen/Core>
 #include <vector>
-#include <array>
 
 #include "core/camera/pose.h"
 #include "core/camera/rolling_shutter_options.h"
 
 namespace dfsm {
-extern std::vector<std::array<double, 3>> g_scratch_omega;  // SCRATCH
 
 // The 6 parameters of a pose as the adjustment holds them: angle-axis of R, then T.
 using PoseParameters = Eigen::Matrix<double, 6, 1>;

@@ -2,7 +2,6 @@
 
 #include <Eigen/Core>
 #include <Eigen/LU>
-#include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
 #include <opencv2/imgproc.hpp>
@@ -89,42 +88,6 @@ void FitInverseDepthOffset(const std::vector<cv::Vec2f>& scored, DepthEvaluation
   evaluation->abs_rel_after_offset = after / scored.size();
 }
 
-// SCRATCH: w* ~ basis . coeffs by IRLS L1 in relative residual; returns AbsRel after.
-double ScratchFit(const std::vector<cv::Vec4f>& px, int kind) {
-  auto basis = [&](const cv::Vec4f& p) {
-    const double w = 1.0 / p[0], x = p[2], y = p[3];
-    std::vector<double> r;
-    if (kind % 2 == 0) r.push_back(w);
-    r.push_back(1.0); r.push_back(x); r.push_back(y);
-    if (kind >= 2) { r.push_back(x * x); r.push_back(x * y); r.push_back(y * y); }
-    return r;
-  };
-  const int n = static_cast<int>(basis(px[0]).size());
-  Eigen::VectorXd c = Eigen::VectorXd::Zero(n);
-  for (int round = 0; round < 25; ++round) {
-    Eigen::MatrixXd normal = Eigen::MatrixXd::Zero(n, n);
-    Eigen::VectorXd rhs = Eigen::VectorXd::Zero(n);
-    for (const auto& p : px) {
-      const double w_true = 1.0 / p[1];
-      std::vector<double> b = basis(p);
-      Eigen::VectorXd row(n);
-      for (int k = 0; k < n; ++k) row[k] = b[k] / w_true;
-      const double weight = round == 0 ? 1.0 : 1.0 / std::max(1e-4, std::abs(row.dot(c) - 1.0));
-      normal += weight * row * row.transpose();
-      rhs += weight * row;
-    }
-    c = normal.ldlt().solve(rhs);
-  }
-  double after = 0.0;
-  for (const auto& p : px) {
-    std::vector<double> b = basis(p);
-    double fitted = 0.0;
-    for (int k = 0; k < n; ++k) fitted += b[k] * c[k];
-    after += fitted > 0.0 ? std::abs((1.0 / p[1]) / fitted - 1.0) : 1.0;
-  }
-  return after / px.size();
-}
-
 }  // namespace
 
 DepthEvaluation EvaluateDepth(const cv::Mat& depth, const cv::Mat& truth_depth,
@@ -134,7 +97,6 @@ DepthEvaluation EvaluateDepth(const cv::Mat& depth, const cv::Mat& truth_depth,
   DepthEvaluation evaluation;
   std::vector<float> ratios;
   std::vector<cv::Vec2f> scored;  // (estimate, truth) of each ratio's pixel
-  std::vector<cv::Vec4f> scratch_px;
   int textured = 0, covered = 0;
   for (int v = 0; v < depth.rows; ++v) {
     for (int u = 0; u < depth.cols; ++u) {
@@ -146,8 +108,6 @@ DepthEvaluation EvaluateDepth(const cv::Mat& depth, const cv::Mat& truth_depth,
         ++covered;
         ratios.push_back(truth / estimate);
         scored.emplace_back(estimate, truth);
-        scratch_px.emplace_back(estimate, truth, (u - depth.cols / 2.0f) / depth.cols,
-                                (v - depth.rows / 2.0f) / depth.cols);
       }
     }
   }
@@ -174,12 +134,6 @@ DepthEvaluation EvaluateDepth(const cv::Mat& depth, const cv::Mat& truth_depth,
   evaluation.within_25_percent = static_cast<double>(within_25) / ratios.size();
   evaluation.evaluated_pixels = static_cast<int>(ratios.size());
   FitInverseDepthOffset(scored, &evaluation);
-  if (getenv("DFSM_SCRATCH_FIT") && scratch_px.size() > 100) {
-    evaluation.scratch[0] = ScratchFit(scratch_px, 0);
-    evaluation.scratch[1] = ScratchFit(scratch_px, 1);
-    evaluation.scratch[2] = ScratchFit(scratch_px, 2);
-    evaluation.scratch[3] = ScratchFit(scratch_px, 3);
-  }
   return evaluation;
 }
 
@@ -199,8 +153,7 @@ nlohmann::json ToJson(const DepthEvaluation& e) {
           {"coverage", e.coverage},
           {"evaluated_pixels", e.evaluated_pixels},
           {"inverse_depth_offset", e.inverse_depth_offset},
-          {"abs_rel_after_offset", e.abs_rel_after_offset},
-          {"scratch", {e.scratch[0], e.scratch[1], e.scratch[2], e.scratch[3]}}};
+          {"abs_rel_after_offset", e.abs_rel_after_offset}};
 }
 
 }  // namespace dfsm

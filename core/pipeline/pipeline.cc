@@ -386,11 +386,9 @@ void RunDenseStage(const Burst& compensated, const SparseReconstruction& sparse,
   DenseOptions dense_options = dense;
   dense_options.readout = sparse.state.readout;
   dense_options.frame_times = sparse.state.frame_times;
-  g_scratch_omega = sparse.state.omega;
   output->dense =
       ComputeDenseDepth(compensated, sparse.state.camera, sparse.state.poses,
                         sparse.InlierInverseDepths(), dense_options, std::move(dense_frames));
-  g_scratch_omega.clear();
   result.timings_ms.emplace_back("dense", MillisecondsBetween(dense_start));
   DepthSummary depth;
   depth.valid_fraction = output->dense->valid_fraction;

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <ceres/dynamic_autodiff_cost_function.h>
 
 #include "core/camera/rolling_shutter.h"
 #include "core/sparse/intrinsics_prior.h"
@@ -11,125 +10,6 @@
 #include "core/sparse/undistorted_reprojection_error.h"
 
 namespace dfsm {
-
-// SCRATCH: quadratic (Lagrange through the neighbours) row-time pose path.
-bool ScratchSmooth() { static const bool on = getenv("DFSM_SCRATCH_SMOOTH_RS") != nullptr; return on; }
-struct SmoothRs {
-  Eigen::Vector2d ref, obs;
-  double cx, cy, row_ref, row_obs;
-  int n, i, r;
-  std::vector<int> block;  // frame -> pose block index, -1 none
-  int np;
-  template <typename T>
-  void Path(T const* const* prm, int k, const T& tau, T* out) const {
-    auto P = [&](int frame, int c) -> T {
-      return block[frame] < 0 ? T(0.0) : prm[1 + block[frame]][c];
-    };
-    for (int c = 0; c < 6; ++c) {
-      T a, b;
-      if (k == 0) { a = P(1, c) - P(0, c); b = T(0.0); }
-      else if (k == n - 1) { a = P(k, c) - P(k - 1, c); b = T(0.0); }
-      else {
-        a = (P(k + 1, c) - P(k - 1, c)) * 0.5;
-        b = (P(k + 1, c) - 2.0 * P(k, c) + P(k - 1, c)) * 0.5;
-      }
-      out[c] = P(k, c) + tau * a + tau * tau * b;
-    }
-  }
-  template <typename T>
-  bool operator()(T const* const* prm, T* residuals) const {
-    const T* intr = prm[0];
-    const T& w = prm[1 + np][0];
-    const T& readout = prm[2 + np][0];
-    T p[3];
-    PixelToUndistorted(intr[0], intr[1], intr[2], cx, cy, ref.x(), ref.y(), &p[0], &p[1]);
-    p[2] = T(1.0);
-    T pr[6];
-    Path(prm, r, readout * row_ref, pr);
-    T minus_rotation[3], shifted[3];
-    for (int k = 0; k < 3; ++k) {
-      minus_rotation[k] = -pr[k];
-      shifted[k] = p[k] - w * pr[3 + k];
-    }
-    T wX[3];
-    ceres::AngleAxisRotatePoint(minus_rotation, shifted, wX);
-    T pi[6];
-    Path(prm, i, readout * row_obs, pi);
-    T X[3];
-    ceres::AngleAxisRotatePoint(pi, wX, X);
-    for (int k = 0; k < 3; ++k) X[k] += w * pi[3 + k];
-    UndistortedResidual(intr, cx, cy, obs, X, residuals);
-    return true;
-  }
-};
-SmoothRs MakeSmooth(const FeatureTracks& tracks, const CameraModel& camera, int j, int i,
-                    const Eigen::Vector2d& reference, std::vector<int>* frames) {
-  SmoothRs e;
-  e.ref = reference;
-  e.obs = tracks.pixels[i].col(j);
-  e.cx = camera.cx; e.cy = camera.cy;
-  e.row_ref = RowTime(1.0, reference.y(), camera.height);
-  e.row_obs = RowTime(1.0, e.obs.y(), camera.height);
-  e.n = tracks.num_frames(); e.i = i; e.r = tracks.reference;
-  e.block.assign(e.n, -1);
-  frames->clear();
-  auto need = [&](int k) {
-    if (k < 0 || k >= e.n || e.block[k] >= 0) return;
-    e.block[k] = static_cast<int>(frames->size());
-    frames->push_back(k);
-  };
-  for (int k : {i - 1, i, i + 1}) need(k);
-  if (i == 0) need(1);
-  if (i == e.n - 1) need(e.n - 2);
-  for (int k : {e.r - 1, e.r + 1}) need(k);
-  if (e.r == 0) need(1);
-  if (e.r == e.n - 1) need(e.n - 2);
-  e.np = static_cast<int>(frames->size());
-  return e;
-}
-
-// SCRATCH: a rotation velocity per frame (omega, per frame interval).
-bool ScratchOmega() { static const bool on = getenv("DFSM_SCRATCH_OMEGA") != nullptr; return on; }
-struct OmegaRs {
-  Eigen::Vector2d ref, obs;
-  double cx, cy, row_ref, row_obs, rate_n, rate_m;
-  int i, nb, m, r;
-  std::vector<int> block;  // frame -> pose block index, -1 none (the reference: zero)
-  int np;
-  template <typename T>
-  bool operator()(T const* const* prm, T* residuals) const {
-    auto P = [&](int frame, int c) -> T {
-      return block[frame] < 0 ? T(0.0) : prm[1 + block[frame]][c];
-    };
-    const T* intr = prm[0];
-    const T* omega_i = prm[1 + np];
-    const T* omega_r = prm[2 + np];
-    const T& w = prm[3 + np][0];
-    const T& readout = prm[4 + np][0];
-    T p[3];
-    PixelToUndistorted(intr[0], intr[1], intr[2], cx, cy, ref.x(), ref.y(), &p[0], &p[1]);
-    p[2] = T(1.0);
-    const T a_r = readout * row_ref;
-    T minus_rotation[3], shifted[3];
-    for (int k = 0; k < 3; ++k) {
-      minus_rotation[k] = -a_r * omega_r[k];
-      shifted[k] = p[k] - w * a_r * rate_m * P(m, 3 + k);
-    }
-    T wX[3];
-    ceres::AngleAxisRotatePoint(minus_rotation, shifted, wX);
-    const T a_i = readout * row_obs;
-    T row_pose[6];
-    for (int k = 0; k < 3; ++k) {
-      row_pose[k] = P(i, k) + a_i * omega_i[k];
-      row_pose[3 + k] = P(i, 3 + k) + a_i * rate_n * (P(nb, 3 + k) - P(i, 3 + k));
-    }
-    T X[3];
-    ceres::AngleAxisRotatePoint(row_pose, wX, X);
-    for (int k = 0; k < 3; ++k) X[k] += w * row_pose[3 + k];
-    UndistortedResidual(intr, cx, cy, obs, X, residuals);
-    return true;
-  }
-};
 
 // n: frame i's neighbour on the side of its observed row; m: the reference's.
 struct Reprojection::Sides {
@@ -144,24 +24,6 @@ Reprojection::Sides Reprojection::SidesOf(int j, int i, const Eigen::Vector2d& r
           NeighbourOnSide(tracks_.reference, dt_r, frames, times_)};
 }
 
-OmegaRs Reprojection::MakeOmega(int j, int i, const Eigen::Vector2d& reference,
-                                const Sides& sides) const {
-  OmegaRs e;
-  e.ref = reference;
-  e.obs = tracks_.pixels[i].col(j);
-  e.cx = camera_.cx; e.cy = camera_.cy;
-  e.row_ref = RowTime(1.0, reference.y(), camera_.height);
-  e.row_obs = RowTime(1.0, e.obs.y(), camera_.height);
-  e.rate_n = sides.n.rate; e.rate_m = sides.m.rate;
-  e.i = i; e.nb = sides.n.frame; e.m = sides.m.frame; e.r = tracks_.reference;
-  e.block.assign(tracks_.num_frames(), -1);
-  int np = 0;
-  for (int k : {i, sides.n.frame, sides.m.frame})
-    if (k != e.r && e.block[k] < 0) e.block[k] = np++;
-  e.np = np;
-  return e;
-}
-
 ceres::ResidualBlockId Reprojection::Add(ceres::Problem* problem, ceres::LossFunction* loss, int j,
                                          int i, double* intrinsics,
                                          std::vector<std::array<double, 6>>* poses,
@@ -172,34 +34,6 @@ ceres::ResidualBlockId Reprojection::Add(ceres::Problem* problem, ceres::LossFun
     return problem->AddResidualBlock(
         UndistortedReprojectionError::Create(reference, observed, camera_.cx, camera_.cy), loss,
         intrinsics, (*poses)[i].data(), inverse_depth);
-  if (ScratchSmooth()) {
-    std::vector<int> frames;
-    SmoothRs e = MakeSmooth(tracks_, camera_, j, i, reference, &frames);
-    auto* cost = new ceres::DynamicAutoDiffCostFunction<SmoothRs, 4>(new SmoothRs(e));
-    std::vector<double*> blocks = {intrinsics};
-    cost->AddParameterBlock(3);
-    for (int k : frames) { cost->AddParameterBlock(6); blocks.push_back((*poses)[k].data()); }
-    cost->AddParameterBlock(1); blocks.push_back(inverse_depth);
-    cost->AddParameterBlock(1); blocks.push_back(readout);
-    cost->SetNumResiduals(2);
-    return problem->AddResidualBlock(cost, loss, blocks);
-  }
-  if (ScratchOmega() && omega_) {
-    const Sides sides = SidesOf(j, i, reference);
-    OmegaRs e = MakeOmega(j, i, reference, sides);
-    auto* cost = new ceres::DynamicAutoDiffCostFunction<OmegaRs, 4>(new OmegaRs(e));
-    std::vector<double*> blocks = {intrinsics};
-    cost->AddParameterBlock(3);
-    for (int k = 0; k < e.np; ++k) cost->AddParameterBlock(6);
-    for (int f = 0; f < tracks_.num_frames(); ++f) if (e.block[f] >= 0) blocks.push_back(nullptr);
-    for (int f = 0; f < tracks_.num_frames(); ++f) if (e.block[f] >= 0) blocks[1 + e.block[f]] = (*poses)[f].data();
-    cost->AddParameterBlock(3); blocks.push_back((*omega_)[i].data());
-    cost->AddParameterBlock(3); blocks.push_back((*omega_)[tracks_.reference].data());
-    cost->AddParameterBlock(1); blocks.push_back(inverse_depth);
-    cost->AddParameterBlock(1); blocks.push_back(readout);
-    cost->SetNumResiduals(2);
-    return problem->AddResidualBlock(cost, loss, blocks);
-  }
   const Sides sides = SidesOf(j, i, reference);
   using Shared = RollingShutterReprojectionError::ReferenceNeighbour;
   const Shared shared = sides.m.frame == i               ? Shared::kFrame
@@ -223,29 +57,6 @@ void Reprojection::Evaluate(int j, int i, const Eigen::Vector2d& reference,
   if (!rolling_) {
     UndistortedReprojectionError(reference, observed, camera_.cx, camera_.cy)(
         intrinsics, poses[i].data(), inverse_depth, residual);
-    return;
-  }
-  if (ScratchSmooth()) {
-    std::vector<int> frames;
-    SmoothRs e = MakeSmooth(tracks_, camera_, j, i, reference, &frames);
-    std::vector<const double*> prm = {intrinsics};
-    for (int k : frames) prm.push_back(poses[k].data());
-    prm.push_back(inverse_depth);
-    prm.push_back(readout);
-    e(prm.data(), residual);
-    return;
-  }
-  if (ScratchOmega() && omega_) {
-    const Sides sides = SidesOf(j, i, reference);
-    OmegaRs e = MakeOmega(j, i, reference, sides);
-    std::vector<const double*> prm(1 + e.np + 4);
-    prm[0] = intrinsics;
-    for (int f = 0; f < tracks_.num_frames(); ++f) if (e.block[f] >= 0) prm[1 + e.block[f]] = poses[f].data();
-    prm[1 + e.np] = (*omega_)[i].data();
-    prm[2 + e.np] = (*omega_)[tracks_.reference].data();
-    prm[3 + e.np] = inverse_depth;
-    prm[4 + e.np] = readout;
-    e(prm.data(), residual);
     return;
   }
   const Sides sides = SidesOf(j, i, reference);
@@ -347,12 +158,6 @@ int FixBurstGauge(const FeatureTracks& tracks, const std::vector<bool>& use,
   }
   std::vector<double>& inverse_depths = *parameters.inverse_depths;
   const int anchor = ScaleAnchor(inverse_depths, use);
-  if (getenv("DFSM_SCRATCH_HOLD_T")) {
-    for (int i = 0; i < tracks.num_frames(); ++i)
-      if (i != tracks.reference && problem->HasParameterBlock(poses[i].data()))
-        problem->SetManifold(poses[i].data(), new ceres::SubsetManifold(6, {3, 4, 5}));
-    return anchor;
-  }
   problem->SetParameterBlockConstant(&inverse_depths[anchor]);
   return anchor;
 }

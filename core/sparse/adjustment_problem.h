@@ -25,11 +25,8 @@ namespace dfsm {
 // burst's shutter: UndistortedReprojectionError for a global shutter,
 // RollingShutterReprojectionError, with the poses of frame i's and the
 // reference's neighbours, otherwise.
-struct OmegaRs;
-bool ScratchOmega();
 class Reprojection {
  public:
-  std::vector<std::array<double, 3>>* omega_ = nullptr;  // SCRATCH
   // times: the frames' capture times (SparseState::frame_times).
   Reprojection(const FeatureTracks& tracks, const CameraModel& camera, bool rolling,
                const std::vector<double>& times)
@@ -52,7 +49,6 @@ class Reprojection {
  private:
   struct Sides;
   Sides SidesOf(int j, int i, const Eigen::Vector2d& reference) const;
-  OmegaRs MakeOmega(int j, int i, const Eigen::Vector2d& reference, const Sides& sides) const;
 
   const FeatureTracks& tracks_;
   const CameraModel& camera_;

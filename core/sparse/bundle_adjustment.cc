@@ -1,7 +1,5 @@
 #include "core/sparse/bundle_adjustment.h"
 
-#include <ceres/dynamic_autodiff_cost_function.h>
-
 #include <ceres/ceres.h>
 
 #include <algorithm>
@@ -66,23 +64,6 @@ BundleAdjustmentSummary SummariseAdjustment(const FeatureTracks& tracks,
 
 }  // namespace
 
-struct OmegaPrior {
-  double scale, inv;
-  bool a_free, b_free;
-  template <typename T>
-  bool operator()(T const* const* prm, T* residuals) const {
-    const T* omega = prm[0];
-    int k = 1;
-    const T* pa = a_free ? prm[k++] : nullptr;
-    const T* pb = b_free ? prm[k++] : nullptr;
-    for (int c = 0; c < 3; ++c) {
-      const T va = pa ? pa[c] : T(0.0), vb = pb ? pb[c] : T(0.0);
-      residuals[c] = scale * (omega[c] - (va - vb) * inv);
-    }
-    return true;
-  }
-};
-
 BundleAdjustmentSummary RunBundleAdjustment(const FeatureTracks& tracks,
                                             const std::vector<bool>& use, SparseState* state,
                                             const BundleAdjustmentOptions& options,
@@ -105,49 +86,14 @@ BundleAdjustmentSummary RunBundleAdjustment(const FeatureTracks& tracks,
   AdjustmentResidualBlocks blocks;
   double readout = state->readout;
   const AdjustmentParameters parameters = {intrinsics, &poses, &inverse_depths, &readout};
-  Reprojection reprojection(tracks, state->camera, readout != 0.0 || options.estimate_readout,
-                            state->frame_times);
-  std::vector<std::array<double, 3>> omega;
-  if (ScratchOmega() && reprojection.rolling()) {
-    if (static_cast<int>(state->omega.size()) != n) {
-      state->omega.assign(n, {0.0, 0.0, 0.0});
-      for (int i = 0; i < n; ++i) {
-        const int a = std::min(i + 1, n - 1), b = std::max(i - 1, 0);
-        for (int k = 0; k < 3; ++k) state->omega[i][k] = (poses[a][k] - poses[b][k]) / (a - b);
-      }
-    }
-    omega = state->omega;
-    reprojection.omega_ = &omega;
-  }
+  const Reprojection reprojection(tracks, state->camera, readout != 0.0 || options.estimate_readout,
+                                  state->frame_times);
   AddReprojectionResiduals(tracks, use, reprojection, parameters, &huber, &weighted_losses,
                            &problem, ordering, &blocks);
   AddIntrinsicsPriors(state->camera, options, intrinsics, &problem, &blocks.prior);
   const int anchor = FixBurstGauge(tracks, use, parameters, &problem, ordering);
   ConstrainCamera(options, reprojection.rolling(), intrinsics, &readout, &problem, ordering);
-  if (!omega.empty()) {
-    for (auto& o : omega) ordering->AddElementToGroup(o.data(), 1);
-    const char* sigma_env = getenv("DFSM_SCRATCH_OMEGA_SIGMA");
-    const double sigma = sigma_env ? atof(sigma_env) : 0.0;  // px per frame interval at f
-    if (sigma > 0.0)
-      for (int i = 0; i < n; ++i) {
-        const int a = std::min(i + 1, n - 1), b = std::max(i - 1, 0);
-        std::vector<int> frames;
-        for (int k : {a, b}) if (k != tracks.reference) frames.push_back(k);
-        const double scale = state->camera.f / sigma;
-        const double inv = 1.0 / (a - b);
-        const bool a_free = a != tracks.reference, b_free = b != tracks.reference;
-        auto* cost = new ceres::DynamicAutoDiffCostFunction<OmegaPrior, 4>(
-            new OmegaPrior{scale, inv, a_free, b_free});
-        std::vector<double*> blocks = {omega[i].data()};
-        cost->AddParameterBlock(3);
-        if (a_free) { cost->AddParameterBlock(6); blocks.push_back(poses[a].data()); }
-        if (b_free) { cost->AddParameterBlock(6); blocks.push_back(poses[b].data()); }
-        cost->SetNumResiduals(3);
-        problem.AddResidualBlock(cost, nullptr, blocks);
-      }
-  }
   const ceres::Solver::Summary summary = SolveAdjustment(options, ordering, &problem);
-  if (!omega.empty()) state->omega = omega;
 
   state->camera.f = intrinsics[0];
   state->camera.k1 = intrinsics[1];
@@ -171,8 +117,6 @@ class TrackFit {
         state_(state),
         intrinsics_{state.camera.f, state.camera.k1, state.camera.k2},
         reprojection_(tracks, state.camera, state.readout != 0.0, state.frame_times) {
-    if (ScratchOmega() && static_cast<int>(state.omega.size()) == tracks.num_frames())
-      reprojection_.omega_ = const_cast<std::vector<std::array<double, 3>>*>(&state.omega);
     for (const Pose& pose : state.poses) poses_.push_back(ToParameters(pose));
   }
 
@@ -201,7 +145,7 @@ class TrackFit {
   const SparseState& state_;
   const double intrinsics_[3];
   std::vector<std::array<double, 6>> poses_;
-  Reprojection reprojection_;
+  const Reprojection reprojection_;
 };
 
 // Gauss-Newton steps on one inverse depth: the residuals are close to

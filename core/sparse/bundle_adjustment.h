@@ -2,8 +2,6 @@
 // refining f, k1, k2, every pose and every inverse depth.
 #pragma once
 
-#include <array>
-
 #include <vector>
 
 #include "core/camera/camera_model.h"
@@ -91,7 +89,6 @@ struct SparseState {
   // a dropped frame leaves a gap of 2); empty: consecutive frames. Only the
   // rolling shutter's path between frames reads it.
   std::vector<double> frame_times;
-  std::vector<std::array<double, 3>> omega;  // SCRATCH: rotation velocity per frame
 };
 
 // Refines `state` in place over the tracks whose `use` flag is set. Returns the
