@@ -138,8 +138,6 @@ int Run(const std::vector<Input>& inputs, double consistency_probability) {
     joint_line["fitted_f"] = joint.fitted_camera.f;
     joint_line["bias_f"] = joint.bias ? joint.bias->f : 0.0;
     joint_line["iterations"] = joint.iterations;
-    joint_line["cost"] = joint.scratch_cost;
-    joint_line["rms"] = joint.rms_reprojection_px;
   } catch (const std::exception& e) {
     joint_line["failed"] = e.what();
   }

@@ -2,8 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 #include <string>
@@ -17,11 +15,6 @@ CameraModel CameraModel::Initial(int width, int height) {
   camera.f = std::max(width, height);
   camera.cx = width / 2.0;
   camera.cy = height / 2.0;
-  if (const char* pp = std::getenv("DFSM_SCRATCH_PP")) {  // SCRATCH
-    std::sscanf(pp, "%lf,%lf", &camera.cx, &camera.cy);
-    camera.cx *= width / 640.0;
-    camera.cy *= height / 480.0;
-  }
   return camera;
 }
 

@@ -490,7 +490,6 @@ JointCalibration AdjustJointly(const std::vector<JointBurst>& bursts,
   joint.start_f = round.start_f;
   joint.iterations = current.summary.num_successful_steps + current.summary.num_unsuccessful_steps;
   joint.converged = current.summary.termination_type == ceres::CONVERGENCE;
-  joint.scratch_cost = current.summary.final_cost;
   joint.uncertainty = current.uncertainty;
   joint.dispersion = Dispersion(current.disagreements);
   for (size_t b = 0; b < round.active.size(); ++b)

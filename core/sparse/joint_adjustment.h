@@ -125,7 +125,6 @@ struct JointCalibration {
   int iterations = 0;  // of the final joint adjustment
   bool converged = false;
   double rms_reprojection_px = 0.0;
-  double scratch_cost = 0.0;  // SCRATCH
 
   int Joined() const;
 };

@@ -1,8 +1,6 @@
 #include "core/sparse/sparse_reconstruction.h"
 
 #include <algorithm>
-#include <cstdio>
-#include <cstdlib>
 #include <chrono>
 #include <cmath>
 #include <functional>
@@ -252,8 +250,6 @@ void SettleSign(SparseState* state, std::vector<bool>* use) {
   int behind = 0, used = 0;
   for (size_t j = 0; j < use->size(); ++j)
     if ((*use)[j]) ++used, behind += state->inverse_depths[j] < 0.0;
-  if (std::getenv("DFSM_SCRATCH_LOG"))
-    std::fprintf(stderr, "SettleSign used %d behind %d of %zu f %.1f readout %.2f\n", used, behind, use->size(), state->camera.f, state->readout);
   if (2 * behind > used) {
     for (double& w : state->inverse_depths) w = -w;
     for (Pose& pose : state->poses) pose.T = -pose.T;
@@ -670,17 +666,8 @@ SparseReconstruction TrackForSparse(const std::vector<cv::Mat>& frames, int refe
   StageTimer timer(&tracked.timings_ms, options.progress);
   GridedFeatureOptions features = options.features;
   features.min_shared_tracks = options.min_tracks;
-  if (const char* floor = std::getenv("DFSM_SCRATCH_FLOOR")) features.min_shared_tracks = std::atoi(floor);
   tracked.tracks = TrackGridedFeatures(frames, reference, features, &tracked.feature_stats);
   timer.Lap("features");
-  if (std::getenv("DFSM_SCRATCH_LOG")) {
-    const auto& st = tracked.feature_stats;
-    std::fprintf(stderr, "tracks %d corners %d cells %d reached", st.tracks, st.corners, st.cells);
-    for (int r : st.reached) std::fprintf(stderr, " %d", r);
-    std::fprintf(stderr, " left out");
-    for (auto& l : st.left_out) std::fprintf(stderr, " %d(%d/%d)", l.frame, l.tracks_with, l.tracks_without);
-    std::fprintf(stderr, "\n");
-  }
   if (tracked.tracks.num_tracks() < options.min_tracks)
     throw TooFewTracks(frames[reference], tracked, options);
   return tracked;
