@@ -9,6 +9,9 @@
 // pipeline ran (the peak is reset after the burst is rendered, so the
 // renderer's own memory is not counted).
 //
+// BM_PipelinePhone1080pKnown: the phone burst with its true camera held, the
+// frames' angular velocities estimated or not (velocity 1 / 0), side by side.
+//
 // BM_ProcessCommand: what a user of the command line waits for, the whole
 // `dfsm process` (start-up, reading and decoding the burst, the pipeline,
 // writing every file) on a 1080p x 10 burst written to disk, against the
@@ -46,12 +49,28 @@ double PeakRssMb() {
 // Writing 5 to clear_refs resets VmHWM to the current RSS (Linux >= 4.0).
 void ResetPeakRss() { std::ofstream("/proc/self/clear_refs") << "5"; }
 
+// known: the burst's true camera held (KnownCalibrationMode::kFixed), with
+// each frame's angular velocity (angular_velocity) or the line between frames.
+struct KnownCamera {
+  bool held = false;
+  bool angular_velocity = true;
+};
+
 void RunWholePipeline(benchmark::State& state, int width, int height,
-                      const std::string& camera = "ideal", double rotation_deg = 0.0) {
-  const Burst& burst =
-      Rendered(width, height, static_cast<int>(state.range(0)), camera, rotation_deg).burst;
+                      const std::string& camera = "ideal", double rotation_deg = 0.0,
+                      KnownCamera known = {}) {
+  const RenderedBurst& rendered =
+      Rendered(width, height, static_cast<int>(state.range(0)), camera, rotation_deg);
+  const Burst& burst = rendered.burst;
   PipelineOptions options;
   options.dense.planes = static_cast<int>(state.range(1));
+  if (known.held) {
+    KnownCalibration fixed;
+    fixed.camera = rendered.truth.camera;
+    fixed.mode = KnownCalibrationMode::kFixed;
+    options.sparse.known = fixed;
+    if (!known.angular_velocity) options.sparse.known_camera_angular_velocity_sigma_px = 0.0;
+  }
   ResetPeakRss();
   const double rss_before = PeakRssMb();
   PipelineOutput output;
@@ -95,6 +114,20 @@ void BM_PipelinePhone1080p(benchmark::State& state) {
 BENCHMARK(BM_PipelinePhone1080p)
     ->ArgNames({"frames", "planes"})
     ->Args({10, 128})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->MinTime(3.0);
+
+// The same phone burst with its true camera held, each frame's angular
+// velocity estimated (velocity 1) or the line between frames (0): what the
+// velocities cost a user who gives the camera's calibration.
+void BM_PipelinePhone1080pKnown(benchmark::State& state) {
+  RunWholePipeline(state, 1920, 1080, "phone", 1.0, KnownCamera{true, state.range(2) != 0});
+}
+BENCHMARK(BM_PipelinePhone1080pKnown)
+    ->ArgNames({"frames", "planes", "velocity"})
+    ->Args({10, 128, 0})
+    ->Args({10, 128, 1})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime()
     ->MinTime(3.0);

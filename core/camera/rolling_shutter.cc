@@ -7,6 +7,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 namespace dfsm {
 namespace {
@@ -118,15 +119,27 @@ PoseSteps::PoseSteps(const std::vector<Pose>& poses, const std::vector<double>& 
   }
 }
 
+void CheckAngularVelocities(const AngularVelocities& velocities, int frames) {
+  if (velocities.empty()) return;
+  if (static_cast<int>(velocities.size()) != frames)
+    throw std::invalid_argument("angular velocities: " + std::to_string(velocities.size()) +
+                                " velocities for " + std::to_string(frames) + " frames");
+  for (const Eigen::Vector3d& velocity : velocities)
+    if (!velocity.allFinite()) throw std::invalid_argument("angular velocities: not finite");
+}
+
 RowPoses::RowPoses(const std::vector<Pose>& poses, double readout, int height,
-                   const std::vector<double>& times)
-    : steps_(poses, times), readout_(readout), height_(height) {
+                   const std::vector<double>& times, AngularVelocities velocities)
+    : steps_(poses, times), velocities_(std::move(velocities)), readout_(readout), height_(height) {
+  CheckAngularVelocities(velocities_, static_cast<int>(poses.size()));
   for (const Pose& pose : poses) poses_.push_back(ToPoseParameters(pose));
 }
 
 Pose RowPoses::At(int frame, double v) const {
   const double dt = RowTime(readout_, v, height_);
-  return FromPoseParameters(poses_[frame] + dt * steps_.Step(frame, dt));
+  PoseParameters row = poses_[frame] + dt * steps_.Step(frame, dt);
+  if (!velocities_.empty()) row.head<3>() = poses_[frame].head<3>() + dt * velocities_[frame];
+  return FromPoseParameters(row);
 }
 
 Pose RowPoses::Relative(int frame, double v, int reference, double v_ref) const {

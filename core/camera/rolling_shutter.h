@@ -15,6 +15,12 @@
 // of each frame in frame intervals, increasing; io/frame_times.h reads them
 // from a burst) says otherwise: a camera that dropped a frame leaves a gap of
 // two intervals, over which the path moves twice as far.
+//
+// Where a burst's `angular_velocities` are given (one per frame, angle-axis
+// per frame interval), a frame's rows turn at its own angular velocity
+// instead of along the line to its neighbour (Im et al.'s per-frame
+// velocity): a hand's tremor bends the path within a frame, which the line
+// between frame poses cannot follow. The translation keeps the line.
 #pragma once
 
 #include <Eigen/Core>
@@ -64,11 +70,19 @@ class PoseSteps {
   std::vector<PoseParameters> before_, after_;
 };
 
+// Each frame's angular velocity (angle-axis per frame interval); empty: the
+// rotation follows the line between frame poses.
+using AngularVelocities = std::vector<Eigen::Vector3d>;
+
+// Throws std::invalid_argument unless `velocities` is empty or holds one
+// finite velocity per frame of a burst of `frames`.
+void CheckAngularVelocities(const AngularVelocities& velocities, int frames);
+
 // The pose of every row of a burst's frames.
 class RowPoses {
  public:
   RowPoses(const std::vector<Pose>& poses, double readout, int height,
-           const std::vector<double>& times = {});
+           const std::vector<double>& times = {}, AngularVelocities velocities = {});
 
   double readout() const { return readout_; }
   // The pose of row v of frame i.
@@ -81,6 +95,7 @@ class RowPoses {
  private:
   std::vector<PoseParameters> poses_;
   PoseSteps steps_;
+  AngularVelocities velocities_;
   double readout_;
   int height_;
 };

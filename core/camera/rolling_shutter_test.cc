@@ -57,6 +57,36 @@ TEST(RollingShutter, RowsInterpolateTheFramePosesOnTheirSide) {
   EXPECT_NEAR(rows.At(2, 99.5).T.x(), 0.04, 1e-12);
 }
 
+// With angular velocities, a frame's rows turn at its own velocity about its
+// middle row's rotation; the translation keeps the line to its neighbour.
+TEST(RollingShutter, RowsTurnAtTheFramesOwnAngularVelocity) {
+  const std::vector<Pose> poses = {MakePose(0, 0), MakePose(1, 0.01), MakePose(3, 0.03)};
+  const double deg = M_PI / 180.0;
+  // Frame 1 turns back at -2 deg per frame interval, against the line's +1 / +2.
+  const AngularVelocities velocities = {Eigen::Vector3d(0, 1 * deg, 0),
+                                        Eigen::Vector3d(0, -2 * deg, 0),
+                                        Eigen::Vector3d(0, 2 * deg, 0)};
+  const RowPoses rows(poses, 1.0, 100, {}, velocities);
+  const Eigen::AngleAxisd bottom(rows.At(1, 99.5).R);  // dt = +0.5: 1 - 1 = 0 deg
+  const Eigen::AngleAxisd top(rows.At(1, -0.5).R);     // dt = -0.5: 1 + 1 = 2 deg
+  EXPECT_NEAR(bottom.angle(), 0.0, 1e-9);
+  EXPECT_NEAR(top.angle() / deg, 2.0, 1e-9);
+  EXPECT_NEAR(rows.At(1, 99.5).T.x(), 0.02, 1e-12);
+  EXPECT_NEAR(rows.At(1, -0.5).T.x(), 0.005, 1e-12);
+  // Velocities equal to the line's steps give the line's rows.
+  const RowPoses line(poses, 1.0, 100);
+  const RowPoses same(poses, 1.0, 100, {},
+                      {Eigen::Vector3d(0, 1 * deg, 0), Eigen::Vector3d(0, 2 * deg, 0),
+                       Eigen::Vector3d(0, 2 * deg, 0)});
+  EXPECT_LT((same.At(1, 99.5).R - line.At(1, 99.5).R).norm(), 1e-12);
+  EXPECT_LT((same.At(2, 10.0).R - line.At(2, 10.0).R).norm(), 1e-12);
+  EXPECT_THROW(RowPoses(poses, 1.0, 100, {}, {Eigen::Vector3d::Zero()}), std::invalid_argument);
+  EXPECT_THROW(
+      CheckAngularVelocities(
+          {Eigen::Vector3d(0, NAN, 0), Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()}, 3),
+      std::invalid_argument);
+}
+
 // A frame dropped between frames 1 and 2 (capture times 0, 1, 3): the path
 // from frame 1 to 2 spans two intervals, so a row half an interval after
 // frame 1's middle has gone a quarter of the way, not half.

@@ -65,6 +65,7 @@ void ValidateInputs(const Burst& burst, const CameraModel& camera, const std::ve
   Require(static_cast<int>(poses.size()) == burst.size(),
           std::to_string(poses.size()) + " poses for " + std::to_string(burst.size()) + " frames");
   CheckFrameTimes(options.frame_times, burst.size());
+  CheckAngularVelocities(options.angular_velocities, burst.size());
   Require(camera.width == burst.width() && camera.height == burst.height(),
           "camera is " + std::to_string(camera.width) + "x" + std::to_string(camera.height) +
               " but the burst is " + std::to_string(burst.width()) + "x" +
@@ -624,8 +625,8 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
   // Everything below sees the high-passed frames; the caller's stay as they are.
   SweptFrames swept = TakeSweptFrames(burst, settings, &prepared);
   const RadialInverse radial(camera);
-  const SweepPoses sweep_poses =
-      SweepPoses::Make(poses, burst.reference(), options.readout, camera, options.frame_times);
+  const SweepPoses sweep_poses = SweepPoses::Make(poses, burst.reference(), options.readout, camera,
+                                                  options.frame_times, options.angular_velocities);
   const std::vector<int>& others = sweep_poses.frames;
   std::vector<Pose> other_poses;
   for (int i : others) other_poses.push_back(poses[i]);

@@ -9,6 +9,7 @@
 
 #include "core/camera/camera_model.h"
 #include "core/camera/pose.h"
+#include "core/camera/rolling_shutter.h"
 #include "core/dense/dense_frames.h"
 #include "core/dense/depth_completion.h"
 #include "core/dense/semi_global.h"
@@ -28,6 +29,10 @@ struct DenseOptions {
   // The frames' capture times the rows' path between frames follows
   // (SparseState::frame_times); empty: consecutive frames.
   std::vector<double> frame_times;
+  // Each frame's angular velocity where the sparse stage estimated them
+  // (SparseState::angular_velocities); empty: the rows turn along the line
+  // between frame poses.
+  AngularVelocities angular_velocities;
   // Fraction of the sparse inverse-depth range added on both sides of the sweep.
   double inverse_depth_margin = 0.2;
   // Where more than this share of the confident coarse pixels win the

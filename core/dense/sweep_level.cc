@@ -68,10 +68,11 @@ cv::Mat DownsampleToLevel(const cv::Mat& image, int scale) {
 }
 
 SweepPoses SweepPoses::Make(const std::vector<Pose>& poses, int reference, double readout,
-                            const CameraModel& camera, const std::vector<double>& times) {
+                            const CameraModel& camera, const std::vector<double>& times,
+                            const AngularVelocities& velocities) {
   SweepPoses sweep;
   const int height = camera.height;
-  const RowPoses rows(poses, readout, height, times);
+  const RowPoses rows(poses, readout, height, times, velocities);
   for (int i = 0; i < static_cast<int>(poses.size()); ++i) {
     if (i == reference) continue;
     sweep.frames.push_back(i);

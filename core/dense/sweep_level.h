@@ -10,6 +10,7 @@
 
 #include "core/camera/camera_model.h"
 #include "core/camera/pose.h"
+#include "core/camera/rolling_shutter.h"
 #include "core/dense/radial_inverse.h"
 
 namespace dfsm {
@@ -73,9 +74,11 @@ struct SweepPoses {
   // the reference (a rolling shutter).
   std::vector<std::vector<RowPose>> relative;
 
-  // times: the frames' capture times (rolling_shutter.h; empty: consecutive).
+  // times: the frames' capture times, velocities: their angular velocities
+  // (rolling_shutter.h; empty: consecutive, the line between frame poses).
   static SweepPoses Make(const std::vector<Pose>& poses, int reference, double readout,
-                         const CameraModel& camera, const std::vector<double>& times = {});
+                         const CameraModel& camera, const std::vector<double>& times = {},
+                         const AngularVelocities& velocities = {});
 };
 
 // `image` area-downsampled by the integer `scale` (itself where 1): pixel x

@@ -305,7 +305,8 @@ void RecordCalibrationDetail(const SparseReconstruction& sparse,
   }
   calibration_detail["rolling_shutter"] = {
       {"mode", RollingShutterName(sparse_options.rolling_shutter)},
-      {"readout", sparse.state.readout}};
+      {"readout", sparse.state.readout},
+      {"row_path", sparse.state.angular_velocities.empty() ? "line" : "angular_velocity"}};
   if (sparse.uncertainty.sigma_readout >= 0.0)
     calibration_detail["rolling_shutter"]["sigma_readout"] = sparse.uncertainty.sigma_readout;
 }
@@ -386,6 +387,7 @@ void RunDenseStage(const Burst& compensated, const SparseReconstruction& sparse,
   DenseOptions dense_options = dense;
   dense_options.readout = sparse.state.readout;
   dense_options.frame_times = sparse.state.frame_times;
+  dense_options.angular_velocities = sparse.state.angular_velocities;
   output->dense =
       ComputeDenseDepth(compensated, sparse.state.camera, sparse.state.poses,
                         sparse.InlierInverseDepths(), dense_options, std::move(dense_frames));

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "core/camera/rolling_shutter.h"
+#include "core/sparse/angular_velocity_reprojection_error.h"
 #include "core/sparse/intrinsics_prior.h"
 #include "core/sparse/rolling_shutter_cost_function.h"
 #include "core/sparse/rolling_shutter_reprojection_error.h"
@@ -41,6 +42,16 @@ ceres::ResidualBlockId Reprojection::Add(ceres::Problem* problem, ceres::LossFun
                                                          : Shared::kOwnBlock;
   std::vector<double*> blocks = {intrinsics, (*poses)[i].data(), (*poses)[sides.n.frame].data()};
   if (shared == Shared::kOwnBlock) blocks.push_back((*poses)[sides.m.frame].data());
+  if (velocities_) {
+    blocks.push_back((*velocities_)[i].data());
+    blocks.push_back((*velocities_)[tracks_.reference].data());
+    blocks.push_back(inverse_depth);
+    blocks.push_back(readout);
+    const AngularVelocityReprojectionError error(reference, observed, camera_.cx, camera_.cy,
+                                                 camera_.height, sides.m.rate, sides.n.rate);
+    return problem->AddResidualBlock(AngularVelocityReprojectionError::Create(error, shared), loss,
+                                     blocks);
+  }
   blocks.push_back(inverse_depth);
   blocks.push_back(readout);
   const RollingShutterReprojectionError error(reference, observed, camera_.cx, camera_.cy,
@@ -60,6 +71,14 @@ void Reprojection::Evaluate(int j, int i, const Eigen::Vector2d& reference,
     return;
   }
   const Sides sides = SidesOf(j, i, reference);
+  if (velocities_) {
+    AngularVelocityReprojectionError(reference, observed, camera_.cx, camera_.cy, camera_.height,
+                                     sides.m.rate, sides.n.rate)
+        .Evaluate(intrinsics, poses[i].data(), poses[sides.n.frame].data(),
+                  poses[sides.m.frame].data(), (*velocities_)[i].data(),
+                  (*velocities_)[tracks_.reference].data(), inverse_depth, readout, residual);
+    return;
+  }
   RollingShutterReprojectionError(reference, observed, camera_.cx, camera_.cy, camera_.height,
                                   sides.m.rate, sides.n.rate)
       .Evaluate(intrinsics, poses[i].data(), poses[sides.n.frame].data(),
@@ -160,6 +179,27 @@ int FixBurstGauge(const FeatureTracks& tracks, const std::vector<bool>& use,
   const int anchor = ScaleAnchor(inverse_depths, use);
   problem->SetParameterBlockConstant(&inverse_depths[anchor]);
   return anchor;
+}
+
+void AddAngularVelocityPriors(const FeatureTracks& tracks, const CameraModel& camera,
+                              const std::vector<double>& times, double sigma_px,
+                              const AdjustmentParameters& parameters,
+                              std::vector<std::array<double, 3>>* velocities,
+                              ceres::Problem* problem, ceres::ParameterBlockOrdering* ordering) {
+  const int n = tracks.num_frames();
+  for (int i = 0; i < n; ++i) {
+    const int after = std::min(i + 1, n - 1), before = std::max(i - 1, 0);
+    const double span = times.empty() ? after - before : times[after] - times[before];
+    std::vector<double*> blocks = {(*velocities)[i].data()};
+    const bool after_is_block = after != tracks.reference,
+               before_is_block = before != tracks.reference;
+    if (after_is_block) blocks.push_back((*parameters.poses)[after].data());
+    if (before_is_block) blocks.push_back((*parameters.poses)[before].data());
+    problem->AddResidualBlock(AngularVelocityPrior::Create(camera.f / sigma_px, 1.0 / span,
+                                                           after_is_block, before_is_block),
+                              nullptr, blocks);
+    ordering->AddElementToGroup((*velocities)[i].data(), 1);
+  }
 }
 
 void ConstrainCamera(const BundleAdjustmentOptions& options, bool rolling, double* intrinsics,

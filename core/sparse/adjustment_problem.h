@@ -24,7 +24,8 @@ namespace dfsm {
 // The reprojection residual of one observation (track j in frame i) under the
 // burst's shutter: UndistortedReprojectionError for a global shutter,
 // RollingShutterReprojectionError, with the poses of frame i's and the
-// reference's neighbours, otherwise.
+// reference's neighbours, otherwise; AngularVelocityReprojectionError where
+// the frames' angular velocities are parameters too.
 class Reprojection {
  public:
   // times: the frames' capture times (SparseState::frame_times).
@@ -33,6 +34,14 @@ class Reprojection {
       : tracks_(tracks), camera_(camera), rolling_(rolling), times_(times) {}
 
   bool rolling() const { return rolling_; }
+
+  // With a rolling shutter, each frame's rows turn at its angular velocity
+  // (one per frame, angle-axis per frame interval; must outlive this), not
+  // along the line to its neighbour. Null: the line.
+  void UseAngularVelocities(std::vector<std::array<double, 3>>* velocities) {
+    velocities_ = rolling_ ? velocities : nullptr;
+  }
+  bool HasAngularVelocities() const { return velocities_ != nullptr; }
 
   // Adds the residual of track j in frame i over `poses` (angle-axis, T per
   // frame; the reference's block, when a neighbour, must be held constant).
@@ -54,6 +63,7 @@ class Reprojection {
   const CameraModel& camera_;
   bool rolling_;
   const std::vector<double>& times_;
+  std::vector<std::array<double, 3>>* velocities_ = nullptr;
 };
 
 // A pose as Ceres holds it: the 6 parameters of rolling_shutter.h's
@@ -101,6 +111,15 @@ void AddIntrinsicsPriors(const CameraModel& camera, const BundleAdjustmentOption
 int FixBurstGauge(const FeatureTracks& tracks, const std::vector<bool>& use,
                   const AdjustmentParameters& parameters, ceres::Problem* problem,
                   ceres::ParameterBlockOrdering* ordering);
+
+// Ties each frame's angular velocity to its neighbours' rotation step
+// (AngularVelocityPrior, `sigma_px` at the camera's f per frame interval);
+// the velocities join the ordering's group 1.
+void AddAngularVelocityPriors(const FeatureTracks& tracks, const CameraModel& camera,
+                              const std::vector<double>& times, double sigma_px,
+                              const AdjustmentParameters& parameters,
+                              std::vector<std::array<double, 3>>* velocities,
+                              ceres::Problem* problem, ceres::ParameterBlockOrdering* ordering);
 
 // The camera's blocks join the ordering's group 1 (the readout where the
 // shutter rolls); what the options do not refine is held, the readout

@@ -15,6 +15,29 @@
 namespace dfsm {
 namespace {
 
+// The state's angular velocities as parameter blocks, started from the
+// neighbours' rotation step where the state has none for its frames.
+std::vector<std::array<double, 3>> AngularVelocityBlocks(const SparseState& state) {
+  const int n = static_cast<int>(state.poses.size());
+  std::vector<std::array<double, 3>> blocks(n);
+  for (int i = 0; i < n; ++i) {
+    Eigen::Vector3d velocity;
+    if (static_cast<int>(state.angular_velocities.size()) == n) {
+      velocity = state.angular_velocities[i];
+    } else {
+      const int after = std::min(i + 1, n - 1), before = std::max(i - 1, 0);
+      const double span = state.frame_times.empty()
+                              ? after - before
+                              : state.frame_times[after] - state.frame_times[before];
+      velocity = (ToPoseParameters(state.poses[after]).head<3>() -
+                  ToPoseParameters(state.poses[before]).head<3>()) /
+                 span;
+    }
+    blocks[i] = {velocity.x(), velocity.y(), velocity.z()};
+  }
+  return blocks;
+}
+
 // The marginal covariance of the intrinsics at the solution
 // (calibration_uncertainty.h), `camera` the refined one.
 void ComputeAdjustmentUncertainty(const FeatureTracks& tracks, const std::vector<bool>& use,
@@ -86,13 +109,22 @@ BundleAdjustmentSummary RunBundleAdjustment(const FeatureTracks& tracks,
   AdjustmentResidualBlocks blocks;
   double readout = state->readout;
   const AdjustmentParameters parameters = {intrinsics, &poses, &inverse_depths, &readout};
-  const Reprojection reprojection(tracks, state->camera, readout != 0.0 || options.estimate_readout,
-                                  state->frame_times);
+  Reprojection reprojection(tracks, state->camera, readout != 0.0 || options.estimate_readout,
+                            state->frame_times);
+  std::vector<std::array<double, 3>> velocities;
+  if (options.angular_velocity_sigma_px > 0.0 && reprojection.rolling()) {
+    velocities = AngularVelocityBlocks(*state);
+    reprojection.UseAngularVelocities(&velocities);
+  }
   AddReprojectionResiduals(tracks, use, reprojection, parameters, &huber, &weighted_losses,
                            &problem, ordering, &blocks);
   AddIntrinsicsPriors(state->camera, options, intrinsics, &problem, &blocks.prior);
   const int anchor = FixBurstGauge(tracks, use, parameters, &problem, ordering);
   ConstrainCamera(options, reprojection.rolling(), intrinsics, &readout, &problem, ordering);
+  if (reprojection.HasAngularVelocities())
+    AddAngularVelocityPriors(tracks, state->camera, state->frame_times,
+                             options.angular_velocity_sigma_px, parameters, &velocities, &problem,
+                             ordering);
   const ceres::Solver::Summary summary = SolveAdjustment(options, ordering, &problem);
 
   state->camera.f = intrinsics[0];
@@ -104,6 +136,9 @@ BundleAdjustmentSummary RunBundleAdjustment(const FeatureTracks& tracks,
                                  anchor, blocks, &problem, uncertainty);
   for (int i = 0; i < n; ++i)
     state->poses[i] = i == tracks.reference ? Pose{} : FromParameters(poses[i]);
+  state->angular_velocities.clear();
+  for (const std::array<double, 3>& velocity : velocities)
+    state->angular_velocities.emplace_back(velocity[0], velocity[1], velocity[2]);
   return SummariseAdjustment(tracks, use, *state, summary);
 }
 
@@ -118,6 +153,11 @@ class TrackFit {
         intrinsics_{state.camera.f, state.camera.k1, state.camera.k2},
         reprojection_(tracks, state.camera, state.readout != 0.0, state.frame_times) {
     for (const Pose& pose : state.poses) poses_.push_back(ToParameters(pose));
+    if (state.angular_velocities.size() == state.poses.size()) {
+      for (const Eigen::Vector3d& velocity : state.angular_velocities)
+        velocities_.push_back({velocity.x(), velocity.y(), velocity.z()});
+      reprojection_.UseAngularVelocities(&velocities_);
+    }
   }
 
   // The residuals of track j in every frame but the reference, at inverse
@@ -145,7 +185,8 @@ class TrackFit {
   const SparseState& state_;
   const double intrinsics_[3];
   std::vector<std::array<double, 6>> poses_;
-  const Reprojection reprojection_;
+  std::vector<std::array<double, 3>> velocities_;
+  Reprojection reprojection_;
 };
 
 // Gauss-Newton steps on one inverse depth: the residuals are close to
@@ -216,6 +257,8 @@ void BundleAdjustmentOptions::Check() const {
   if (!(lens_k_prior_sigma >= 0.0)) refuse("lens_k_prior_sigma must be >= 0 (0: off)");
   if (!(known_f_sigma_percent >= 0.0)) refuse("known_f_sigma_percent must be >= 0 (0: no prior)");
   if (!(known_distortion_sigma_px >= 0.0)) refuse("known_distortion_sigma_px must be >= 0");
+  if (!(angular_velocity_sigma_px >= 0.0))
+    refuse("angular_velocity_sigma_px must be >= 0 (0: the line between frame poses)");
   if (!(uncertainty_inflation >= 1.0)) refuse("uncertainty_inflation must be >= 1");
   if (!(wide_angle_focal_ratio >= 0.0)) refuse("wide_angle_focal_ratio must be >= 0 (0: off)");
   if (!(wide_angle_inflation_exponent >= 0.0)) refuse("wide_angle_inflation_exponent must be >= 0");

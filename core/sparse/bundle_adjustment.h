@@ -6,6 +6,7 @@
 
 #include "core/camera/camera_model.h"
 #include "core/camera/pose.h"
+#include "core/camera/rolling_shutter.h"
 #include "core/io/result.h"
 #include "core/sparse/calibration_uncertainty.h"
 #include "core/sparse/feature_tracks.h"
@@ -39,6 +40,11 @@ struct BundleAdjustmentOptions {
   // the flower clip and stopped at a higher cost), and a negative one is a
   // sensor read bottom-up.
   bool estimate_readout = false;
+  // With a rolling shutter, each frame's angular velocity is a parameter
+  // (core/sparse/angular_velocity_reprojection_error.h), tied to its
+  // neighbours' rotation step with this sigma in pixels at f per frame
+  // interval; 0: the rows turn along the line between frame poses.
+  double angular_velocity_sigma_px = 0.0;
   // A known calibration as a prior: the state's initial camera is its centre,
   // with these widths (f 0: no prior). The distortion width is in pixels of
   // the shift of two radii (half-way and the corner), like IntrinsicsPrior;
@@ -89,6 +95,9 @@ struct SparseState {
   // a dropped frame leaves a gap of 2); empty: consecutive frames. Only the
   // rolling shutter's path between frames reads it.
   std::vector<double> frame_times;
+  // Each frame's angular velocity where the adjustment estimated them
+  // (BundleAdjustmentOptions::angular_velocity_sigma_px); empty otherwise.
+  AngularVelocities angular_velocities;
 };
 
 // Refines `state` in place over the tracks whose `use` flag is set. Returns the

@@ -33,6 +33,33 @@
 
 namespace dfsm {
 
+// The residual of a track observed from row pose `row_pose` of frame i, its
+// reference pixel undistorted to the ray p at inverse depth w in the camera of
+// the reference row, whose pose is `reference_row_pose` (both {angle-axis
+// (3), T (3)} against the reference frame's middle row):
+//
+//     w X = R_ref^T (p - w T_ref),     X_i ∝ R_i (w X) + w T_i.
+template <typename T>
+void RowToRowResidual(const T* intrinsics, double cx, double cy, const Eigen::Vector2d& reference,
+                      const Eigen::Vector2d& observed, const T& w, const T* reference_row_pose,
+                      const T* row_pose, T* residuals) {
+  T p[3];
+  PixelToUndistorted(intrinsics[0], intrinsics[1], intrinsics[2], cx, cy, reference.x(),
+                     reference.y(), &p[0], &p[1]);
+  p[2] = T(1.0);
+  T minus_rotation[3], shifted[3];
+  for (int k = 0; k < 3; ++k) {
+    minus_rotation[k] = -reference_row_pose[k];
+    shifted[k] = p[k] - w * reference_row_pose[3 + k];
+  }
+  T wX[3];
+  ceres::AngleAxisRotatePoint(minus_rotation, shifted, wX);
+  T X[3];
+  ceres::AngleAxisRotatePoint(row_pose, wX, X);
+  for (int k = 0; k < 3; ++k) X[k] += w * row_pose[3 + k];
+  UndistortedResidual(intrinsics, cx, cy, observed, X, residuals);
+}
+
 class RollingShutterReprojectionError {
  public:
   // Which pose parameter block holds the reference's neighbour m: a block of
@@ -57,29 +84,16 @@ class RollingShutterReprojectionError {
   bool Evaluate(const T* intrinsics, const T* pose, const T* neighbour,
                 const T* reference_neighbour, const T* inverse_depth, const T* readout,
                 T* residuals) const {
-    const T& f = intrinsics[0];
-    const T& w = inverse_depth[0];
-    T p[3];
-    PixelToUndistorted(f, intrinsics[1], intrinsics[2], cx_, cy_, reference_.x(), reference_.y(),
-                       &p[0], &p[1]);
-    p[2] = T(1.0);
-    // The reference row's camera back to the reference frame's middle row.
+    // The reference row's pose and the observed row's, on their lines.
     const T a_r = readout[0] * reference_row_;
-    T minus_rotation[3], shifted[3];
-    for (int k = 0; k < 3; ++k) {
-      minus_rotation[k] = -a_r * reference_neighbour[k];
-      shifted[k] = p[k] - w * a_r * reference_neighbour[3 + k];
-    }
-    T wX[3];
-    ceres::AngleAxisRotatePoint(minus_rotation, shifted, wX);
-    // Into the camera of the observed row of frame i.
     const T a_i = readout[0] * frame_row_;
-    T row_pose[6];
-    for (int k = 0; k < 6; ++k) row_pose[k] = pose[k] + a_i * (neighbour[k] - pose[k]);
-    T X[3];
-    ceres::AngleAxisRotatePoint(row_pose, wX, X);
-    for (int k = 0; k < 3; ++k) X[k] += w * row_pose[3 + k];
-    UndistortedResidual(intrinsics, cx_, cy_, observed_, X, residuals);
+    T reference_row_pose[6], row_pose[6];
+    for (int k = 0; k < 6; ++k) {
+      reference_row_pose[k] = a_r * reference_neighbour[k];
+      row_pose[k] = pose[k] + a_i * (neighbour[k] - pose[k]);
+    }
+    RowToRowResidual(intrinsics, cx_, cy_, reference_, observed_, inverse_depth[0],
+                     reference_row_pose, row_pose, residuals);
     return true;
   }
 

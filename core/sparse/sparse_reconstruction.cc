@@ -154,6 +154,9 @@ void SparseOptions::Check() const {
     throw std::invalid_argument("min_tracks must be >= 3, got " + std::to_string(min_tracks));
   if (!(min_parallax_px >= 0.0)) throw std::invalid_argument("min_parallax_px must be >= 0");
   if (!(outlier_px > 0.0)) throw std::invalid_argument("outlier_px must be > 0");
+  if (!(known_camera_angular_velocity_sigma_px >= 0.0))
+    throw std::invalid_argument(
+        "known_camera_angular_velocity_sigma_px must be >= 0 (0: the line between frame poses)");
   if (outlier_rounds < 0)
     throw std::invalid_argument("outlier_rounds must be >= 0 (0: none), got " +
                                 std::to_string(outlier_rounds));
@@ -206,7 +209,10 @@ namespace {
 BundleAdjustmentOptions AdjustmentOptionsFor(const SparseOptions& options,
                                              const KnownCalibration* known) {
   BundleAdjustmentOptions adjust = options.bundle_adjustment;
-  if (known && known->mode == KnownCalibrationMode::kFixed) adjust.fix_intrinsics = true;
+  if (known && known->mode == KnownCalibrationMode::kFixed) {
+    adjust.fix_intrinsics = true;
+    adjust.angular_velocity_sigma_px = options.known_camera_angular_velocity_sigma_px;
+  }
   if (known && known->mode == KnownCalibrationMode::kPrior) {
     adjust.known_f_sigma_percent = known->f_sigma_percent;
     adjust.known_distortion_sigma_px = known->distortion_sigma_px;

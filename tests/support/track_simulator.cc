@@ -53,7 +53,8 @@ TrackSimulation SimulateTracks(const TrackSimulatorOptions& options) {
   const int rows = (options.tracks + columns - 1) / columns;
   std::uniform_real_distribution<double> inverse(1.0 / options.max_depth, 1.0 / options.min_depth);
   std::vector<Eigen::Matrix2Xd> pixels(n, Eigen::Matrix2Xd(2, options.tracks));
-  const RowPoses row_poses(sim.poses, options.readout, options.height);
+  const RowPoses row_poses(sim.poses, options.readout, options.height, {},
+                           options.angular_velocities);
   int count = 0;
   for (int r = 0; r < rows && count < options.tracks; ++r) {
     for (int c = 0; c < columns && count < options.tracks; ++c) {

@@ -3,6 +3,7 @@
 // benchmarks, where images would only add KLT noise to what is measured.
 #pragma once
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <vector>
 
@@ -36,6 +37,9 @@ struct TrackSimulatorOptions {
   // observation is taken at the pose of the row it lands on, and the inverse
   // depths are those of the reference row's camera. 0: a global shutter.
   double readout = 0.0;
+  // With a readout: each frame's angular velocity, its rows turning at it
+  // (core/camera/rolling_shutter.h); empty: along the line between frames.
+  std::vector<Eigen::Vector3d> angular_velocities;
 };
 
 // Tracks sit on a grid over the reference image (as grided features do).

@@ -1,0 +1,105 @@
+#include "core/sparse/angular_velocity_reprojection_error.h"
+
+#include <gtest/gtest.h>
+
+#include <memory>
+#include <random>
+#include <vector>
+
+namespace dfsm {
+namespace {
+
+using Shared = AngularVelocityReprojectionError::ReferenceNeighbour;
+
+// One residual's parameters around a small-motion burst's (1080p).
+struct Parameters {
+  double intrinsics[3];
+  double pose[6], neighbour[6], reference_neighbour[6];
+  double velocity[3], reference_velocity[3];
+  double inverse_depth[1], readout[1];
+};
+
+Parameters DrawParameters(std::mt19937* rng, double readout) {
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  Parameters q;
+  q.intrinsics[0] = 1500.0 + 300.0 * unit(*rng);
+  q.intrinsics[1] = 0.1 * unit(*rng);
+  q.intrinsics[2] = 0.05 * unit(*rng);
+  for (double* pose : {q.pose, q.neighbour, q.reference_neighbour})
+    for (int k = 0; k < 6; ++k) pose[k] = (k < 3 ? 0.02 : 0.01) * unit(*rng);
+  q.inverse_depth[0] = 0.2 + 0.15 * unit(*rng);
+  q.readout[0] = readout;
+  return q;
+}
+
+// Where each velocity is its neighbour's rotation step, the rows turn along
+// the line between frame poses: the residual is RollingShutterReprojection
+// Error's, through the cost function Create builds (its blocks in order, for
+// each way the reference neighbour's block is shared). A velocity off the
+// step moves the residual.
+TEST(AngularVelocityReprojectionError, IsTheLinesResidualAtTheLinesVelocities) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> column(0.0, 1919.0), row(0.0, 1079.0);
+  for (const Shared shared : {Shared::kOwnBlock, Shared::kFrame, Shared::kFrameNeighbour})
+    for (const double readout : {0.3, 0.6, -0.5})
+      for (const double reference_rate : {1.0, -1.0, 0.5})
+        for (int draw = 0; draw < 5; ++draw) {
+          const Eigen::Vector2d reference(column(rng), row(rng)), observed(column(rng), row(rng));
+          const double frame_rate = draw % 2 ? 1.0 : -0.5;
+          Parameters q = DrawParameters(&rng, readout);
+          const double* m = shared == Shared::kFrame            ? q.pose
+                            : shared == Shared::kFrameNeighbour ? q.neighbour
+                                                                : q.reference_neighbour;
+          for (int k = 0; k < 3; ++k) {
+            q.velocity[k] = frame_rate * (q.neighbour[k] - q.pose[k]);
+            q.reference_velocity[k] = reference_rate * m[k];
+          }
+          double line[2];
+          RollingShutterReprojectionError(reference, observed, 960.0, 540.0, 1080, reference_rate,
+                                          frame_rate)
+              .Evaluate(q.intrinsics, q.pose, q.neighbour, m, q.inverse_depth, q.readout, line);
+          const std::unique_ptr<ceres::CostFunction> cost(AngularVelocityReprojectionError::Create(
+              AngularVelocityReprojectionError(reference, observed, 960.0, 540.0, 1080,
+                                               reference_rate, frame_rate),
+              shared));
+          std::vector<const double*> blocks = {q.intrinsics, q.pose, q.neighbour};
+          if (shared == Shared::kOwnBlock) blocks.push_back(q.reference_neighbour);
+          for (const double* block : {q.velocity, q.reference_velocity, q.inverse_depth, q.readout})
+            blocks.push_back(block);
+          double residual[2];
+          ASSERT_TRUE(cost->Evaluate(blocks.data(), residual, nullptr));
+          EXPECT_NEAR(residual[0], line[0], 1e-9);
+          EXPECT_NEAR(residual[1], line[1], 1e-9);
+          q.velocity[0] += 0.002;  // 3 px at f per frame interval
+          ASSERT_TRUE(cost->Evaluate(blocks.data(), residual, nullptr));
+          if (std::abs(RowTime(readout, observed.y(), 1080)) > 0.05) {
+            EXPECT_GT(std::hypot(residual[0] - line[0], residual[1] - line[1]), 0.05);
+          }
+        }
+}
+
+// The prior is zero at the neighbours' rotation step, f / sigma per radian
+// off it, with a neighbour that is the reference (no block) at rotation 0.
+TEST(AngularVelocityPrior, MeasuresTheVelocityAgainstTheNeighboursStep) {
+  const double after[6] = {0.004, -0.002, 0.001, 0.01, 0.0, 0.0};
+  const double before[6] = {0.001, 0.001, 0.0, 0.0, 0.0, 0.0};
+  double velocity[3] = {0.0015, -0.0015, 0.0005};  // (after - before) / 2
+  const std::unique_ptr<ceres::CostFunction> both(
+      AngularVelocityPrior::Create(1000.0 / 2.0, 0.5, true, true));
+  const double* blocks[] = {velocity, after, before};
+  double residual[3];
+  ASSERT_TRUE(both->Evaluate(blocks, residual, nullptr));
+  for (double r : residual) EXPECT_NEAR(r, 0.0, 1e-12);
+  velocity[0] += 0.002;  // 2 px at f = 1000: one sigma of 2 px
+  ASSERT_TRUE(both->Evaluate(blocks, residual, nullptr));
+  EXPECT_NEAR(residual[0], 1.0, 1e-12);
+  const std::unique_ptr<ceres::CostFunction> reference_before(
+      AngularVelocityPrior::Create(500.0, 1.0, true, false));
+  double next[3] = {0.004, -0.002, 0.001};
+  const double* one[] = {next, after};
+  ASSERT_TRUE(reference_before->Evaluate(one, residual, nullptr));
+  for (double r : residual) EXPECT_NEAR(r, 0.0, 1e-12);
+}
+
+}  // namespace
+}  // namespace dfsm
