@@ -23,6 +23,11 @@
 //               daemon/service/calibration_keeper.cc).
 //   --without LAYER,...: sparse layers switched off by name
 //               (core/sparse/sparse_layers.h).
+//   --hand-path: rows and blur rendered from the hand's own path between
+//               frames, not the line between frame poses (SynthOptions::hand_path).
+//   --oscillation DEG: a hand's physiological tremor on every burst's
+//               orientation (SynthOptions::oscillation_deg); with --hand-path
+//               the turn bends within a frame's readout, as on real footage.
 //   --exif: each burst carries its true focal length as EXIF's 35 mm
 //               equivalent, in whole mm as cameras write it (a prior on f).
 #include <algorithm>
@@ -237,6 +242,8 @@ int main(int argc, char** argv) {
   PipelineOptions pipeline;
   std::optional<KnownCalibrationMode> known;
   bool fused = false, exif = false;
+  double oscillation_deg = 0.0;
+  bool hand_path = false;
   try {
     for (int i = 1; i < argc; ++i) {
       if (!std::strcmp(argv[i], "--bursts") && i + 1 < argc) {
@@ -266,6 +273,10 @@ int main(int argc, char** argv) {
         known = fused ? KnownCalibrationMode::kPrior : ParseKnownCalibrationMode(argv[i]);
       } else if (!std::strcmp(argv[i], "--exif")) {
         exif = true;
+      } else if (!std::strcmp(argv[i], "--oscillation") && i + 1 < argc) {
+        oscillation_deg = NonNegativeNumber("--oscillation", argv[++i]);
+      } else if (!std::strcmp(argv[i], "--hand-path")) {
+        hand_path = true;
       } else if (!std::strcmp(argv[i], "--reweight-rounds") && i + 1 < argc) {
         // 0: every track weighs the same
         pipeline.sparse.reweight_rounds = WholeNumber("--reweight-rounds", argv[++i], 0);
@@ -278,7 +289,7 @@ int main(int argc, char** argv) {
             "                   [--field-of-view normal|wide] [--motion tremor|rotation]\n"
             "                   [--only I [--keep DIR]]\n"
             "                   [--reweight-rounds N] [--known prior|fixed|fused] [--exif]\n"
-            "                   [--without LAYER,...]\n"
+            "                   [--without LAYER,...] [--hand-path] [--oscillation DEG]\n"
             "       depth_sweep --defaults N [--camera ...] [--only I [--keep DIR]]\n"
             "                   [--known prior|fixed|fused] [--exif]\n");
         return 2;
@@ -315,6 +326,10 @@ int main(int argc, char** argv) {
     return 2;
   }
   if (only >= 0) sweep = {sweep[only]};
+  for (SynthOptions& settings : sweep) {
+    settings.oscillation_deg = oscillation_deg;
+    settings.hand_path = hand_path;
+  }
   std::vector<DepthSweepOutcome> outcomes;
   for (const SynthOptions& settings : sweep) {
     outcomes.push_back(RunDepthSweepBurst(settings, keep, pipeline, known, fused, exif));

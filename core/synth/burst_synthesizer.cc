@@ -38,6 +38,8 @@ void Validate(const SynthOptions& o) {
   Require(o.baseline >= 0.0 && o.baseline <= 1.0, "baseline must be between 0 and 1 m");
   Require(o.rotation_deg >= 0.0 && o.rotation_deg <= 20.0,
           "rotation_deg must be between 0 and 20 degrees");
+  Require(o.oscillation_deg >= 0.0 && o.oscillation_deg <= 2.0,
+          "oscillation_deg must be between 0 and 2 degrees");
   Require(o.noise_sigma >= 0.0 && o.noise_sigma <= 50.0,
           "noise_sigma must be between 0 and 50 grey levels");
   Require(o.jpeg_quality >= 0 && o.jpeg_quality <= 100, "jpeg_quality must be between 0 and 100");
@@ -83,7 +85,7 @@ struct RenderInputs {
   const MovingObject* moving;  // may be null
   const CameraModel& camera;
   const CameraEffects& effects;
-  const std::vector<Pose>& path;
+  const HandheldPath& path;
   int supersampling;
 };
 
@@ -125,8 +127,7 @@ cv::Mat RenderFrame(const RenderInputs& in, int frame, cv::Mat* object_mask) {
       const double row_time = frame + RowTime(readout, v, camera.height);
       for (int k = 0; k < times; ++k) {
         sample_time[k] = times > 1 ? row_time + exposure * ((k + 0.5) / times - 0.5) : row_time;
-        const Pose pose =
-            readout > 0.0 || times > 1 ? PoseAtTime(in.path, sample_time[k]) : in.path[frame];
+        const Pose pose = in.path.At(sample_time[k]);
         to_reference[k] = pose.R.transpose();
         centres[k] = pose.Centre();
       }
@@ -174,13 +175,13 @@ cv::Mat RenderFrame(const RenderInputs& in, int frame, cv::Mat* object_mask) {
 // time.
 cv::Mat RenderReferenceDepth(const TexturedScene& scene, const MovingObject* moving,
                              const CameraModel& camera, const CameraEffects& effects,
-                             const std::vector<Pose>& path, int reference) {
+                             const HandheldPath& path, int reference) {
   const double readout = effects.rolling_shutter_readout;
   cv::Mat depth(camera.height, camera.width, CV_32FC1, cv::Scalar(0.0f));
   cv::parallel_for_(cv::Range(0, camera.height), [&](const cv::Range& rows) {
     for (int v = rows.start; v < rows.end; ++v) {
       const double row_time = reference + RowTime(readout, v, camera.height);
-      const Pose pose = readout > 0.0 ? PoseAtTime(path, row_time) : path[reference];
+      const Pose pose = path.At(row_time);
       const Eigen::Matrix3d to_reference = pose.R.transpose();
       const Eigen::Vector3d centre = pose.Centre();
       float* out = depth.ptr<float>(v);
@@ -238,6 +239,8 @@ nlohmann::json OptionsJson(const SynthOptions& o, const CameraModel& camera,
           {"k2", o.k2},
           {"baseline_m", o.baseline},
           {"rotation_deg", o.rotation_deg},
+          {"oscillation_deg", o.oscillation_deg},
+          {"hand_path", o.hand_path},
           {"noise_sigma", o.noise_sigma},
           {"jpeg_quality", o.jpeg_quality},
           {"supersampling", o.supersampling},
@@ -315,16 +318,18 @@ SynthBurst SynthesizeBurst(const SynthOptions& options) {
   path_options.frames = options.frames;
   path_options.baseline = options.baseline;
   path_options.rotation_deg = options.rotation_deg;
+  path_options.oscillation_deg = options.oscillation_deg;
+  if (options.hand_path) path_options.between_frames = CameraPathOptions::BetweenFrames::kHand;
   path_options.seed = options.seed;
 
   // The path is in the coordinates of its first frame, where the scene is
   // laid out; frames and depth are rendered from it whichever frame is the
   // reference, and only the truth's poses are re-expressed.
-  const std::vector<Pose> path = HandheldCameraPath(path_options);
+  const HandheldPath path(path_options);
   SynthBurst burst;
   burst.effects = options.effects;
   burst.truth.camera = camera;
-  burst.truth.poses = PosesRelativeTo(path, options.reference);
+  burst.truth.poses = PosesRelativeTo(path.FramePoses(), options.reference);
   burst.manifest.width = options.width;
   burst.manifest.height = options.height;
   burst.manifest.pixel_format = options.color ? "bgr8" : "gray8";

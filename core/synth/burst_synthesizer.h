@@ -33,6 +33,14 @@ struct SynthOptions {
   int supersampling = 3;      // samples per pixel side (anti-aliasing)
   bool color = true;          // bgr8 frames, else gray8
   CameraEffects effects;      // rolling shutter, exposure, ..., motion blur, shot noise (off)
+  // A hand's physiological tremor on the orientation, degrees per axis at
+  // most (CameraPathOptions::oscillation_deg). 0: the smooth wander alone.
+  double oscillation_deg = 0.0;
+  // Rows and blurred exposures rendered from the hand's own path between
+  // frames (CameraPathOptions::BetweenFrames::kHand), which curves and, with
+  // the oscillation, bends within a frame; false: the line between frame
+  // poses, the rolling-shutter model the pipeline adjusts by default.
+  bool hand_path = false;
   // Scene content beyond textured planes (issue 13), each off at 0:
   double moving_object = 0.0;  // a textured disc crossing the view, image widths per frame
   int curved_surfaces = 0;     // textured cylinders and spheres among the patches

@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "core/camera/rolling_shutter.h"
 #include "core/io/ground_truth.h"
 #include "core/synth/camera_path.h"
 
@@ -117,6 +118,65 @@ TEST(BurstSynthesizer, MotionMatchesTheRequestedBaselineAndRotation) {
   EXPECT_NEAR(largest_rotation, 0.8, 1e-6);
   EXPECT_TRUE(burst.truth.poses[0].R.isIdentity());
   EXPECT_EQ(burst.truth.poses[0].T.norm(), 0.0);
+}
+
+// Between frames the path is the line between the frame poses (half-way in
+// centre and rotation, extrapolated beyond the ends), or the hand's own:
+// without the oscillation it curves gently (under half a pixel's angle from
+// the line at f = 1000 half-way between frames, the turn never reversing);
+// with a tremor of 0.1 deg at a third of a cycle a frame, the turn reverses
+// within two frames and leaves the line by more than a pixel (1.5 px for
+// this seed). The frame poses are the same either way.
+TEST(HandheldPath, FollowsTheLineOrTheHandBetweenFrames) {
+  using BetweenFrames = CameraPathOptions::BetweenFrames;
+  for (const BetweenFrames between : {BetweenFrames::kLine, BetweenFrames::kHand})
+    for (const double oscillation_deg : {0.0, 0.1}) {
+      CameraPathOptions options;
+      options.rotation_deg = 1.0;
+      options.oscillation_deg = oscillation_deg;
+      options.between_frames = between;
+      options.seed = 4;
+      const HandheldPath path(options);
+      const std::vector<Pose> frames = path.FramePoses();
+      CameraPathOptions line_options = options;
+      line_options.between_frames = BetweenFrames::kLine;
+      const std::vector<Pose> line_frames = HandheldCameraPath(line_options);
+      for (int i = 0; i < options.frames; ++i) {
+        EXPECT_EQ(frames[i].R, line_frames[i].R);
+        EXPECT_EQ(frames[i].T, line_frames[i].T);
+        EXPECT_EQ(frames[i].R, path.At(i).R);
+      }
+      EXPECT_TRUE(frames[0].R.isIdentity());
+      EXPECT_EQ(frames[0].T.norm(), 0.0);
+      double largest_px = 0.0, centre_error = 0.0;
+      int reversals = 0;
+      Eigen::Vector3d previous_step = Eigen::Vector3d::Zero();
+      for (int i = 0; i + 1 < options.frames; ++i) {
+        const Eigen::Vector3d a = ToPoseParameters(frames[i]).head<3>(),
+                              b = ToPoseParameters(frames[i + 1]).head<3>(),
+                              half = ToPoseParameters(path.At(i + 0.5)).head<3>();
+        largest_px = std::max(largest_px, 1000.0 * (half - 0.5 * (a + b)).norm());
+        centre_error = std::max(centre_error, (path.At(i + 0.5).Centre() -
+                                               0.5 * (frames[i].Centre() + frames[i + 1].Centre()))
+                                                  .norm());
+        const Eigen::Vector3d step = b - a;
+        if (i > 0 && step.dot(previous_step) < 0.0) ++reversals;
+        previous_step = step;
+      }
+      if (between == BetweenFrames::kLine) {
+        EXPECT_LT(largest_px, 1e-3);  // the angle-axis of a composed rotation, not a sum
+        EXPECT_LT(centre_error, 1e-12);
+        const Pose before = path.At(-0.5);
+        EXPECT_LT((before.Centre() - (1.5 * frames[0].Centre() - 0.5 * frames[1].Centre())).norm(),
+                  1e-12);
+      } else if (oscillation_deg == 0.0) {
+        EXPECT_LT(largest_px, 0.5);
+        EXPECT_LE(reversals, 1);
+      } else {
+        EXPECT_GT(largest_px, 1.0);
+        EXPECT_GE(reversals, 3);
+      }
+    }
 }
 
 TEST(BurstSynthesizer, DepthCoversTheImageWithSeveralLayers) {

@@ -165,24 +165,6 @@ std::optional<Eigen::Vector2d> RenderedUndistortedToPixel(const CameraModel& cam
   return std::nullopt;
 }
 
-Pose PoseAtTime(const std::vector<Pose>& poses, double t) {
-  const int n = static_cast<int>(poses.size());
-  if (n == 1) return poses[0];
-  const int i = std::clamp(static_cast<int>(std::floor(t)), 0, n - 2);
-  const double s = t - i;  // in [0, 1] between frames, beyond it at the ends
-  const Pose& a = poses[i];
-  const Pose& b = poses[i + 1];
-  // Relative rotation a -> b as angle-axis, scaled by s.
-  const Eigen::AngleAxisd step(b.R * a.R.transpose());
-  const Eigen::Matrix3d R =
-      Eigen::AngleAxisd(s * step.angle(), step.axis()).toRotationMatrix() * a.R;
-  const Eigen::Vector3d centre = (1.0 - s) * a.Centre() + s * b.Centre();
-  Pose pose;
-  pose.R = R;
-  pose.T = -R * centre;
-  return pose;
-}
-
 void ApplyPhotometricEffects(const CameraEffects& effects, int frame_index, uint64_t seed,
                              cv::Mat* radiance) {
   std::mt19937_64 random(seed * 0x2545F4914F6CDD1DULL + static_cast<uint64_t>(frame_index) * 7919 +

@@ -16,7 +16,6 @@
 #include <vector>
 
 #include "core/camera/camera_model.h"
-#include "core/camera/pose.h"
 
 namespace dfsm {
 
@@ -84,11 +83,6 @@ Eigen::Vector2d RenderedPixelToUndistorted(const CameraModel& camera, const Came
 std::optional<Eigen::Vector2d> RenderedUndistortedToPixel(const CameraModel& camera,
                                                           const CameraEffects& effects,
                                                           const Eigen::Vector2d& x_u);
-
-// The pose at fractional frame time t of a path with one pose per frame:
-// linear in the camera centre and in the rotation's angle-axis between the
-// frames around t, extrapolated from the first or last two beyond the ends.
-Pose PoseAtTime(const std::vector<Pose>& poses, double t);
 
 // Scales `radiance` (CV_32FC3, grey levels) by frame `frame_index`'s
 // exposure, white balance and the vignetting. Deterministic for (seed, frame).

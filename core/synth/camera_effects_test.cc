@@ -102,18 +102,6 @@ TEST(CameraEffects, PresetsAndChecksNameTheProblem) {
   EXPECT_THROW(bad.Check(), std::invalid_argument);
 }
 
-// The pose between frames: half-way in centre and rotation.
-TEST(CameraEffects, PoseAtTimeInterpolatesAndExtrapolates) {
-  std::vector<Pose> path(2);
-  path[1].R = Eigen::AngleAxisd(0.02, Eigen::Vector3d::UnitY()).toRotationMatrix();
-  path[1].T = -path[1].R * Eigen::Vector3d(0.01, 0.0, 0.0);
-  const Pose half = PoseAtTime(path, 0.5);
-  EXPECT_NEAR(RotationErrorDeg(half.R, Eigen::Matrix3d::Identity()), 0.01 * 180.0 / M_PI, 1e-9);
-  EXPECT_NEAR((half.Centre() - Eigen::Vector3d(0.005, 0.0, 0.0)).norm(), 0.0, 1e-12);
-  const Pose before = PoseAtTime(path, -0.5);
-  EXPECT_NEAR((before.Centre() - Eigen::Vector3d(-0.005, 0.0, 0.0)).norm(), 0.0, 1e-12);
-}
-
 // Every effect of issue 13 set to 0 explicitly renders what the default
 // options render, byte for byte (frames and depth), with and without the
 // older effects on.

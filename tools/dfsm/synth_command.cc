@@ -30,6 +30,13 @@ int RunSynthCommand(const Args& args) {
   app.add_option("--rotation", options.rotation_deg,
                  "largest rotation against the first frame, degrees")
       ->capture_default_str();
+  app.add_option("--oscillation", options.oscillation_deg,
+                 "a hand's physiological tremor (about 10 Hz at 30 fps) on the orientation, "
+                 "degrees per axis at most: the turn bends within a frame's readout")
+      ->capture_default_str();
+  app.add_flag("--hand-path", options.hand_path,
+               "render rows and blur from the hand's own path between frames (it curves, and "
+               "bends with --oscillation), not the line between frame poses");
   app.add_option("--noise", options.noise_sigma, "sensor noise in grey levels")
       ->capture_default_str();
   std::optional<int> jpeg;
