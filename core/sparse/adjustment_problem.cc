@@ -181,6 +181,12 @@ int FixBurstGauge(const FeatureTracks& tracks, const std::vector<bool>& use,
   return anchor;
 }
 
+StepAcross StepAcrossFrame(int frame, int frames, const std::vector<double>& times) {
+  const int after = std::min(frame + 1, frames - 1), before = std::max(frame - 1, 0);
+  const double span = times.empty() ? after - before : times[after] - times[before];
+  return {after, before, 1.0 / span};
+}
+
 void AddAngularVelocityPriors(const FeatureTracks& tracks, const CameraModel& camera,
                               const std::vector<double>& times, double sigma_px,
                               const AdjustmentParameters& parameters,
@@ -188,14 +194,13 @@ void AddAngularVelocityPriors(const FeatureTracks& tracks, const CameraModel& ca
                               ceres::Problem* problem, ceres::ParameterBlockOrdering* ordering) {
   const int n = tracks.num_frames();
   for (int i = 0; i < n; ++i) {
-    const int after = std::min(i + 1, n - 1), before = std::max(i - 1, 0);
-    const double span = times.empty() ? after - before : times[after] - times[before];
+    const StepAcross step = StepAcrossFrame(i, n, times);
     std::vector<double*> blocks = {(*velocities)[i].data()};
-    const bool after_is_block = after != tracks.reference,
-               before_is_block = before != tracks.reference;
-    if (after_is_block) blocks.push_back((*parameters.poses)[after].data());
-    if (before_is_block) blocks.push_back((*parameters.poses)[before].data());
-    problem->AddResidualBlock(AngularVelocityPrior::Create(camera.f / sigma_px, 1.0 / span,
+    const bool after_is_block = step.after != tracks.reference,
+               before_is_block = step.before != tracks.reference;
+    if (after_is_block) blocks.push_back((*parameters.poses)[step.after].data());
+    if (before_is_block) blocks.push_back((*parameters.poses)[step.before].data());
+    problem->AddResidualBlock(AngularVelocityPrior::Create(camera.f / sigma_px, step.rate,
                                                            after_is_block, before_is_block),
                               nullptr, blocks);
     ordering->AddElementToGroup((*velocities)[i].data(), 1);

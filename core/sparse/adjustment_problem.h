@@ -112,6 +112,15 @@ int FixBurstGauge(const FeatureTracks& tracks, const std::vector<bool>& use,
                   const AdjustmentParameters& parameters, ceres::Problem* problem,
                   ceres::ParameterBlockOrdering* ordering);
 
+// The frames across frame i whose rotations give its angular velocity's
+// start and prior: the one after and the one before (i itself at the burst's
+// ends), and rate = 1 / (t_after - t_before). times: SparseState::frame_times.
+struct StepAcross {
+  int after, before;
+  double rate;
+};
+StepAcross StepAcrossFrame(int frame, int frames, const std::vector<double>& times);
+
 // Ties each frame's angular velocity to its neighbours' rotation step
 // (AngularVelocityPrior, `sigma_px` at the camera's f per frame interval);
 // the velocities join the ordering's group 1.

@@ -25,13 +25,9 @@ std::vector<std::array<double, 3>> AngularVelocityBlocks(const SparseState& stat
     if (static_cast<int>(state.angular_velocities.size()) == n) {
       velocity = state.angular_velocities[i];
     } else {
-      const int after = std::min(i + 1, n - 1), before = std::max(i - 1, 0);
-      const double span = state.frame_times.empty()
-                              ? after - before
-                              : state.frame_times[after] - state.frame_times[before];
-      velocity = (ToPoseParameters(state.poses[after]).head<3>() -
-                  ToPoseParameters(state.poses[before]).head<3>()) /
-                 span;
+      const StepAcross step = StepAcrossFrame(i, n, state.frame_times);
+      velocity = step.rate * (ToPoseParameters(state.poses[step.after]).head<3>() -
+                              ToPoseParameters(state.poses[step.before]).head<3>());
     }
     blocks[i] = {velocity.x(), velocity.y(), velocity.z()};
   }
