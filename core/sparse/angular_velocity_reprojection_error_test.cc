@@ -9,19 +9,19 @@
 namespace dfsm {
 namespace {
 
-using Shared = AngularVelocityReprojectionError::ReferenceNeighbour;
+using VelocityShared = AngularVelocityReprojectionError::ReferenceNeighbour;
 
 // One residual's parameters around a small-motion burst's (1080p).
-struct Parameters {
+struct VelocityParameters {
   double intrinsics[3];
   double pose[6], neighbour[6], reference_neighbour[6];
   double velocity[3], reference_velocity[3];
   double inverse_depth[1], readout[1];
 };
 
-Parameters DrawParameters(std::mt19937* rng, double readout) {
+VelocityParameters DrawVelocityParameters(std::mt19937* rng, double readout) {
   std::uniform_real_distribution<double> unit(-1.0, 1.0);
-  Parameters q;
+  VelocityParameters q;
   q.intrinsics[0] = 1500.0 + 300.0 * unit(*rng);
   q.intrinsics[1] = 0.1 * unit(*rng);
   q.intrinsics[2] = 0.05 * unit(*rng);
@@ -40,16 +40,17 @@ Parameters DrawParameters(std::mt19937* rng, double readout) {
 TEST(AngularVelocityReprojectionError, IsTheLinesResidualAtTheLinesVelocities) {
   std::mt19937 rng(11);
   std::uniform_real_distribution<double> column(0.0, 1919.0), row(0.0, 1079.0);
-  for (const Shared shared : {Shared::kOwnBlock, Shared::kFrame, Shared::kFrameNeighbour})
+  for (const VelocityShared shared :
+       {VelocityShared::kOwnBlock, VelocityShared::kFrame, VelocityShared::kFrameNeighbour})
     for (const double readout : {0.3, 0.6, -0.5})
       for (const double reference_rate : {1.0, -1.0, 0.5})
         for (int draw = 0; draw < 5; ++draw) {
           const Eigen::Vector2d reference(column(rng), row(rng)), observed(column(rng), row(rng));
           const double frame_rate = draw % 2 ? 1.0 : -0.5;
-          Parameters q = DrawParameters(&rng, readout);
-          const double* m = shared == Shared::kFrame            ? q.pose
-                            : shared == Shared::kFrameNeighbour ? q.neighbour
-                                                                : q.reference_neighbour;
+          VelocityParameters q = DrawVelocityParameters(&rng, readout);
+          const double* m = shared == VelocityShared::kFrame            ? q.pose
+                            : shared == VelocityShared::kFrameNeighbour ? q.neighbour
+                                                                        : q.reference_neighbour;
           for (int k = 0; k < 3; ++k) {
             q.velocity[k] = frame_rate * (q.neighbour[k] - q.pose[k]);
             q.reference_velocity[k] = reference_rate * m[k];
@@ -63,7 +64,7 @@ TEST(AngularVelocityReprojectionError, IsTheLinesResidualAtTheLinesVelocities) {
                                                reference_rate, frame_rate),
               shared));
           std::vector<const double*> blocks = {q.intrinsics, q.pose, q.neighbour};
-          if (shared == Shared::kOwnBlock) blocks.push_back(q.reference_neighbour);
+          if (shared == VelocityShared::kOwnBlock) blocks.push_back(q.reference_neighbour);
           for (const double* block : {q.velocity, q.reference_velocity, q.inverse_depth, q.readout})
             blocks.push_back(block);
           double residual[2];

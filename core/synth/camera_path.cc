@@ -8,13 +8,12 @@
 #include <stdexcept>
 
 namespace dfsm {
-namespace {
 
 // A smooth random curve through the origin at s = 0: a sum of two sinusoids per
 // axis with random frequencies (0.3 to 1.2 cycles over the burst) and phases.
-class SmoothWander {
+class HandheldPath::Wander {
  public:
-  explicit SmoothWander(std::mt19937_64* rng) {
+  explicit Wander(std::mt19937_64* rng) {
     std::uniform_real_distribution<double> frequency(0.3, 1.2), phase(0.0, 2.0 * M_PI),
         weight(0.5, 1.0);
     for (int axis = 0; axis < 3; ++axis)
@@ -39,13 +38,6 @@ class SmoothWander {
   Term terms_[3][2];
 };
 
-}  // namespace
-
-struct HandheldPath::Wander {
-  explicit Wander(std::mt19937_64* rng) : curve(rng) {}
-  SmoothWander curve;
-};
-
 HandheldPath::HandheldPath(const CameraPathOptions& options) : options_(options) {
   std::mt19937_64 rng(options.seed * 0x9E3779B97F4A7C15ULL + 17);
   position_ = std::make_shared<const Wander>(&rng);
@@ -57,7 +49,7 @@ HandheldPath::HandheldPath(const CameraPathOptions& options) : options_(options)
   position_scale_ = angle_scale_ = 1.0;
   for (int i = 0; i < n; ++i) {
     centres[i] = Centre(i);
-    angles[i] = orientation_->curve.At(n > 1 ? static_cast<double>(i) / (n - 1) : 0.0);
+    angles[i] = orientation_->At(n > 1 ? static_cast<double>(i) / (n - 1) : 0.0);
   }
   double widest = 0.0, largest_angle = 0.0;
   for (int i = 0; i < n; ++i) {
@@ -78,14 +70,14 @@ HandheldPath::HandheldPath(const CameraPathOptions& options) : options_(options)
 
 Eigen::Vector3d HandheldPath::Centre(double t) const {
   const int n = options_.frames;
-  Eigen::Vector3d centre = position_->curve.At(n > 1 ? t / (n - 1) : 0.0);
+  Eigen::Vector3d centre = position_->At(n > 1 ? t / (n - 1) : 0.0);
   centre.z() *= options_.forward_fraction;
   return centre * position_scale_;
 }
 
 Eigen::Vector3d HandheldPath::Angles(double t) const {
   const int n = options_.frames;
-  Eigen::Vector3d angles = orientation_->curve.At(n > 1 ? t / (n - 1) : 0.0) * angle_scale_;
+  Eigen::Vector3d angles = orientation_->At(n > 1 ? t / (n - 1) : 0.0) * angle_scale_;
   for (int axis = 0; axis < 3; ++axis) {
     const Oscillation& o = oscillation_[axis];
     angles[axis] +=

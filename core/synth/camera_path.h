@@ -47,7 +47,7 @@ class HandheldPath {
   std::vector<Pose> FramePoses() const;
 
  private:
-  struct Wander;
+  class Wander;
   struct Oscillation {
     double amplitude, cycles_per_frame, phase;  // radians, -, radians
   };
