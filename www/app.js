@@ -722,7 +722,8 @@ function calibrationTable(cal, extra = {}) {
   const shutter = cal.rolling_shutter;
   if (shutter) rows.push(['rolling shutter', shutter.mode === 'global' ? 'global (not modelled)'
     : `readout ${num(shutter.readout, 3)} of the frame interval (${shutter.mode === 'estimate' ? 'estimated' : 'known'})`
-      + (shutter.sigma_readout != null ? `, σ ${num(shutter.sigma_readout, 3)}` : '')]);
+      + (shutter.sigma_readout != null ? `, σ ${num(shutter.sigma_readout, 3)}` : '')
+      + (shutter.row_path === 'angular_velocity' ? '; each frame\'s rows turn at its own angular velocity' : '')]);
   for (const [k, v] of Object.entries(extra.rows || {})) rows.push([k, v]);
   const dl = el('dl', {class: 'kv'});
   for (const [k, v] of rows) dl.append(el('dt', {}, k), el('dd', {class: k === 'quality' ? `quality-${v}` : ''}, v));
