@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "core/camera/rolling_shutter.h"
+#include "core/sparse/angular_velocity_cost_function.h"
 #include "core/sparse/angular_velocity_reprojection_error.h"
 #include "core/sparse/intrinsics_prior.h"
 #include "core/sparse/rolling_shutter_cost_function.h"
@@ -49,8 +50,7 @@ ceres::ResidualBlockId Reprojection::Add(ceres::Problem* problem, ceres::LossFun
     blocks.push_back(readout);
     const AngularVelocityReprojectionError error(reference, observed, camera_.cx, camera_.cy,
                                                  camera_.height, sides.m.rate, sides.n.rate);
-    return problem->AddResidualBlock(AngularVelocityReprojectionError::Create(error, shared), loss,
-                                     blocks);
+    return problem->AddResidualBlock(new AngularVelocityCostFunction(error, shared), loss, blocks);
   }
   blocks.push_back(inverse_depth);
   blocks.push_back(readout);

@@ -67,11 +67,16 @@ class AngularVelocityReprojectionError {
 
   // The cost function for the parameter blocks {intrinsics, pose, neighbour,
   // [reference_neighbour,] velocity, reference_velocity, inverse_depth,
-  // readout}, the reference neighbour's block only with kOwnBlock.
-  static ceres::CostFunction* Create(const AngularVelocityReprojectionError& error,
-                                     ReferenceNeighbour shared);
+  // readout}, the reference neighbour's block only with kOwnBlock,
+  // differentiated by Ceres' autodiff: the reference that
+  // AngularVelocityCostFunction's hand-written Jacobian (what the adjustment
+  // runs) is tested against.
+  static ceres::CostFunction* CreateAutoDiff(const AngularVelocityReprojectionError& error,
+                                             ReferenceNeighbour shared);
 
  private:
+  friend class AngularVelocityCostFunction;
+
   Eigen::Vector2d reference_;
   Eigen::Vector2d observed_;
   double cx_, cy_;
@@ -79,10 +84,8 @@ class AngularVelocityReprojectionError {
   double reference_rate_, frame_rate_;
 };
 
-// The functor Ceres differentiates: the blocks in Create's order, the
-// reference's neighbour where `shared` says. Dynamic: eight blocks of 29
-// parameters in all cost more as one fixed-size jet than in chunks of 4
-// (pipeline_bench, BM_PipelinePhone1080pKnown: the adjustment 1.8 against 1.1 s).
+// The functor Ceres differentiates: the blocks in CreateAutoDiff's order,
+// the reference's neighbour where `shared` says.
 struct AngularVelocityCost {
   static constexpr int kStride = 4;
   AngularVelocityReprojectionError error;
@@ -100,7 +103,7 @@ struct AngularVelocityCost {
   }
 };
 
-inline ceres::CostFunction* AngularVelocityReprojectionError::Create(
+inline ceres::CostFunction* AngularVelocityReprojectionError::CreateAutoDiff(
     const AngularVelocityReprojectionError& error, ReferenceNeighbour shared) {
   auto* cost =
       new ceres::DynamicAutoDiffCostFunction<AngularVelocityCost, AngularVelocityCost::kStride>(

@@ -6,6 +6,8 @@
 #include <random>
 #include <vector>
 
+#include "core/sparse/angular_velocity_cost_function.h"
+
 namespace dfsm {
 namespace {
 
@@ -32,9 +34,17 @@ VelocityParameters DrawVelocityParameters(std::mt19937* rng, double readout) {
   return q;
 }
 
+std::vector<const double*> VelocityBlocks(const VelocityParameters& q, VelocityShared shared) {
+  std::vector<const double*> blocks = {q.intrinsics, q.pose, q.neighbour};
+  if (shared == VelocityShared::kOwnBlock) blocks.push_back(q.reference_neighbour);
+  for (const double* block : {q.velocity, q.reference_velocity, q.inverse_depth, q.readout})
+    blocks.push_back(block);
+  return blocks;
+}
+
 // Where each velocity is its neighbour's rotation step, the rows turn along
 // the line between frame poses: the residual is RollingShutterReprojection
-// Error's, through the cost function Create builds (its blocks in order, for
+// Error's, through the cost function the adjustment runs (its blocks in order, for
 // each way the reference neighbour's block is shared). A velocity off the
 // step moves the residual.
 TEST(AngularVelocityReprojectionError, IsTheLinesResidualAtTheLinesVelocities) {
@@ -59,14 +69,11 @@ TEST(AngularVelocityReprojectionError, IsTheLinesResidualAtTheLinesVelocities) {
           RollingShutterReprojectionError(reference, observed, 960.0, 540.0, 1080, reference_rate,
                                           frame_rate)
               .Evaluate(q.intrinsics, q.pose, q.neighbour, m, q.inverse_depth, q.readout, line);
-          const std::unique_ptr<ceres::CostFunction> cost(AngularVelocityReprojectionError::Create(
+          const auto cost = std::make_unique<AngularVelocityCostFunction>(
               AngularVelocityReprojectionError(reference, observed, 960.0, 540.0, 1080,
                                                reference_rate, frame_rate),
-              shared));
-          std::vector<const double*> blocks = {q.intrinsics, q.pose, q.neighbour};
-          if (shared == VelocityShared::kOwnBlock) blocks.push_back(q.reference_neighbour);
-          for (const double* block : {q.velocity, q.reference_velocity, q.inverse_depth, q.readout})
-            blocks.push_back(block);
+              shared);
+          const std::vector<const double*> blocks = VelocityBlocks(q, shared);
           double residual[2];
           ASSERT_TRUE(cost->Evaluate(blocks.data(), residual, nullptr));
           EXPECT_NEAR(residual[0], line[0], 1e-9);
@@ -77,6 +84,82 @@ TEST(AngularVelocityReprojectionError, IsTheLinesResidualAtTheLinesVelocities) {
             EXPECT_GT(std::hypot(residual[0] - line[0], residual[1] - line[1]), 0.05);
           }
         }
+}
+
+// The residual and every Jacobian block of the hand-written cost function
+// equal autodiff's of AngularVelocityReprojectionError::Evaluate, for each
+// way the reference neighbour's block is shared, each readout (none, a
+// phone's, read bottom-up), both sides and a dropped frame's rate of 1/2,
+// with velocities off the line's.
+TEST(AngularVelocityCostFunction, MatchesTheAutodiffOfTheResidual) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> column(0.0, 1919.0), row(0.0, 1079.0), unit(-1.0, 1.0);
+  int compared = 0;
+  for (const VelocityShared shared :
+       {VelocityShared::kOwnBlock, VelocityShared::kFrame, VelocityShared::kFrameNeighbour})
+    for (const double readout : {0.0, 0.3, 0.6, -0.5})
+      for (const double reference_rate : {1.0, -1.0, 0.5})
+        for (int draw = 0; draw < 10; ++draw) {
+          const AngularVelocityReprojectionError error({column(rng), row(rng)},
+                                                       {column(rng), row(rng)}, 960.0, 540.0, 1080,
+                                                       reference_rate, draw % 2 ? 1.0 : -0.5);
+          VelocityParameters q = DrawVelocityParameters(&rng, readout);
+          for (int k = 0; k < 3; ++k) {
+            q.velocity[k] = 0.02 * unit(rng);
+            q.reference_velocity[k] = 0.02 * unit(rng);
+          }
+          const std::vector<const double*> blocks = VelocityBlocks(q, shared);
+          const AngularVelocityCostFunction analytic(error, shared);
+          const std::unique_ptr<ceres::CostFunction> autodiff(
+              AngularVelocityReprojectionError::CreateAutoDiff(error, shared));
+          ASSERT_EQ(analytic.parameter_block_sizes(), autodiff->parameter_block_sizes());
+          std::vector<std::vector<double>> j_analytic, j_autodiff;
+          for (const int size : analytic.parameter_block_sizes()) {
+            j_analytic.emplace_back(2 * size, 0.0);
+            j_autodiff.emplace_back(2 * size, 0.0);
+          }
+          std::vector<double*> p_analytic, p_autodiff;
+          for (size_t b = 0; b < j_analytic.size(); ++b) {
+            p_analytic.push_back(j_analytic[b].data());
+            p_autodiff.push_back(j_autodiff[b].data());
+          }
+          double r_analytic[2], r_autodiff[2], r_only[2];
+          ASSERT_TRUE(analytic.Evaluate(blocks.data(), r_analytic, p_analytic.data()));
+          ASSERT_TRUE(autodiff->Evaluate(blocks.data(), r_autodiff, p_autodiff.data()));
+          ASSERT_TRUE(analytic.Evaluate(blocks.data(), r_only, nullptr));
+          for (int k = 0; k < 2; ++k) {
+            EXPECT_NEAR(r_analytic[k], r_autodiff[k], 1e-9 * (1.0 + std::abs(r_autodiff[k])));
+            EXPECT_EQ(r_only[k], r_analytic[k]);
+          }
+          for (size_t b = 0; b < j_analytic.size(); ++b)
+            for (size_t k = 0; k < j_analytic[b].size(); ++k)
+              EXPECT_NEAR(j_analytic[b][k], j_autodiff[b][k],
+                          1e-9 * (1.0 + std::abs(j_autodiff[b][k])))
+                  << "block " << b << " entry " << k << " readout " << readout;
+          ++compared;
+        }
+  EXPECT_EQ(compared, 3 * 4 * 3 * 10);
+}
+
+// Ceres passes no Jacobian for a block held constant (the reference's
+// velocity and pose, a known readout, fixed intrinsics); the others are still
+// written.
+TEST(AngularVelocityCostFunction, SkipsTheJacobiansOfConstantBlocks) {
+  std::mt19937 rng(3);
+  const AngularVelocityReprojectionError error({300.0, 200.0}, {310.0, 205.0}, 960.0, 540.0, 1080,
+                                               1.0, -1.0);
+  VelocityParameters q = DrawVelocityParameters(&rng, 0.6);
+  for (int k = 0; k < 3; ++k) q.velocity[k] = q.reference_velocity[k] = 0.01;
+  const std::vector<const double*> blocks = VelocityBlocks(q, VelocityShared::kOwnBlock);
+  const AngularVelocityCostFunction analytic(error, VelocityShared::kOwnBlock);
+  double velocity_jacobian[6] = {};
+  double* jacobians[8] = {nullptr,           nullptr, nullptr, nullptr,
+                          velocity_jacobian, nullptr, nullptr, nullptr};
+  double residuals[2];
+  ASSERT_TRUE(analytic.Evaluate(blocks.data(), residuals, jacobians));
+  double sum = 0.0;
+  for (const double d : velocity_jacobian) sum += std::abs(d);
+  EXPECT_GT(sum, 0.0);
 }
 
 // The prior is zero at the neighbours' rotation step, f / sigma per radian

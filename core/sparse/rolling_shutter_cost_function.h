@@ -1,25 +1,15 @@
 // RollingShutterReprojectionError with its Jacobian written out by the chain
-// rule, for Ceres.
+// rule, for Ceres: DifferentiateRowToRow's derivatives by the two row poses
+// (row_to_row_jacobian.h, which says why not autodiff), carried onto the
+// line's parameter blocks. With a_r = rho t_r and a_i = rho t_i (rho the
+// readout, t the rows' times times their side's rate):
 //
-// Why not AutoDiffCostFunction: the residual touches 23 parameters (f, k1, k2;
-// the poses of frame i, its neighbour n and the reference's neighbour m; w_j;
-// the readout), so autodiff carries 23 derivatives through every operation of
-// the two rotations and both undistortions. On a phone burst (1080p x 10, a
-// readout of 0.6) that was ~27 % of a whole `dfsm process` (perf), more than
-// the fine plane sweep. The chain rule below needs a few 3x3 products.
+//     reference row = a_r P_m,     observed row = P_i + a_i (P_n - P_i),
 //
-// The maths is RollingShutterReprojectionError::Evaluate's (the readable
-// reference, which the tests hold this Jacobian to):
-//
-//     p      = undistort(u_ref; f, k1, k2),                 P = (p, 1)
-//     a_r    = rho * t_r,  phi = -a_r * m_omega,  s = P - w * a_r * m_T
-//     wX     = R(phi) s                                     (reference, middle row)
-//     a_i    = rho * t_i,  Q = P_i + a_i (P_n - P_i)        (row pose of frame i)
-//     X      = R(Q_omega) wX + w Q_T
-//     r      = f (X_xy / X_z - undistort(u_obs; f, k1, k2))
-//
-// with d(R(phi) v)/d phi = -R(phi) [v]_x J_r(phi), J_r the right Jacobian of
-// SO(3).
+// so dr/dP_m = a_r dr/dref, dr/dP_i = (1 - a_i) dr/drow, dr/dP_n = a_i dr/drow
+// and dr/drho = t_r dr/dref P_m + t_i dr/drow (P_n - P_i).
+// RollingShutterReprojectionError::Evaluate is the readable reference the
+// tests hold this Jacobian to.
 #pragma once
 
 #include <ceres/cost_function.h>
