@@ -14,7 +14,8 @@ const std::vector<SparseLayerInfo>& SparseLayers() {
        [](const SparseOptions& o) { return o.features.max_frame_track_loss < 1.0; },
        [](SparseOptions* o) { o->features.max_frame_track_loss = 1.0; }},
       {SparseLayer::kAngularVelocity, "angular-velocity",
-       "a known camera held, with a rolling shutter: every adjustment under it",
+       "a known camera held, with a rolling shutter: every adjustment under it (the line "
+       "again where it leaves too few tracks in front)",
        "poses, inverse depths and each frame's angular velocity",
        "known_camera_angular_velocity_sigma_px",
        [](const SparseOptions& o) { return o.known_camera_angular_velocity_sigma_px > 0.0; },

@@ -447,6 +447,26 @@ void TryMirroredRelief(const FeatureTracks& tracks, const BundleAdjustmentOption
       FixedText(sparse->mirrored_relief_cost_ratio, 3) + ") and was kept");
 }
 
+// Where each frame's own angular velocity left fewer than
+// SparseOptions::min_tracks in front of the camera, the adjustment runs
+// again with the rows on the line between frame poses, and says so: the
+// velocities' three parameters a frame are too many for a burst with few
+// frames and tracks left (fr1/rpy 13-22: 5 frames tracked, 15 tracks in
+// front; docs/experiments/024).
+void AdjustOnTheLineInstead(const FeatureTracks& tracks, const CameraModel& initial,
+                            const SparseOptions& options, StageTimer* timer, SharedWork* beside,
+                            const GivenStart* given, BundleAdjustmentOptions* adjust,
+                            AdjustmentAttempt* solved, SparseReconstruction* sparse) {
+  const int in_front = CountUsed(solved->use);
+  adjust->angular_velocity_sigma_px = 0.0;
+  *solved = AdjustFromStarts(tracks, initial, options, *adjust, timer, beside, given);
+  SettleSign(&solved->state, &solved->use);
+  sparse->warnings.push_back(
+      "rows on the line between frame poses: with each frame's own angular velocity only " +
+      std::to_string(in_front) +
+      " tracks stayed in front of the camera (need >= " + std::to_string(options.min_tracks) + ")");
+}
+
 // Everything after the tracking (`sparse` holds the tracks): the
 // initialization, the adjustment and its outlier rounds, the verdict and any
 // fallback, for a burst of width x height; `measure_lens_relief`: also
@@ -470,11 +490,14 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
     sparse.calibration_used = options.known->mode == KnownCalibrationMode::kFixed
                                   ? CalibrationSource::kKnownFixed
                                   : CalibrationSource::kKnownPrior;
-  const BundleAdjustmentOptions adjust =
+  BundleAdjustmentOptions adjust =
       AdjustmentOptionsFor(options, options.known ? &*options.known : nullptr);
   AdjustmentAttempt solved =
       AdjustFromStarts(sparse.tracks, initial, options, adjust, &timer, beside, given);
   SettleSign(&solved.state, &solved.use);
+  if (CountUsed(solved.use) < options.min_tracks && adjust.angular_velocity_sigma_px > 0.0)
+    AdjustOnTheLineInstead(sparse.tracks, initial, options, &timer, beside, given, &adjust, &solved,
+                           &sparse);
   if (options.mirrored_relief) TryMirroredRelief(sparse.tracks, adjust, &solved, &sparse);
   timer.Lap("mirrored_relief");
   // From the solution as reported: the mirror, where it was kept.
