@@ -467,6 +467,22 @@ void AdjustOnTheLineInstead(const FeatureTracks& tracks, const CameraModel& init
       " tracks stayed in front of the camera (need >= " + std::to_string(options.min_tracks) + ")");
 }
 
+// What a burst whose tracks the adjustment could not keep most likely
+// suffers from, by its median track motion `parallax_px`: below
+// kLittleParallaxPx a small motion separates depths too weakly for the
+// tracking noise (the phone VGA sweep's 0.25 deg bursts move about 1.4 px);
+// above it the baseline is there, and the tracks disagree on the scene
+// (fr1/rpy 14-23, 29 px: five of ten frames blurred).
+std::string WhyTracksDisagree(double parallax_px) {
+  constexpr double kLittleParallaxPx = 1.0;
+  const std::string motion = "median track motion " + FixedText(parallax_px) + " px";
+  if (parallax_px < kLittleParallaxPx)
+    return motion + ": too little baseline to separate depths; move the camera a little more";
+  return motion +
+         ": the tracks do not fit one still scene seen from one moving camera "
+         "(motion blur, a jolt, or something moving in the view)";
+}
+
 // Everything after the tracking (`sparse` holds the tracks): the
 // initialization, the adjustment and its outlier rounds, the verdict and any
 // fallback, for a burst of width x height; `measure_lens_relief`: also
@@ -508,11 +524,11 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
     timer.Lap("self_estimate");
   }
   if (CountUsed(solved.use) < options.min_tracks)
-    throw ReconstructionError("too few consistent tracks after bundle adjustment: " +
-                              std::to_string(CountUsed(solved.use)) +
-                              " in front of the camera, need >= " +
-                              std::to_string(options.min_tracks) + " (median track motion " +
-                              FixedText(parallax) + " px: too little baseline to separate depths)");
+    throw ReconstructionError(
+        "too few consistent tracks after bundle adjustment: " +
+        std::to_string(CountUsed(solved.use)) + " of " +
+        std::to_string(sparse.tracks.num_tracks()) + " in front of the camera, need >= " +
+        std::to_string(options.min_tracks) + " (" + WhyTracksDisagree(parallax) + ")");
   sparse.inliers = solved.use;
   // The camera is judged before the covariance; its time, a millisecond or
   // so, goes to the "uncertainty" lap. The lens check runs where the burst
