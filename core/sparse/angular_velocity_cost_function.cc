@@ -11,21 +11,17 @@ AngularVelocityCostFunction::AngularVelocityCostFunction(
     : error_(error), shared_(shared) {
   set_num_residuals(2);
   std::vector<int32_t>& sizes = *mutable_parameter_block_sizes();
-  sizes = {3, 6, 6};
-  if (shared == ReferenceNeighbour::kOwnBlock) sizes.push_back(6);
+  sizes = IntrinsicsAndPoseBlockSizes(shared);
   for (const int size : {3, 3, 1, 1}) sizes.push_back(size);
 }
 
 bool AngularVelocityCostFunction::Evaluate(double const* const* parameters, double* residuals,
                                            double** jacobians) const {
-  const bool own = shared_ == ReferenceNeighbour::kOwnBlock;
-  const int next = own ? 4 : 3;
+  const int next = BlockAfterPoses(shared_);
   const Eigen::Map<const RowPoseVector> pose(parameters[1]);
   const Eigen::Map<const RowPoseVector> neighbour(parameters[2]);
-  const Eigen::Map<const RowPoseVector> reference_neighbour(own ? parameters[3]
-                                                            : shared_ == ReferenceNeighbour::kFrame
-                                                                ? parameters[1]
-                                                                : parameters[2]);
+  const Eigen::Map<const RowPoseVector> reference_neighbour(
+      ReferenceNeighbourBlock(parameters, shared_));
   const Eigen::Map<const Eigen::Vector3d> velocity(parameters[next]);
   const Eigen::Map<const Eigen::Vector3d> reference_velocity(parameters[next + 1]);
   const double w = parameters[next + 2][0];
@@ -55,13 +51,8 @@ bool AngularVelocityCostFunction::Evaluate(double const* const* parameters, doub
   const Eigen::Vector2d dr_dreadout =
       error_.reference_row_ * (dr_dref_omega * reference_velocity + s_r * dr_dref_T * m_T) +
       error_.frame_row_ * (dr_drow_omega * velocity + s_i * dr_drow_T * step_T);
-  // A block shared by two roles takes both derivatives.
-  if (shared_ == ReferenceNeighbour::kFrame) dr_dpose += dr_dreference_neighbour;
-  if (shared_ == ReferenceNeighbour::kFrameNeighbour) dr_dneighbour += dr_dreference_neighbour;
-  StoreJacobianBlock<3>(d.intrinsics, jacobians[0]);
-  StoreJacobianBlock<6>(dr_dpose, jacobians[1]);
-  StoreJacobianBlock<6>(dr_dneighbour, jacobians[2]);
-  if (own) StoreJacobianBlock<6>(dr_dreference_neighbour, jacobians[3]);
+  StoreIntrinsicsAndPoseJacobians(shared_, d.intrinsics, dr_dpose, dr_dneighbour,
+                                  dr_dreference_neighbour, jacobians);
   StoreJacobianBlock<3>(Eigen::Matrix<double, 2, 3>(dt_i * dr_drow_omega), jacobians[next]);
   StoreJacobianBlock<3>(Eigen::Matrix<double, 2, 3>(dt_r * dr_dref_omega), jacobians[next + 1]);
   StoreJacobianBlock<1>(d.inverse_depth, jacobians[next + 2]);

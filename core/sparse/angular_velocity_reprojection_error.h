@@ -93,13 +93,10 @@ struct AngularVelocityCost {
 
   template <typename T>
   bool operator()(T const* const* blocks, T* residuals) const {
-    using Shared = AngularVelocityReprojectionError::ReferenceNeighbour;
-    const T* reference_neighbour = shared == Shared::kFrame            ? blocks[1]
-                                   : shared == Shared::kFrameNeighbour ? blocks[2]
-                                                                       : blocks[3];
-    const int next = shared == Shared::kOwnBlock ? 4 : 3;
-    return error.Evaluate(blocks[0], blocks[1], blocks[2], reference_neighbour, blocks[next],
-                          blocks[next + 1], blocks[next + 2], blocks[next + 3], residuals);
+    const int next = BlockAfterPoses(shared);
+    return error.Evaluate(blocks[0], blocks[1], blocks[2], ReferenceNeighbourBlock(blocks, shared),
+                          blocks[next], blocks[next + 1], blocks[next + 2], blocks[next + 3],
+                          residuals);
   }
 };
 

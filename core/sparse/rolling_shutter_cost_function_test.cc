@@ -5,7 +5,10 @@
 #include <cmath>
 #include <memory>
 #include <random>
+#include <string>
 #include <vector>
+
+#include "tests/support/jacobian_check.h"
 
 namespace dfsm {
 namespace {
@@ -62,31 +65,8 @@ TEST(RollingShutterCostFunction, MatchesTheAutodiffOfTheResidual) {
           const RollingShutterCostFunction analytic(error, shared);
           const std::unique_ptr<ceres::CostFunction> autodiff(
               RollingShutterReprojectionError::CreateAutoDiff(error, shared));
-          ASSERT_EQ(analytic.parameter_block_sizes(), autodiff->parameter_block_sizes());
-
-          std::vector<std::vector<double>> j_analytic, j_autodiff;
-          std::vector<double*> p_analytic, p_autodiff;
-          for (const int size : analytic.parameter_block_sizes()) {
-            j_analytic.emplace_back(2 * size, 0.0);
-            j_autodiff.emplace_back(2 * size, 0.0);
-          }
-          for (size_t b = 0; b < j_analytic.size(); ++b) {
-            p_analytic.push_back(j_analytic[b].data());
-            p_autodiff.push_back(j_autodiff[b].data());
-          }
-          double r_analytic[2], r_autodiff[2], r_only[2];
-          ASSERT_TRUE(analytic.Evaluate(blocks.data(), r_analytic, p_analytic.data()));
-          ASSERT_TRUE(autodiff->Evaluate(blocks.data(), r_autodiff, p_autodiff.data()));
-          ASSERT_TRUE(analytic.Evaluate(blocks.data(), r_only, nullptr));
-          for (int k = 0; k < 2; ++k) {
-            EXPECT_NEAR(r_analytic[k], r_autodiff[k], 1e-9 * (1.0 + std::abs(r_autodiff[k])));
-            EXPECT_EQ(r_only[k], r_analytic[k]);
-          }
-          for (size_t b = 0; b < j_analytic.size(); ++b)
-            for (size_t k = 0; k < j_analytic[b].size(); ++k)
-              EXPECT_NEAR(j_analytic[b][k], j_autodiff[b][k],
-                          1e-9 * (1.0 + std::abs(j_autodiff[b][k])))
-                  << "block " << b << " entry " << k << " readout " << readout;
+          ExpectSameResidualAndJacobians(analytic, *autodiff, blocks.data(),
+                                         "readout " + std::to_string(readout));
           ++compared;
         }
   EXPECT_EQ(compared, 3 * 4 * 3 * 10);

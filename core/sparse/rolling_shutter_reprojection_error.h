@@ -114,6 +114,21 @@ class RollingShutterReprojectionError {
   double reference_row_, frame_row_;  // row time per unit readout, times the side's rate
 };
 
+// The blocks both row models' cost functions begin with: {intrinsics, pose,
+// neighbour, [reference_neighbour]}, the last only with kOwnBlock. The
+// reference's neighbour m among them, and the index of the block after them.
+template <typename T>
+const T* ReferenceNeighbourBlock(T const* const* blocks,
+                                 RollingShutterReprojectionError::ReferenceNeighbour shared) {
+  using Shared = RollingShutterReprojectionError::ReferenceNeighbour;
+  return shared == Shared::kFrame            ? blocks[1]
+         : shared == Shared::kFrameNeighbour ? blocks[2]
+                                             : blocks[3];
+}
+inline int BlockAfterPoses(RollingShutterReprojectionError::ReferenceNeighbour shared) {
+  return shared == RollingShutterReprojectionError::ReferenceNeighbour::kOwnBlock ? 4 : 3;
+}
+
 // The functors Ceres differentiates: the reference's neighbour in a block of
 // its own, or shared with frame i's pose (kFrame) or its neighbour's.
 struct RollingShutterOwnBlock {

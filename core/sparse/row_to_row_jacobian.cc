@@ -99,11 +99,33 @@ Eigen::Vector2d DifferentiateRowToRow(const double* intrinsics, double cx, doubl
   const Matrix23 dr_ds = dr_dwX * back.R;
   // phi_ref enters as R(-phi_ref): the sign of d R(phi) s / d phi turns.
   derivatives->reference_row_pose << dr_ds * Hat(s) * back.right_jacobian, -w * dr_ds;
-  derivatives->row_pose << -dr_dX * row.R * Hat(wX) * row.right_jacobian, w * dr_dX;
+  derivatives->row_pose << -dr_dwX * Hat(wX) * row.right_jacobian, w * dr_dX;
   derivatives->inverse_depth = dr_dX * row_pose.tail<3>() - dr_ds * reference_T;
   derivatives->intrinsics = dr_ds.leftCols<2>() * dp_dintrinsics - f * do_dintrinsics;
   derivatives->intrinsics.col(0) += projection - o;
   return residual;
+}
+
+std::vector<int32_t> IntrinsicsAndPoseBlockSizes(
+    RollingShutterReprojectionError::ReferenceNeighbour shared) {
+  std::vector<int32_t> sizes = {3, 6, 6};
+  if (shared == RollingShutterReprojectionError::ReferenceNeighbour::kOwnBlock) sizes.push_back(6);
+  return sizes;
+}
+
+void StoreIntrinsicsAndPoseJacobians(RollingShutterReprojectionError::ReferenceNeighbour shared,
+                                     const Eigen::Matrix<double, 2, 3>& dr_dintrinsics,
+                                     Eigen::Matrix<double, 2, 6> dr_dpose,
+                                     Eigen::Matrix<double, 2, 6> dr_dneighbour,
+                                     const Eigen::Matrix<double, 2, 6>& dr_dreference_neighbour,
+                                     double** jacobians) {
+  using Shared = RollingShutterReprojectionError::ReferenceNeighbour;
+  if (shared == Shared::kFrame) dr_dpose += dr_dreference_neighbour;
+  if (shared == Shared::kFrameNeighbour) dr_dneighbour += dr_dreference_neighbour;
+  StoreJacobianBlock<3>(dr_dintrinsics, jacobians[0]);
+  StoreJacobianBlock<6>(dr_dpose, jacobians[1]);
+  StoreJacobianBlock<6>(dr_dneighbour, jacobians[2]);
+  if (shared == Shared::kOwnBlock) StoreJacobianBlock<6>(dr_dreference_neighbour, jacobians[3]);
 }
 
 }  // namespace dfsm

@@ -21,6 +21,10 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <cstdint>
+#include <vector>
+
+#include "core/sparse/rolling_shutter_reprojection_error.h"
 
 namespace dfsm {
 
@@ -50,5 +54,20 @@ void StoreJacobianBlock(const Eigen::Matrix<double, 2, kColumns>& jacobian, doub
   using RowMajor = Eigen::Matrix<double, 2, kColumns, kColumns == 1 ? 0 : Eigen::RowMajor>;
   if (block) Eigen::Map<RowMajor>{block} = jacobian;
 }
+
+// The sizes of the blocks both row models' cost functions begin with
+// (ReferenceNeighbourBlock): {3, 6, 6}, and 6 more with kOwnBlock.
+std::vector<int32_t> IntrinsicsAndPoseBlockSizes(
+    RollingShutterReprojectionError::ReferenceNeighbour shared);
+
+// Stores dr by the intrinsics and by those pose blocks where Ceres asks; the
+// reference neighbour's derivative goes to its own block, or is added to the
+// block it shares (a block in two roles takes both derivatives).
+void StoreIntrinsicsAndPoseJacobians(RollingShutterReprojectionError::ReferenceNeighbour shared,
+                                     const Eigen::Matrix<double, 2, 3>& dr_dintrinsics,
+                                     Eigen::Matrix<double, 2, 6> dr_dpose,
+                                     Eigen::Matrix<double, 2, 6> dr_dneighbour,
+                                     const Eigen::Matrix<double, 2, 6>& dr_dreference_neighbour,
+                                     double** jacobians);
 
 }  // namespace dfsm
