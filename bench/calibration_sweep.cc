@@ -8,6 +8,8 @@
 //                     rotation-dominant 1-6 deg and 1-10 mm)
 //                     [--focal-starts F1,F2,...] (SparseOptions::focal_starts)
 //                     [--without LAYER,...] (sparse layers off: core/sparse/sparse_layers.h)
+//                     [--line-path] (rows and blur on the line between frame poses,
+//                     not the hand's own path: SynthOptions::hand_path)
 #include "tests/support/calibration_sweep.h"
 
 #include <algorithm>
@@ -34,6 +36,7 @@ int main(int argc, char** argv) {
   std::string field_of_view = "normal";
   std::string motion = "tremor";
   std::string camera = "ideal";  // camera effects preset of the generated bursts
+  bool line_path = false;        // rows on the line between frame poses
   try {
     for (int i = 1; i < argc; ++i) {
       if (!std::strcmp(argv[i], "--bursts") && i + 1 < argc)
@@ -68,6 +71,8 @@ int main(int argc, char** argv) {
           if (comma == std::string::npos) break;
           rest = rest.substr(comma + 1);
         }
+      } else if (!std::strcmp(argv[i], "--line-path")) {
+        line_path = true;
       } else if (!std::strcmp(argv[i], "--without") && i + 1 < argc) {
         options = WithoutLayers(options, argv[++i]);
       } else {
@@ -78,7 +83,8 @@ int main(int argc, char** argv) {
                      "                         [--camera ideal|webcam|phone]\n"
                      "                         [--field-of-view normal|wide] [--only I]\n"
                      "                         [--motion tremor|rotation]\n"
-                     "                         [--focal-starts F1,F2,...] [--without LAYER,...]\n");
+                     "                         [--focal-starts F1,F2,...] [--without LAYER,...]\n"
+                     "                         [--line-path]\n");
         return 2;
       }
     }
@@ -104,6 +110,8 @@ int main(int argc, char** argv) {
     return 2;
   }
   if (only >= 0) sweep = {sweep[only]};
+  if (line_path)
+    for (SynthOptions& settings : sweep) settings.hand_path = false;
   for (SynthOptions settings : sweep) {
     SparseOptions burst_options = options;
     if (cell_scale != 1.0)  // the default cell of this size, scaled

@@ -23,11 +23,14 @@
 //               daemon/service/calibration_keeper.cc).
 //   --without LAYER,...: sparse layers switched off by name
 //               (core/sparse/sparse_layers.h).
-//   --hand-path: rows and blur rendered from the hand's own path between
-//               frames, not the line between frame poses (SynthOptions::hand_path).
+//   --line-path: rows and blur rendered on the line between frame poses (the
+//               pipeline's own rolling-shutter model), not the hand's own path
+//               between frames (SynthOptions::hand_path, the default;
+//               --hand-path is accepted and changes nothing).
 //   --oscillation DEG: a hand's physiological tremor on every burst's
-//               orientation (SynthOptions::oscillation_deg); with --hand-path
-//               the turn bends within a frame's readout, as on real footage.
+//               orientation (SynthOptions::oscillation_deg); on the hand's
+//               path the turn bends within a frame's readout, as on real
+//               footage.
 //   --exif: each burst carries its true focal length as EXIF's 35 mm
 //               equivalent, in whole mm as cameras write it (a prior on f).
 #include <algorithm>
@@ -243,7 +246,7 @@ int main(int argc, char** argv) {
   std::optional<KnownCalibrationMode> known;
   bool fused = false, exif = false;
   double oscillation_deg = 0.0;
-  bool hand_path = false;
+  bool hand_path = true;
   try {
     for (int i = 1; i < argc; ++i) {
       if (!std::strcmp(argv[i], "--bursts") && i + 1 < argc) {
@@ -277,6 +280,8 @@ int main(int argc, char** argv) {
         oscillation_deg = NonNegativeNumber("--oscillation", argv[++i]);
       } else if (!std::strcmp(argv[i], "--hand-path")) {
         hand_path = true;
+      } else if (!std::strcmp(argv[i], "--line-path")) {
+        hand_path = false;
       } else if (!std::strcmp(argv[i], "--reweight-rounds") && i + 1 < argc) {
         // 0: every track weighs the same
         pipeline.sparse.reweight_rounds = WholeNumber("--reweight-rounds", argv[++i], 0);
@@ -289,7 +294,7 @@ int main(int argc, char** argv) {
             "                   [--field-of-view normal|wide] [--motion tremor|rotation]\n"
             "                   [--only I [--keep DIR]]\n"
             "                   [--reweight-rounds N] [--known prior|fixed|fused] [--exif]\n"
-            "                   [--without LAYER,...] [--hand-path] [--oscillation DEG]\n"
+            "                   [--without LAYER,...] [--line-path] [--oscillation DEG]\n"
             "       depth_sweep --defaults N [--camera ...] [--only I [--keep DIR]]\n"
             "                   [--known prior|fixed|fused] [--exif]\n");
         return 2;

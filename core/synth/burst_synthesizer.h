@@ -38,9 +38,12 @@ struct SynthOptions {
   double oscillation_deg = 0.0;
   // Rows and blurred exposures rendered from the hand's own path between
   // frames (CameraPathOptions::BetweenFrames::kHand), which curves and, with
-  // the oscillation, bends within a frame; false: the line between frame
-  // poses, the rolling-shutter model the pipeline adjusts by default.
-  bool hand_path = false;
+  // the oscillation, bends within a frame, as a held camera's does; false:
+  // the line between frame poses, the pipeline's own rolling-shutter model,
+  // for tests of that model's mechanics (the line leaves the self-calibration
+  // a misfit it cannot see on the line's own rows:
+  // docs/experiments/025-the-hands-path-by-default.md).
+  bool hand_path = true;
   // Scene content beyond textured planes (issue 13), each off at 0:
   double moving_object = 0.0;  // a textured disc crossing the view, image widths per frame
   int curved_surfaces = 0;     // textured cylinders and spheres among the patches

@@ -34,9 +34,14 @@ int RunSynthCommand(const Args& args) {
                  "a hand's physiological tremor (about 10 Hz at 30 fps) on the orientation, "
                  "degrees per axis at most: the turn bends within a frame's readout")
       ->capture_default_str();
-  app.add_flag("--hand-path", options.hand_path,
-               "render rows and blur from the hand's own path between frames (it curves, and "
-               "bends with --oscillation), not the line between frame poses");
+  bool line_path = false;
+  CLI::Option* hand = app.add_flag("--hand-path",
+                                   "render rows and blur from the hand's own path between frames "
+                                   "(the default: it curves, and bends with --oscillation)");
+  app.add_flag("--line-path", line_path,
+               "render rows and blur on the line between frame poses (the pipeline's own "
+               "rolling-shutter model) instead of the hand's path")
+      ->excludes(hand);
   app.add_option("--noise", options.noise_sigma, "sensor noise in grey levels")
       ->capture_default_str();
   std::optional<int> jpeg;
@@ -97,6 +102,7 @@ int RunSynthCommand(const Args& args) {
   if (const auto status = ParseCommandLine(app, args)) return *status;
 
   options.color = !gray;
+  options.hand_path = !line_path;
   options.effects = CameraEffects::Preset(camera);
   CameraEffects& effects = options.effects;
   effects.rolling_shutter_readout = readout.value_or(effects.rolling_shutter_readout);
