@@ -157,6 +157,7 @@ nlohmann::json SweepSettingsJson(const SynthOptions& settings) {
           {"k1", settings.k1},
           {"k2", settings.k2},
           {"jpeg", settings.jpeg_quality},
+          {"hand_path", settings.hand_path},
           {"seed", settings.seed}};
 }
 
