@@ -246,7 +246,7 @@ int main(int argc, char** argv) {
   std::optional<KnownCalibrationMode> known;
   bool fused = false, exif = false;
   double oscillation_deg = 0.0;
-  bool hand_path = true;
+  bool line_path = false;
   try {
     for (int i = 1; i < argc; ++i) {
       if (!std::strcmp(argv[i], "--bursts") && i + 1 < argc) {
@@ -279,9 +279,9 @@ int main(int argc, char** argv) {
       } else if (!std::strcmp(argv[i], "--oscillation") && i + 1 < argc) {
         oscillation_deg = NonNegativeNumber("--oscillation", argv[++i]);
       } else if (!std::strcmp(argv[i], "--hand-path")) {
-        hand_path = true;
+        // the default; accepted so that older command lines still run
       } else if (!std::strcmp(argv[i], "--line-path")) {
-        hand_path = false;
+        line_path = true;
       } else if (!std::strcmp(argv[i], "--reweight-rounds") && i + 1 < argc) {
         // 0: every track weighs the same
         pipeline.sparse.reweight_rounds = WholeNumber("--reweight-rounds", argv[++i], 0);
@@ -333,7 +333,7 @@ int main(int argc, char** argv) {
   if (only >= 0) sweep = {sweep[only]};
   for (SynthOptions& settings : sweep) {
     settings.oscillation_deg = oscillation_deg;
-    settings.hand_path = hand_path;
+    if (line_path) settings.hand_path = false;
   }
   std::vector<DepthSweepOutcome> outcomes;
   for (const SynthOptions& settings : sweep) {
