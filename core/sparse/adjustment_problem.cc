@@ -191,7 +191,8 @@ void AddAngularVelocityPriors(const FeatureTracks& tracks, const CameraModel& ca
                               const std::vector<double>& times, double sigma_px,
                               const AdjustmentParameters& parameters,
                               std::vector<std::array<double, 3>>* velocities,
-                              ceres::Problem* problem, ceres::ParameterBlockOrdering* ordering) {
+                              ceres::Problem* problem, ceres::ParameterBlockOrdering* ordering,
+                              std::vector<ceres::ResidualBlockId>* prior) {
   const int n = tracks.num_frames();
   for (int i = 0; i < n; ++i) {
     const StepAcross step = StepAcrossFrame(i, n, times);
@@ -200,9 +201,10 @@ void AddAngularVelocityPriors(const FeatureTracks& tracks, const CameraModel& ca
                before_is_block = step.before != tracks.reference;
     if (after_is_block) blocks.push_back((*parameters.poses)[step.after].data());
     if (before_is_block) blocks.push_back((*parameters.poses)[step.before].data());
-    problem->AddResidualBlock(AngularVelocityPrior::Create(camera.f / sigma_px, step.rate,
-                                                           after_is_block, before_is_block),
-                              nullptr, blocks);
+    prior->push_back(
+        problem->AddResidualBlock(AngularVelocityPrior::Create(camera.f / sigma_px, step.rate,
+                                                               after_is_block, before_is_block),
+                                  nullptr, blocks));
     ordering->AddElementToGroup((*velocities)[i].data(), 1);
   }
 }
@@ -245,6 +247,7 @@ ceres::Solver::Summary SolveAdjustment(const BundleAdjustmentOptions& options,
 
 AdjustmentJacobians EvaluateJacobians(ceres::Problem* problem, double* intrinsics,
                                       const std::vector<double*>& poses, double* readout,
+                                      const std::vector<double*>& angular_velocities,
                                       const std::vector<double*>& depths,
                                       const std::vector<ceres::ResidualBlockId>& reprojection,
                                       const std::vector<ceres::ResidualBlockId>& prior) {
@@ -263,6 +266,10 @@ AdjustmentJacobians EvaluateJacobians(ceres::Problem* problem, double* intrinsic
   if (problem->HasParameterBlock(readout) && !problem->IsParameterBlockConstant(readout)) {
     evaluate.parameter_blocks.push_back(readout);
     jacobians.readout_column = jacobians.camera_columns++;
+  }
+  for (double* velocity : angular_velocities) {
+    evaluate.parameter_blocks.push_back(velocity);
+    jacobians.camera_columns += 3;
   }
   for (double* depth : depths) evaluate.parameter_blocks.push_back(depth);
   evaluate.residual_blocks = reprojection;

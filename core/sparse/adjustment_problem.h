@@ -122,13 +122,15 @@ struct StepAcross {
 StepAcross StepAcrossFrame(int frame, int frames, const std::vector<double>& times);
 
 // Ties each frame's angular velocity to its neighbours' rotation step
-// (AngularVelocityPrior, `sigma_px` at the camera's f per frame interval);
-// the velocities join the ordering's group 1.
+// (AngularVelocityPrior, `sigma_px` at the camera's f per frame interval,
+// whitened; its residual blocks appended to `prior`); the velocities join
+// the ordering's group 1.
 void AddAngularVelocityPriors(const FeatureTracks& tracks, const CameraModel& camera,
                               const std::vector<double>& times, double sigma_px,
                               const AdjustmentParameters& parameters,
                               std::vector<std::array<double, 3>>* velocities,
-                              ceres::Problem* problem, ceres::ParameterBlockOrdering* ordering);
+                              ceres::Problem* problem, ceres::ParameterBlockOrdering* ordering,
+                              std::vector<ceres::ResidualBlockId>* prior);
 
 // The camera's blocks join the ordering's group 1 (the readout where the
 // shutter rolls); what the options do not refine is held, the readout
@@ -147,10 +149,13 @@ ceres::Solver::Summary SolveAdjustment(const BundleAdjustmentOptions& options,
 
 // The jacobians that MarginalIntrinsicsCovariance needs, at the current values
 // of the problem's parameters: columns ordered intrinsics (where not held),
-// `poses` (the free pose blocks), the readout (where estimated), `depths`
-// (the free inverse depths).
+// `poses` (the free pose blocks), the readout (where estimated), the frames'
+// `angular_velocities` (where the rows turn at them: parameters of the
+// camera's motion like the poses, whose freedom the covariance and the
+// relief's sigma have to count), `depths` (the free inverse depths).
 AdjustmentJacobians EvaluateJacobians(ceres::Problem* problem, double* intrinsics,
                                       const std::vector<double*>& poses, double* readout,
+                                      const std::vector<double*>& angular_velocities,
                                       const std::vector<double*>& depths,
                                       const std::vector<ceres::ResidualBlockId>& reprojection,
                                       const std::vector<ceres::ResidualBlockId>& prior);

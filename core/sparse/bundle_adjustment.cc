@@ -39,7 +39,8 @@ std::vector<std::array<double, 3>> AngularVelocityBlocks(const SparseState& stat
 void ComputeAdjustmentUncertainty(const FeatureTracks& tracks, const std::vector<bool>& use,
                                   const CameraModel& camera, const BundleAdjustmentOptions& options,
                                   const Reprojection& reprojection,
-                                  const AdjustmentParameters& parameters, int anchor,
+                                  const AdjustmentParameters& parameters,
+                                  std::vector<std::array<double, 3>>* velocities, int anchor,
                                   const AdjustmentResidualBlocks& blocks, ceres::Problem* problem,
                                   CalibrationUncertainty* uncertainty) {
   std::vector<double*> poses, depths;
@@ -48,9 +49,11 @@ void ComputeAdjustmentUncertainty(const FeatureTracks& tracks, const std::vector
   std::vector<double>& inverse_depths = *parameters.inverse_depths;
   for (size_t j = 0; j < inverse_depths.size(); ++j)
     if (use[j] && static_cast<int>(j) != anchor) depths.push_back(&inverse_depths[j]);
+  std::vector<double*> angular_velocities;
+  for (std::array<double, 3>& velocity : *velocities) angular_velocities.push_back(velocity.data());
   AdjustmentJacobians jacobians =
-      EvaluateJacobians(problem, parameters.intrinsics, poses, parameters.readout, depths,
-                        blocks.reprojection, blocks.prior);
+      EvaluateJacobians(problem, parameters.intrinsics, poses, parameters.readout,
+                        angular_velocities, depths, blocks.reprojection, blocks.prior);
   AddReferenceJacobians(tracks, reprojection, parameters, blocks, 0, &jacobians);
   jacobians.noise_inflation = UncertaintyInflation(options, camera);
   jacobians.inverse_depths = inverse_depths;
@@ -120,7 +123,7 @@ BundleAdjustmentSummary RunBundleAdjustment(const FeatureTracks& tracks,
   if (reprojection.HasAngularVelocities())
     AddAngularVelocityPriors(tracks, state->camera, state->frame_times,
                              options.angular_velocity_sigma_px, parameters, &velocities, &problem,
-                             ordering);
+                             ordering, &blocks.prior);
   const ceres::Solver::Summary summary = SolveAdjustment(options, ordering, &problem);
 
   state->camera.f = intrinsics[0];
@@ -129,7 +132,7 @@ BundleAdjustmentSummary RunBundleAdjustment(const FeatureTracks& tracks,
   state->readout = readout;
   if (uncertainty)
     ComputeAdjustmentUncertainty(tracks, use, state->camera, options, reprojection, parameters,
-                                 anchor, blocks, &problem, uncertainty);
+                                 &velocities, anchor, blocks, &problem, uncertainty);
   for (int i = 0; i < n; ++i)
     state->poses[i] = i == tracks.reference ? Pose{} : FromParameters(poses[i]);
   state->angular_velocities.clear();

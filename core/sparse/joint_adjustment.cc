@@ -241,8 +241,8 @@ class JointProblem {
       reprojection.insert(reprojection.end(), blocks_[b].reprojection.begin(),
                           blocks_[b].reprojection.end());
     }
-    AdjustmentJacobians jacobians =
-        EvaluateJacobians(&problem_, intrinsics_, poses, &readout_, depths, reprojection, prior_);
+    AdjustmentJacobians jacobians = EvaluateJacobians(&problem_, intrinsics_, poses, &readout_, {},
+                                                      depths, reprojection, prior_);
     int first_track = 0;
     for (size_t b = 0; b < round_->active.size(); ++b) {
       const FeatureTracks& tracks = bursts_[round_->active[b]].tracks;
