@@ -436,9 +436,11 @@ struct PlannedStart {
 // The starts, in the order they are judged: the focal starts (the paper's
 // guess first, in full; SparseOptions::focal_starts, self-calibration only),
 // the naive probe (SparseOptions::naive_probe), then the given start. With
-// options.init kNaive, one naive start in full.
+// options.init kNaive, one naive start in full; a given start with turning
+// rows, alone and in full.
 std::vector<PlannedStart> PlanStarts(const CameraModel& initial, const SparseOptions& options,
-                                     bool given) {
+                                     const GivenStart* given) {
+  if (given && given->turning_rows) return {{StartKind::kGiven, initial.f, false}};
   const bool rank_one = options.init == InitMode::kRankOne;
   std::vector<PlannedStart> plan;
   const bool self_calibrating = !options.known && rank_one;
@@ -491,7 +493,7 @@ AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraMode
   const StartedAdjustment naive_steps(tracks, naive_options);
   // Each start is initialized and adjusted once, side by side: the first
   // (timed) to the end of its first adjustment, a later one probed.
-  const std::vector<PlannedStart> plan = PlanStarts(initial, options, given != nullptr);
+  const std::vector<PlannedStart> plan = PlanStarts(initial, options, given);
   const size_t starts = plan.size();
   // The steps of a start, by how it was made (AdjustmentAttempt::init).
   // A given start finishes as a naive one: without the readout restarts,

@@ -65,6 +65,10 @@ struct GivenStart {
   SparseState state;
   std::vector<bool> use;
   InitMode init = InitMode::kRankOne;  // how the given solution itself started
+  // The only start, its rows turning at each frame's own angular velocity
+  // (SparseOptions::angular_velocity_sigma_px): a self-calibrated solution
+  // on the line between frame poses, refined; its camera is the initial one.
+  bool turning_rows = false;
 };
 
 // Adjusts `tracks` from `initial` (a known camera, or CameraModel::Initial),

@@ -14,12 +14,13 @@ const std::vector<SparseLayerInfo>& SparseLayers() {
        [](const SparseOptions& o) { return o.features.max_frame_track_loss < 1.0; },
        [](SparseOptions* o) { o->features.max_frame_track_loss = 1.0; }},
       {SparseLayer::kAngularVelocity, "angular-velocity",
-       "a known camera held, with a rolling shutter: every adjustment under it (the line "
-       "again where it leaves too few tracks in front)",
-       "poses, inverse depths and each frame's angular velocity",
-       "known_camera_angular_velocity_sigma_px",
-       [](const SparseOptions& o) { return o.known_camera_angular_velocity_sigma_px > 0.0; },
-       [](SparseOptions* o) { o->known_camera_angular_velocity_sigma_px = 0.0; }},
+       "a rolling shutter: a known camera held, every adjustment under it (the line again "
+       "where it leaves too few tracks in front); a burst's own calibration that is observed, "
+       "its solution on the line refined (kept unless its calibration comes out degenerate)",
+       "poses, inverse depths and each frame's angular velocity; a refined calibration",
+       "angular_velocity_sigma_px",
+       [](const SparseOptions& o) { return o.angular_velocity_sigma_px > 0.0; },
+       [](SparseOptions* o) { o->angular_velocity_sigma_px = 0.0; }},
       {SparseLayer::kFocalStarts, "focal-starts",
        "self-calibration with the rank-1 start: each focal start after the first, probed",
        "the solution, where its truncated cost over every track is clearly lower", "focal_starts",

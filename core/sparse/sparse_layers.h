@@ -18,7 +18,7 @@ namespace dfsm {
 
 enum class SparseLayer {
   kFramesLeftOut,        // frames the tracker lost, left out of the burst
-  kAngularVelocity,      // a known camera's frames turning at their own velocity
+  kAngularVelocity,      // frames turning at their own velocity under a pinned camera
   kFocalStarts,          // the focal starts after the first
   kNaiveProbe,           // the naive start beside the rank-1 ones
   kReadoutRestarts,      // restarts from other readouts where it is estimated

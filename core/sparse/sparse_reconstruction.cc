@@ -154,9 +154,9 @@ void SparseOptions::Check() const {
     throw std::invalid_argument("min_tracks must be >= 3, got " + std::to_string(min_tracks));
   if (!(min_parallax_px >= 0.0)) throw std::invalid_argument("min_parallax_px must be >= 0");
   if (!(outlier_px > 0.0)) throw std::invalid_argument("outlier_px must be > 0");
-  if (!(known_camera_angular_velocity_sigma_px >= 0.0))
+  if (!(angular_velocity_sigma_px >= 0.0))
     throw std::invalid_argument(
-        "known_camera_angular_velocity_sigma_px must be >= 0 (0: the line between frame poses)");
+        "angular_velocity_sigma_px must be >= 0 (0: the line between frame poses)");
   if (outlier_rounds < 0)
     throw std::invalid_argument("outlier_rounds must be >= 0 (0: none), got " +
                                 std::to_string(outlier_rounds));
@@ -205,14 +205,19 @@ namespace {
 
 // The adjustment's options under `known` (may be null: the burst calibrates
 // itself): the known calibration held, or given as a prior of its widths;
-// the readout estimated where the rolling shutter asks for it.
+// the readout estimated where the rolling shutter asks for it; the rows
+// turning at each frame's own velocity under a camera held, or from a given
+// start with turning rows (may be null).
 BundleAdjustmentOptions AdjustmentOptionsFor(const SparseOptions& options,
-                                             const KnownCalibration* known) {
+                                             const KnownCalibration* known,
+                                             const GivenStart* given = nullptr) {
   BundleAdjustmentOptions adjust = options.bundle_adjustment;
   if (known && known->mode == KnownCalibrationMode::kFixed) {
     adjust.fix_intrinsics = true;
-    adjust.angular_velocity_sigma_px = options.known_camera_angular_velocity_sigma_px;
+    adjust.angular_velocity_sigma_px = options.angular_velocity_sigma_px;
   }
+  if (given && given->turning_rows)
+    adjust.angular_velocity_sigma_px = options.angular_velocity_sigma_px;
   if (known && known->mode == KnownCalibrationMode::kPrior) {
     adjust.known_f_sigma_percent = known->f_sigma_percent;
     adjust.known_distortion_sigma_px = known->distortion_sigma_px;
@@ -495,9 +500,11 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
   const double parallax = sparse.tracks.MedianMaxDisplacement();
   // A known calibration starts (and, fixed, stays) where the file puts it; it
   // also makes the rotations of the initialization exact instead of assuming
-  // f = max(w, h) and no distortion.
-  const CameraModel initial =
-      options.known ? options.known->camera : CameraModel::Initial(width, height);
+  // f = max(w, h) and no distortion. A burst that calibrates itself from a
+  // given start starts from that start's camera.
+  const CameraModel initial = options.known ? options.known->camera
+                              : given       ? given->state.camera
+                                            : CameraModel::Initial(width, height);
   if (options.known && (initial.width != width || initial.height != height))
     throw ReconstructionError("the known calibration is for " + std::to_string(initial.width) +
                               "x" + std::to_string(initial.height) + ", the burst is " +
@@ -507,11 +514,12 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
                                   ? CalibrationSource::kKnownFixed
                                   : CalibrationSource::kKnownPrior;
   BundleAdjustmentOptions adjust =
-      AdjustmentOptionsFor(options, options.known ? &*options.known : nullptr);
+      AdjustmentOptionsFor(options, options.known ? &*options.known : nullptr, given);
   AdjustmentAttempt solved =
       AdjustFromStarts(sparse.tracks, initial, options, adjust, &timer, beside, given);
   SettleSign(&solved.state, &solved.use);
-  if (CountUsed(solved.use) < options.min_tracks && adjust.angular_velocity_sigma_px > 0.0)
+  if (CountUsed(solved.use) < options.min_tracks && adjust.angular_velocity_sigma_px > 0.0 &&
+      options.known)
     AdjustOnTheLineInstead(sparse.tracks, initial, options, &timer, beside, given, &adjust, &solved,
                            &sparse);
   if (options.mirrored_relief) TryMirroredRelief(sparse.tracks, adjust, &solved, &sparse);
@@ -556,7 +564,7 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
   // Where the solution started, also where a fallback refitted from it.
   solved.summary.start_f = solved.start_f;
   solved.summary.init = InitModeName(solved.init);
-  solved.summary.from_self_calibration = solved.given;
+  solved.summary.from_self_calibration = solved.given && options.known;
   sparse.state = std::move(solved.state);
   sparse.bundle_adjustment = std::move(solved.summary);
   sparse.rank_one = std::move(solved.rank_one);
@@ -680,6 +688,59 @@ SparseReconstruction AdjustCheckedKnown(SparseReconstruction tracked, int width,
   return sparse;
 }
 
+// A readout below this (frame intervals) spreads a frame's rows over too
+// little of its motion for a velocity within the frame to move them
+// (adjustment_starts.cc's bound for rectifying the rank-1 start).
+constexpr double kMinTurningReadout = 0.05;
+
+// Whether a self-calibrated solution on the line between frame poses is
+// refined with each frame's own angular velocity: a readout, and a
+// calibration the burst observes (SparseOptions::angular_velocity_sigma_px).
+bool RowsTurnWithinFrames(const SparseReconstruction& line, const SparseOptions& options) {
+  return options.angular_velocity_sigma_px > 0.0 &&
+         std::abs(line.state.readout) >= kMinTurningReadout &&
+         line.calibration_used == CalibrationSource::kSelf &&
+         line.verdict.quality != CalibrationQuality::kDegenerate;
+}
+
+// A burst that calibrates itself: adjusted on the line between frame poses,
+// which f is found by; where that calibration is observed, the solution is
+// refined with each frame's own angular velocity (a hand's path bends
+// between frame poses, and the line's self-calibration takes the bend up in
+// the lens terms and the readout, its translation astray:
+// docs/experiments/026-velocities-where-the-calibration-is-observed.md). The
+// refinement is kept unless it fails or its calibration comes out
+// degenerate: the velocities then took f's signal, and the line's stands.
+SparseReconstruction AdjustSelfCalibrated(SparseReconstruction tracked, int width, int height,
+                                          const SparseOptions& options, SharedWork* beside) {
+  SparseReconstruction line =
+      AdjustTracks(tracked, width, height, options, /*measure_lens_relief=*/true, beside);
+  if (!RowsTurnWithinFrames(line, options)) return line;
+  const auto refine_start = std::chrono::steady_clock::now();
+  GivenStart own = OwnSolutionStart(line);
+  own.turning_rows = true;
+  // One lap for the whole refinement: its own laps repeat the line's.
+  SparseOptions refine = options;
+  refine.progress = nullptr;
+  std::optional<SparseReconstruction> turning;
+  try {
+    turning = AdjustTracks(std::move(tracked), width, height, refine,
+                           /*measure_lens_relief=*/true, beside, &own);
+  } catch (const ReconstructionError&) {
+    // Too few tracks kept under the velocities: the line's solution stands.
+  }
+  line.timings_ms.emplace_back("angular_velocity", MillisecondsBetween(refine_start));
+  ReportProgress(options.progress, "angular_velocity", 1, 1);
+  if (!turning || turning->verdict.quality == CalibrationQuality::kDegenerate) return line;
+  // What the report says of the adjustment: the line's laps, starts, runs
+  // and first focal length, then the refinement's.
+  turning->timings_ms = std::move(line.timings_ms);
+  turning->starts.insert(turning->starts.begin(), line.starts.begin(), line.starts.end());
+  turning->runs.insert(turning->runs.begin(), line.runs.begin(), line.runs.end());
+  turning->bundle_adjustment.start_f = line.bundle_adjustment.start_f;
+  return std::move(*turning);
+}
+
 // Everything after the tracking: the parallax check, then the adjustment
 // as the known calibration (or none) asks.
 SparseReconstruction AdjustTracked(SparseReconstruction tracked, int width, int height,
@@ -690,8 +751,7 @@ SparseReconstruction AdjustTracked(SparseReconstruction tracked, int width, int 
                               " px (need >= " + FixedText(options.min_parallax_px) +
                               " px): move the camera a little during the burst");
   if (!options.known)
-    return AdjustTracks(std::move(tracked), width, height, options,
-                        /*measure_lens_relief=*/true, beside);
+    return AdjustSelfCalibrated(std::move(tracked), width, height, options, beside);
   if (options.known->check_fit && options.max_known_fit_ratio > 0.0)
     return AdjustCheckedKnown(std::move(tracked), width, height, options, beside);
   return AdjustUncheckedKnown(std::move(tracked), width, height, options, beside);

@@ -152,14 +152,18 @@ struct SparseOptions {
   // first where it fits the tracks better
   // (SparseReconstruction::mirrored_relief; docs/experiments/007-relief-flip.md).
   bool mirrored_relief = true;
-  // With a known camera held (KnownCalibrationMode::kFixed) and a rolling
-  // shutter, each frame's rows turn at the frame's own angular velocity, tied
-  // to its neighbours' rotation step with this sigma in pixels per frame
-  // interval (BundleAdjustmentOptions::angular_velocity_sigma_px); 0: the
-  // line between frame poses. Not where the burst calibrates itself: the
-  // velocities take from f the second-order signal it is found by
-  // (docs/experiments/023-angular-velocity-per-frame.md).
-  double known_camera_angular_velocity_sigma_px = 2.0;
+  // Under a rolling shutter, each frame's rows turn at the frame's own
+  // angular velocity, tied to its neighbours' rotation step with this sigma
+  // in pixels per frame interval (BundleAdjustmentOptions::
+  // angular_velocity_sigma_px), where the camera is pinned: a known camera
+  // held (KnownCalibrationMode::kFixed) in every adjustment; a burst that
+  // calibrates itself once its calibration on the line between frame poses
+  // is observed (not degenerate), that solution refined with the velocities
+  // and kept unless its calibration then comes out degenerate. Where f is
+  // not observed, the velocities take from it the second-order signal it is
+  // found by (docs/experiments/023-angular-velocity-per-frame.md, 026).
+  // 0: the line between frame poses throughout.
+  double angular_velocity_sigma_px = 2.0;
   // A known calibration; without one the burst calibrates the camera alone.
   std::optional<KnownCalibration> known;
   // A known calibration (with check_fit, held fixed or as a prior) is

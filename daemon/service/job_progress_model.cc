@@ -31,6 +31,7 @@ constexpr Lap kLaps[] = {
     {"self_estimate", "sparse", 0},  // beside a known prior only (also_self_calibrate)
     {"uncertainty", "sparse", 13},
     {"lens_check", "sparse", 9},
+    {"angular_velocity", "sparse", 200},  // a self-calibration under a rolling shutter, observed
     {"frames", "dense", 1},
     {"prepare", "dense", 4},
     {"coarse_sweep", "dense", 316},
