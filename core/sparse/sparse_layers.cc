@@ -16,7 +16,8 @@ const std::vector<SparseLayerInfo>& SparseLayers() {
       {SparseLayer::kAngularVelocity, "angular-velocity",
        "a rolling shutter: a known camera held, every adjustment under it (the line again "
        "where it leaves too few tracks in front); a burst's own calibration that is observed, "
-       "its solution on the line refined (kept unless its calibration comes out degenerate)",
+       "its solution on the line refined (kept unless its calibration comes out degenerate "
+       "or unusable)",
        "poses, inverse depths and each frame's angular velocity; a refined calibration",
        "angular_velocity_sigma_px",
        [](const SparseOptions& o) { return o.angular_velocity_sigma_px > 0.0; },

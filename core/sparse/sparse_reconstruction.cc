@@ -709,8 +709,9 @@ bool RowsTurnWithinFrames(const SparseReconstruction& line, const SparseOptions&
 // between frame poses, and the line's self-calibration takes the bend up in
 // the lens terms and the readout, its translation astray:
 // docs/experiments/026-velocities-where-the-calibration-is-observed.md). The
-// refinement is kept unless it fails or its calibration comes out
-// degenerate: the velocities then took f's signal, and the line's stands.
+// refinement is kept unless it fails, or its calibration comes out
+// degenerate (the velocities then took f's signal) or unusable: the line's
+// stands.
 SparseReconstruction AdjustSelfCalibrated(SparseReconstruction tracked, int width, int height,
                                           const SparseOptions& options, SharedWork* beside) {
   SparseReconstruction line =
@@ -731,7 +732,9 @@ SparseReconstruction AdjustSelfCalibrated(SparseReconstruction tracked, int widt
   }
   line.timings_ms.emplace_back("angular_velocity", MillisecondsBetween(refine_start));
   ReportProgress(options.progress, "angular_velocity", 1, 1);
-  if (!turning || turning->verdict.quality == CalibrationQuality::kDegenerate) return line;
+  if (!turning || turning->verdict.quality == CalibrationQuality::kDegenerate ||
+      turning->calibration_used != CalibrationSource::kSelf)
+    return line;
   // What the report says of the adjustment: the line's laps, starts, runs
   // and first focal length, then the refinement's.
   turning->timings_ms = std::move(line.timings_ms);

@@ -159,10 +159,10 @@ struct SparseOptions {
   // held (KnownCalibrationMode::kFixed) in every adjustment; a burst that
   // calibrates itself once its calibration on the line between frame poses
   // is observed (not degenerate), that solution refined with the velocities
-  // and kept unless its calibration then comes out degenerate. Where f is
-  // not observed, the velocities take from it the second-order signal it is
-  // found by (docs/experiments/023-angular-velocity-per-frame.md, 026).
-  // 0: the line between frame poses throughout.
+  // and kept unless its calibration then comes out degenerate or unusable.
+  // Where f is not observed, the velocities take from it the second-order
+  // signal it is found by (docs/experiments/023-angular-velocity-per-frame.md,
+  // 026). 0: the line between frame poses throughout.
   double angular_velocity_sigma_px = 2.0;
   // A known calibration; without one the burst calibrates the camera alone.
   std::optional<KnownCalibration> known;
