@@ -49,29 +49,30 @@ double PeakRssMb() {
 // Writing 5 to clear_refs resets VmHWM to the current RSS (Linux >= 4.0).
 void ResetPeakRss() { std::ofstream("/proc/self/clear_refs") << "5"; }
 
-// known: the burst's true camera held (KnownCalibrationMode::kFixed), or
-// not; each frame's angular velocity where the camera is pinned
-// (angular_velocity) or the line between frames throughout.
-struct KnownCamera {
+// How the sparse stage takes the camera: the burst's true camera held
+// (KnownCalibrationMode::kFixed) or calibrated by the burst; each frame's
+// angular velocity where the camera is pinned (angular_velocity) or the line
+// between frames throughout.
+struct CameraUse {
   bool held = false;
   bool angular_velocity = true;
 };
 
 void RunWholePipeline(benchmark::State& state, int width, int height,
                       const std::string& camera = "ideal", double rotation_deg = 0.0,
-                      KnownCamera known = {}) {
+                      CameraUse use = {}) {
   const RenderedBurst& rendered =
       Rendered(width, height, static_cast<int>(state.range(0)), camera, rotation_deg);
   const Burst& burst = rendered.burst;
   PipelineOptions options;
   options.dense.planes = static_cast<int>(state.range(1));
-  if (known.held) {
+  if (use.held) {
     KnownCalibration fixed;
     fixed.camera = rendered.truth.camera;
     fixed.mode = KnownCalibrationMode::kFixed;
     options.sparse.known = fixed;
   }
-  if (!known.angular_velocity) options.sparse.angular_velocity_sigma_px = 0.0;
+  if (!use.angular_velocity) options.sparse.angular_velocity_sigma_px = 0.0;
   ResetPeakRss();
   const double rss_before = PeakRssMb();
   PipelineOutput output;
@@ -112,7 +113,7 @@ BENCHMARK(BM_Pipeline1080p)
 // calibration is observed, so the solution is refined with each frame's
 // angular velocity (velocity 1) or stays on the line (0).
 void BM_PipelinePhone1080p(benchmark::State& state) {
-  RunWholePipeline(state, 1920, 1080, "phone", 1.0, KnownCamera{false, state.range(2) != 0});
+  RunWholePipeline(state, 1920, 1080, "phone", 1.0, CameraUse{false, state.range(2) != 0});
 }
 BENCHMARK(BM_PipelinePhone1080p)
     ->ArgNames({"frames", "planes", "velocity"})
@@ -126,7 +127,7 @@ BENCHMARK(BM_PipelinePhone1080p)
 // velocity estimated (velocity 1) or the line between frames (0): what the
 // velocities cost a user who gives the camera's calibration.
 void BM_PipelinePhone1080pKnown(benchmark::State& state) {
-  RunWholePipeline(state, 1920, 1080, "phone", 1.0, KnownCamera{true, state.range(2) != 0});
+  RunWholePipeline(state, 1920, 1080, "phone", 1.0, CameraUse{true, state.range(2) != 0});
 }
 BENCHMARK(BM_PipelinePhone1080pKnown)
     ->ArgNames({"frames", "planes", "velocity"})

@@ -20,9 +20,6 @@
 namespace dfsm {
 namespace {
 
-// A readout below this (frame intervals) moves no observation by a tenth of a
-// pixel at a degree of tremor: the rank-1 start stands.
-constexpr double kMinRectifiedReadout = 0.05;
 // Rounds of rectifying and re-initializing (measured at 1080p, readout 0.6:
 // rotation error 0.35 -> 0.052 -> 0.014 -> 0.006 deg).
 constexpr int kRectificationRounds = 3;
@@ -209,7 +206,7 @@ class StartedAdjustment {
                                 std::to_string(CountUsed(attempt->use)) +
                                 " (need >= " + std::to_string(options_.min_tracks) + ")");
 
-    if (rank_one_ && std::abs(state.readout) >= kMinRectifiedReadout)
+    if (rank_one_ && std::abs(state.readout) >= kMinEffectiveReadout)
       RectifiedStart(state.camera, state.poses, state.readout, attempt);
     BundleAdjustmentOptions measuring = adjust;
     if (rank_one_ && adjust.estimate_readout)
@@ -224,7 +221,7 @@ class StartedAdjustment {
   // measured one.
   bool Restarts(const BundleAdjustmentOptions& adjust, const AdjustmentAttempt& attempt) const {
     return rank_one_ && options_.readout_restarts && adjust.estimate_readout &&
-           std::abs(attempt.state.readout) >= kMinRectifiedReadout;
+           std::abs(attempt.state.readout) >= kMinEffectiveReadout;
   }
 
   // After the first adjustment: Continue(), then Settle(). A thinned probe

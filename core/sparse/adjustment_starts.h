@@ -26,6 +26,12 @@
 
 namespace dfsm {
 
+// A readout below this (frame intervals) moves no observation by a tenth of a
+// pixel at a degree of tremor: the rank-1 start is not rectified for it, no
+// readout restarts follow, and a self-calibration is not refined with each
+// frame's angular velocity (sparse_reconstruction.cc).
+inline constexpr double kMinEffectiveReadout = 0.05;
+
 // One path from a start to an adjusted solution: what it reached and how.
 struct AdjustmentAttempt {
   SparseState state;

@@ -688,17 +688,12 @@ SparseReconstruction AdjustCheckedKnown(SparseReconstruction tracked, int width,
   return sparse;
 }
 
-// A readout below this (frame intervals) spreads a frame's rows over too
-// little of its motion for a velocity within the frame to move them
-// (adjustment_starts.cc's bound for rectifying the rank-1 start).
-constexpr double kMinTurningReadout = 0.05;
-
 // Whether a self-calibrated solution on the line between frame poses is
 // refined with each frame's own angular velocity: a readout, and a
 // calibration the burst observes (SparseOptions::angular_velocity_sigma_px).
 bool RowsTurnWithinFrames(const SparseReconstruction& line, const SparseOptions& options) {
   return options.angular_velocity_sigma_px > 0.0 &&
-         std::abs(line.state.readout) >= kMinTurningReadout &&
+         std::abs(line.state.readout) >= kMinEffectiveReadout &&
          line.calibration_used == CalibrationSource::kSelf &&
          line.verdict.quality != CalibrationQuality::kDegenerate;
 }
