@@ -409,18 +409,6 @@ void AdjustmentAttempt::Adjust(const FeatureTracks& tracks,
 
 namespace {
 
-// The bias the tracks' noise gives the solution's intrinsics
-// (bootstrap_bias.h), measured where the burst calibrates itself and its
-// sigma_f (before the uncertainty's inflation: the tracks' noise alone) is
-// large enough for the bias to matter. The solution itself stays as it is:
-// its depth is best with the camera that fits its tracks best.
-void MeasureIntrinsicsBias(const FeatureTracks& tracks, const SparseOptions& options,
-                           const BundleAdjustmentOptions& adjust, AdjustmentAttempt* attempt) {
-  if (adjust.fix_intrinsics || adjust.HasKnownIntrinsicsPrior()) return;
-  attempt->bias =
-      MeasureBiasIfItMatters(tracks, attempt->use, attempt->state, adjust, options.bootstrap);
-}
-
 // One start of the adjustment: how it is made, where it starts, and whether
 // it is probed (its first adjustment capped at kProbeIterations, on at most
 // kProbeTracks of its tracks) rather than run in full.
@@ -586,8 +574,6 @@ AdjustmentAttempt AdjustFromStarts(const FeatureTracks& tracks, const CameraMode
   // A probed start that won goes on from there with the whole budget.
   if (*best > 0) steps_for(solved).Finish(adjust, measured_iterations[*best], &solved);
   if (starts > 1) LapIfTimed(timer, "later_starts");
-  MeasureIntrinsicsBias(tracks, options, adjust, &solved);
-  LapIfTimed(timer, "bias");
   steps_for(solved).Reweight(adjust, &solved);
   LapIfTimed(timer, "reweight");
   return solved;

@@ -5,9 +5,8 @@
 // them the naive start (SparseOptions::naive_probe); the start that fits every
 // track best, each track at its best depth under the start's geometry, is
 // kept (SparseOptions::focal_starts). A probe adjusts a share of the tracks
-// and, where it wins, takes in the others before it goes on. The bias the
-// tracks' noise gives the winner's intrinsics is then measured
-// (bootstrap_bias.h), and its tracks reweighted.
+// and, where it wins, takes in the others before it goes on. The winner's
+// tracks are then reweighted.
 //
 // Starts, and readout restarts, that do not depend on each other run side by
 // side on OpenCV's thread pool: the later starts' probes beside the first
@@ -17,7 +16,6 @@
 // core as on four.
 #pragma once
 
-#include <optional>
 #include <vector>
 
 #include "core/io/stage_timer.h"
@@ -55,9 +53,6 @@ struct AdjustmentAttempt {
   // The starts decided on the way to it: AdjustFromStarts's, then its own
   // readout restarts.
   std::vector<StartRecord> starts;
-  // The bias of its intrinsics from its tracks' noise (SparseOptions::
-  // bootstrap), measured on the winner; empty where none was measured.
-  std::optional<IntrinsicsBias> bias;
 
   // One adjustment of the `use` tracks from `state`, in place, recorded in
   // `summary` and `runs`; `tracks` weighted by `weights` where it has them.
@@ -86,9 +81,7 @@ struct GivenStart {
 // Laps `timer` (where not null) with "rotation", "rank1" and "bundle_adjustment" (the first
 // start's) and, with more than one start, "later_starts": the wall time the
 // later starts add (a wait for them after the first start, and the winner's
-// rest where a later start wins); then "bias": the bias its tracks' noise
-// gives the winner's intrinsics (SparseOptions::bootstrap;
-// AdjustmentAttempt::bias), and "reweight": its reweighting rounds
+// rest where a later start wins); then "reweight": its reweighting rounds
 // (SparseOptions::reweight_rounds; AdjustmentAttempt::weights). Throws
 // ReconstructionError, with the first start's reason, where no start reaches
 // a solution; std::invalid_argument for options SparseOptions::Check refuses.

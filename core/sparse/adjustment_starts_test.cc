@@ -142,7 +142,7 @@ TEST(AdjustFromStarts, LapsTheFirstStartThenTheOthers) {
     std::vector<std::string> stages;
     for (const auto& [stage, ms] : adjusted.laps) stages.push_back(stage);
     EXPECT_EQ(stages, (std::vector<std::string>{"rotation", "rank1", "bundle_adjustment",
-                                                "later_starts", "bias", "reweight"}))
+                                                "later_starts", "reweight"}))
         << threads << " threads";
   }
 }
@@ -178,13 +178,12 @@ TEST(AdjustFromStarts, TakesUpTheCallersPiecesAndChangesNothing) {
     if (threads == 1) {
       EXPECT_EQ(taken, 0);
       EXPECT_EQ(stages, (std::vector<std::string>{"rotation", "rank1", "bundle_adjustment",
-                                                  "later_starts", "bias", "reweight"}));
+                                                  "later_starts", "reweight"}));
     } else {
       // The start done first took them (the other ran hundreds of ms longer).
       EXPECT_GT(taken, 0);
-      EXPECT_EQ(stages,
-                (std::vector<std::string>{"rotation", "rank1", "bundle_adjustment", "beside_starts",
-                                          "later_starts", "bias", "reweight"}));
+      EXPECT_EQ(stages, (std::vector<std::string>{"rotation", "rank1", "bundle_adjustment",
+                                                  "beside_starts", "later_starts", "reweight"}));
     }
     EXPECT_EQ(attempt.state.camera.f, alone.state.camera.f) << threads << " threads";
     EXPECT_EQ(attempt.state.readout, alone.state.readout);
@@ -218,10 +217,9 @@ TEST(AdjustFromStarts, AKnownCameraStartsFromItself) {
     std::vector<std::string> stages;
     for (const auto& [stage, ms] : laps) stages.push_back(stage);
     const std::vector<std::string> expected =
-        probe ? std::vector<std::string>{"rotation",     "rank1", "bundle_adjustment",
-                                         "later_starts", "bias",  "reweight"}
-              : std::vector<std::string>{"rotation", "rank1", "bundle_adjustment", "bias",
-                                         "reweight"};
+        probe ? std::vector<std::string>{"rotation", "rank1", "bundle_adjustment", "later_starts",
+                                         "reweight"}
+              : std::vector<std::string>{"rotation", "rank1", "bundle_adjustment", "reweight"};
     EXPECT_EQ(stages, expected);
   }
   options.naive_probe = false;

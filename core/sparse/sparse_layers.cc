@@ -44,13 +44,9 @@ const std::vector<SparseLayerInfo>& SparseLayers() {
        "poses and inverse depths (the camera held)", "reweight_rounds",
        [](const SparseOptions& o) { return o.reweight_rounds > 0; },
        [](SparseOptions* o) { o->reweight_rounds = 0; }},
-      {SparseLayer::kBootstrapBias, "bias",
-       "self-calibration whose tracks' noise alone gives a sigma_f above "
-       "bootstrap.min_sigma_f_percent",
-       "nothing of this burst: its report, and the camera a fusion takes", "bootstrap.replicas",
-       [](const SparseOptions& o) { return o.bootstrap.replicas > 0; },
-       [](SparseOptions* o) { o->bootstrap.replicas = 0; }},
-      {SparseLayer::kMirroredRelief, "mirrored-relief", "every burst adjusted",
+      {SparseLayer::kMirroredRelief, "mirrored-relief",
+       "every solution adjusted from its starts (a refinement with each frame's angular "
+       "velocity starts from a solution checked, and is not checked again)",
        "the solution: replaced by the mirror's where it fits the tracks better", "mirrored_relief",
        [](const SparseOptions& o) { return o.mirrored_relief; },
        [](SparseOptions* o) { o->mirrored_relief = false; }},
@@ -58,6 +54,13 @@ const std::vector<SparseLayerInfo>& SparseLayers() {
        "nothing of the solution: the depth check's verdict", "measure_lens_relief",
        [](const SparseOptions& o) { return o.measure_lens_relief; },
        [](SparseOptions* o) { o->measure_lens_relief = false; }},
+      {SparseLayer::kBootstrapBias, "bias",
+       "the self-calibrated solution reported (the line's or its refinement; not a fallback's "
+       "camera, nor one held under its mirrored relief), where its tracks' noise alone gives a "
+       "sigma_f above bootstrap.min_sigma_f_percent",
+       "nothing of this burst: its report, and the camera a fusion takes", "bootstrap.replicas",
+       [](const SparseOptions& o) { return o.bootstrap.replicas > 0; },
+       [](SparseOptions* o) { o->bootstrap.replicas = 0; }},
       {SparseLayer::kKnownFitCheck, "known-fit",
        "a known camera to check (KnownCalibration::check_fit): the burst calibrated alone first",
        "the verdict, and one more start under the known camera", "max_known_fit_ratio",

@@ -24,9 +24,9 @@ enum class SparseLayer {
   kReadoutRestarts,      // restarts from other readouts where it is estimated
   kOutlierRounds,        // tracks judged again under the adjusted camera
   kReweight,             // tracks weighed by their own noise
-  kBootstrapBias,        // the intrinsics' bias from the tracks' noise
   kMirroredRelief,       // the mirrored relief as one more start
   kLensRelief,           // the relief's shift under a k1-only lens model
+  kBootstrapBias,        // the intrinsics' bias from the tracks' noise
   kKnownFitCheck,        // a known camera compared with the burst's own
   kUncheckedKnownRetry,  // the burst's own solution as a start, if needed
 };

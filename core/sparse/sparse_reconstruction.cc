@@ -414,6 +414,12 @@ SparseState MirroredRelief(const SparseState& state, const std::vector<bool>& us
   return mirrored;
 }
 
+std::string MirroredReliefWarning(double cost_ratio) {
+  return "depth order: the mirrored relief (near and far exchanged) fits the tracks better than "
+         "the first solution (cost x" +
+         FixedText(cost_ratio, 3) + ") and was kept";
+}
+
 // SparseOptions::mirrored_relief: the solution and its mirror adjusted with
 // the intrinsics (and readout) held, the mirror's kept where its cost is
 // clearly lower, with the camera of the solution; the summary keeps the
@@ -438,18 +444,13 @@ void TryMirroredRelief(const FeatureTracks& tracks, const BundleAdjustmentOption
   if (!(sparse->mirrored_relief_cost_ratio < kMirrorBetterRatio)) return;
   // Kept as the held adjustment left it: adjusting the intrinsics again from
   // the mirror moved f by 8 % on the flower clip's naive start
-  // (docs/experiments/007-relief-flip.md). The noise bias was measured on
-  // the other relief and is dropped.
+  // (docs/experiments/007-relief-flip.md).
   SettleSign(&mirrored, &solved->use);
   solved->state = std::move(mirrored);
   solved->summary.final_cost = from_mirror.final_cost;
   solved->summary.rms_reprojection_px = from_mirror.rms_reprojection_px;
-  solved->bias.reset();
   sparse->mirrored_relief_kept = true;
-  sparse->warnings.push_back(
-      "depth order: the mirrored relief (near and far exchanged) fits the tracks better than "
-      "the first solution (cost x" +
-      FixedText(sparse->mirrored_relief_cost_ratio, 3) + ") and was kept");
+  sparse->warnings.push_back(MirroredReliefWarning(sparse->mirrored_relief_cost_ratio));
 }
 
 // Where each frame's own angular velocity left fewer than
@@ -570,9 +571,6 @@ SparseReconstruction AdjustTracks(SparseReconstruction sparse, int width, int he
   sparse.rank_one = std::move(solved.rank_one);
   sparse.runs = std::move(solved.runs);
   sparse.starts = std::move(solved.starts);
-  // The bias of the camera the burst calibrated, where it kept it (a
-  // fallback's camera is another).
-  if (sparse.calibration_used == CalibrationSource::kSelf) sparse.intrinsics_bias = solved.bias;
   ScaleToUnitMedianInverseDepth(&sparse);
   return sparse;
 }
@@ -698,6 +696,48 @@ bool RowsTurnWithinFrames(const SparseReconstruction& line, const SparseOptions&
          line.verdict.quality != CalibrationQuality::kDegenerate;
 }
 
+// The bias the tracks' noise gives a self-calibrated solution's intrinsics
+// (bootstrap_bias.h; lap "bias"), measured once, on the solution reported,
+// where they are the burst's own: not a fallback's camera. `adjust`: the
+// adjustment that reached the solution. The solution stays as it is: its
+// depth is best with the camera that fits its tracks best.
+void MeasureIntrinsicsBias(const SparseOptions& options, const BundleAdjustmentOptions& adjust,
+                           SparseReconstruction* sparse) {
+  if (sparse->calibration_used != CalibrationSource::kSelf) return;
+  const auto start = std::chrono::steady_clock::now();
+  sparse->intrinsics_bias = MeasureBiasIfItMatters(sparse->tracks, sparse->inliers, sparse->state,
+                                                   adjust, options.bootstrap);
+  sparse->timings_ms.emplace_back("bias", MillisecondsBetween(start));
+  ReportProgress(options.progress, "bias", 1, 1);
+}
+
+// The line's solution, refined with each frame's own angular velocity from
+// `own` (its solution, with turning rows: the only start); empty where too few tracks stay in
+// front of the camera. The line's solution has been checked against its
+// mirrored relief, and a refinement from it stays in its basin: the mirror
+// is not tried again (docs/experiments/027-one-bias-one-mirror.md).
+std::optional<SparseReconstruction> RefineWithTurningRows(SparseReconstruction tracked,
+                                                          const SparseReconstruction& line,
+                                                          const GivenStart& own, int width,
+                                                          int height, const SparseOptions& options,
+                                                          SharedWork* beside) {
+  // One lap for the whole refinement: its own laps repeat the line's.
+  SparseOptions refine = options;
+  refine.progress = nullptr;
+  refine.mirrored_relief = false;
+  try {
+    SparseReconstruction turning = AdjustTracks(std::move(tracked), width, height, refine,
+                                                /*measure_lens_relief=*/true, beside, &own);
+    turning.mirrored_relief_cost_ratio = line.mirrored_relief_cost_ratio;
+    turning.mirrored_relief_kept = line.mirrored_relief_kept;
+    if (line.mirrored_relief_kept)
+      turning.warnings.push_back(MirroredReliefWarning(line.mirrored_relief_cost_ratio));
+    return turning;
+  } catch (const ReconstructionError&) {
+    return std::nullopt;
+  }
+}
+
 // A burst that calibrates itself: adjusted on the line between frame poses,
 // which f is found by; where that calibration is observed, the solution is
 // refined with each frame's own angular velocity (a hand's path bends
@@ -706,36 +746,36 @@ bool RowsTurnWithinFrames(const SparseReconstruction& line, const SparseOptions&
 // docs/experiments/026-velocities-where-the-calibration-is-observed.md). The
 // refinement is kept unless it fails, or its calibration comes out
 // degenerate (the velocities then took f's signal) or unusable: the line's
-// stands.
+// stands. The noise bias is measured on the one kept.
 SparseReconstruction AdjustSelfCalibrated(SparseReconstruction tracked, int width, int height,
                                           const SparseOptions& options, SharedWork* beside) {
   SparseReconstruction line =
       AdjustTracks(tracked, width, height, options, /*measure_lens_relief=*/true, beside);
-  if (!RowsTurnWithinFrames(line, options)) return line;
+  // The line's camera under its mirrored relief is held, not a minimum of
+  // its intrinsics: no bias is measured there.
+  const auto keep_line = [&] {
+    if (!line.mirrored_relief_kept)
+      MeasureIntrinsicsBias(options, AdjustmentOptionsFor(options, nullptr), &line);
+    return std::move(line);
+  };
+  if (!RowsTurnWithinFrames(line, options)) return keep_line();
   const auto refine_start = std::chrono::steady_clock::now();
   GivenStart own = OwnSolutionStart(line);
   own.turning_rows = true;
-  // One lap for the whole refinement: its own laps repeat the line's.
-  SparseOptions refine = options;
-  refine.progress = nullptr;
-  std::optional<SparseReconstruction> turning;
-  try {
-    turning = AdjustTracks(std::move(tracked), width, height, refine,
-                           /*measure_lens_relief=*/true, beside, &own);
-  } catch (const ReconstructionError&) {
-    // Too few tracks kept under the velocities: the line's solution stands.
-  }
+  std::optional<SparseReconstruction> turning =
+      RefineWithTurningRows(std::move(tracked), line, own, width, height, options, beside);
   line.timings_ms.emplace_back("angular_velocity", MillisecondsBetween(refine_start));
   ReportProgress(options.progress, "angular_velocity", 1, 1);
   if (!turning || turning->verdict.quality == CalibrationQuality::kDegenerate ||
       turning->calibration_used != CalibrationSource::kSelf)
-    return line;
+    return keep_line();
   // What the report says of the adjustment: the line's laps, starts, runs
   // and first focal length, then the refinement's.
   turning->timings_ms = std::move(line.timings_ms);
   turning->starts.insert(turning->starts.begin(), line.starts.begin(), line.starts.end());
   turning->runs.insert(turning->runs.begin(), line.runs.begin(), line.runs.end());
   turning->bundle_adjustment.start_f = line.bundle_adjustment.start_f;
+  MeasureIntrinsicsBias(options, AdjustmentOptionsFor(options, nullptr, &own), &*turning);
   return std::move(*turning);
 }
 

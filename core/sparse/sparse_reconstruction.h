@@ -113,8 +113,8 @@ struct SparseOptions {
   int reweight_rounds = 2;
   double min_track_weight = 0.1;
   // Where the burst calibrates itself, the bias its tracks' noise gives f,
-  // k1, k2 and the readout is measured by a parametric bootstrap
-  // (bootstrap_bias.h) and reported; a fusion of bursts takes it off
+  // k1, k2 and the readout of the solution reported is measured by a
+  // parametric bootstrap (bootstrap_bias.h) and reported; a fusion of bursts takes it off
   // (DebiasedCamera). The burst's own depth keeps the camera that fits its
   // tracks best.
   BootstrapBiasOptions bootstrap;
@@ -151,6 +151,8 @@ struct SparseOptions {
   // mirror, the intrinsics held, and the mirror's solution replaces the
   // first where it fits the tracks better
   // (SparseReconstruction::mirrored_relief; docs/experiments/007-relief-flip.md).
+  // Not again for the refinement with each frame's angular velocity, which
+  // starts from a solution checked (docs/experiments/027-one-bias-one-mirror.md).
   bool mirrored_relief = true;
   // Under a rolling shutter, each frame's rows turn at the frame's own
   // angular velocity, tied to its neighbours' rotation step with this sigma
@@ -307,8 +309,9 @@ struct SparseReconstruction {
   std::vector<std::string> warnings;
   // The bias of f, k1, k2 and the readout that the tracks' noise gave the
   // self-calibrating adjustment, measured by the bootstrap (SparseOptions::
-  // bootstrap); empty where none was measured (a known calibration, or a
-  // sigma_f too small for the bias to matter).
+  // bootstrap); empty where none was measured (a known calibration, a
+  // fallback's camera, a camera held under the mirrored relief, or a sigma_f
+  // too small for the bias to matter).
   std::optional<IntrinsicsBias> intrinsics_bias;
   RankOneResult rank_one;  // diagnostics of the initialization (rank1 mode)
   // Every start tried, in the order they were decided: the starts, then the
