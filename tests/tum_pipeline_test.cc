@@ -239,11 +239,11 @@ TEST(TumRpy, FramesThatBlurAwayTheTracksAreLeftOutNotTheBurst) {
 // Every window of fr1/rpy's twelve-frame pieces, the shared ones and those
 // one frame earlier and later (24 windows; the sequence's other windows
 // score like these, docs/experiments/022-windows-one-frame-apart.md), with
-// the published calibration and self-calibrated: a burst that cannot be
-// processed says why, and a map worse than a constant depth is neither
-// `confirmed` nor without a depth warning. Measured 2026-12-04: 23 of 24 with
-// a result, published and self-calibrated (14-23 fails: too few tracks in
-// front of the camera).
+// the published calibration and self-calibrated: every window yields a
+// result (issue 55), and a map worse than a constant depth is neither
+// `confirmed` nor without a depth warning. Measured 2026-12-05: 24 of 24;
+// 14-23, whose frames 0 and 7-9 blur away the tracks, from five frames and
+// 40 tracks, `unreliable` (docs/experiments/029-room-above-the-track-floor.md).
 TEST(TumRpy, NoMapWorseThanAConstantDepthIsVouchedFor) {
   const TumSequence sequence(testing::SharedData("tum_fr1_rpy").string());
   if (sequence.empty())
@@ -257,7 +257,7 @@ TEST(TumRpy, NoMapWorseThanAConstantDepthIsVouchedFor) {
       const std::string window = std::to_string(first) + (known ? " (published)" : " (self)");
       const PipelineOutput output = RunPipeline(sequence.Window(first, kFrames), options);
       if (!output.result.ok || !output.dense) {
-        EXPECT_FALSE(output.result.error.empty()) << "window " << window;
+        ADD_FAILURE() << "window " << window << ": " << output.result.error;
         continue;
       }
       const cv::Mat truth = sequence.ReferenceDepth(first, kFrames);

@@ -75,7 +75,8 @@ struct GridedFeatureOptions {
   // ... while at least this share of the frames (and 3) stay.
   double min_frame_share = 0.5;
   // A frame is also left out where keeping it would leave the frames kept
-  // sharing fewer tracks than this (the sparse stage's min_tracks). The loss
+  // sharing fewer tracks than this (the sparse stage: twice its min_tracks,
+  // room for the adjustment's rejections). The loss
   // bound is a share of what the frames kept so far share, so blurred frames
   // in a row, each within it, compound to fewer tracks than a burst needs
   // where the frames that track well would have given one: tum_fr1_rpy
