@@ -414,6 +414,8 @@ SparseState MirroredRelief(const SparseState& state, const std::vector<bool>& us
   return mirrored;
 }
 
+// The warning of a solution whose mirror was kept, `cost_ratio` the mirror's
+// cost over the first solution's.
 std::string MirroredReliefWarning(double cost_ratio) {
   return "depth order: the mirrored relief (near and far exchanged) fits the tracks better than "
          "the first solution (cost x" +
@@ -712,10 +714,11 @@ void MeasureIntrinsicsBias(const SparseOptions& options, const BundleAdjustmentO
 }
 
 // The line's solution, refined with each frame's own angular velocity from
-// `own` (its solution, with turning rows: the only start); empty where too few tracks stay in
-// front of the camera. The line's solution has been checked against its
-// mirrored relief, and a refinement from it stays in its basin: the mirror
-// is not tried again (docs/experiments/027-one-bias-one-mirror.md).
+// `own` (that solution with turning rows: the only start); empty where too
+// few tracks stay in front of the camera. The line's solution has been
+// checked against its mirrored relief, and a refinement from it stays in its
+// basin: the mirror is not tried again, and the line's check is reported
+// (docs/experiments/027-one-bias-one-mirror.md).
 std::optional<SparseReconstruction> RefineWithTurningRows(SparseReconstruction tracked,
                                                           const SparseReconstruction& line,
                                                           const GivenStart& own, int width,

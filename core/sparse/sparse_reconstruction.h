@@ -112,11 +112,11 @@ struct SparseOptions {
   // honesty). docs/experiments/125-track-weights.md. 0: off.
   int reweight_rounds = 2;
   double min_track_weight = 0.1;
-  // Where the burst calibrates itself, the bias its tracks' noise gives f,
-  // k1, k2 and the readout of the solution reported is measured by a
-  // parametric bootstrap (bootstrap_bias.h) and reported; a fusion of bursts takes it off
-  // (DebiasedCamera). The burst's own depth keeps the camera that fits its
-  // tracks best.
+  // Where the burst calibrates itself, the bias its tracks' noise gives the
+  // f, k1, k2 and readout of the solution reported is measured by a
+  // parametric bootstrap (bootstrap_bias.h) and reported; a fusion of bursts
+  // takes it off (DebiasedCamera). The burst's own depth keeps the camera
+  // that fits its tracks best.
   BootstrapBiasOptions bootstrap;
   // Focal lengths the self-calibration starts from, as fractions of
   // max(width, height) (1: the paper's guess, CameraModel::Initial). The
