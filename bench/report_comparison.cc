@@ -5,6 +5,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "bench/tum_sequence.h"
+
 namespace dfsm {
 
 void ReportComparisonOptions::Check() const {
@@ -27,15 +29,6 @@ double MetricAt(const nlohmann::json& line, const std::string& path) {
     node = &(*node)[part];
   }
   return node->is_number() ? node->get<double>() : std::nan("");
-}
-
-double Median(std::vector<double> values) {
-  if (values.empty()) return 0.0;
-  const size_t middle = values.size() / 2;
-  std::nth_element(values.begin(), values.begin() + middle, values.end());
-  if (values.size() % 2 == 1) return values[middle];
-  const double upper = values[middle];
-  return 0.5 * (upper + *std::max_element(values.begin(), values.begin() + middle));
 }
 
 }  // namespace
@@ -95,7 +88,7 @@ ReportComparison CompareReports(const std::map<std::string, double>& before,
   }
   for (const auto& [key, value] : after)
     if (!before.count(key)) comparison.only_after.push_back(key);
-  comparison.median_ratio = Median(ratios);
+  comparison.median_ratio = WindowMedian(ratios);
   if (!ratios.empty()) comparison.geometric_mean_ratio = std::exp(log_sum / ratios.size());
   return comparison;
 }

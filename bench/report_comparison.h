@@ -39,7 +39,7 @@ struct ReportComparison {
   std::vector<ComparedItem> items;  // in key order
   int better = 0;
   int worse = 0;
-  double median_ratio = 0.0;             // 0 where no item compared
+  double median_ratio = 0.0;             // WindowMedian (0 where none compared)
   double geometric_mean_ratio = 0.0;     // 0 where no item compared
   std::vector<std::string> only_before;  // an item the later run lost
   std::vector<std::string> only_after;   // an item only the later run has

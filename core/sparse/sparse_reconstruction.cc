@@ -802,11 +802,8 @@ SparseReconstruction AdjustTracked(SparseReconstruction tracked, int width, int 
 
 // The frames kept share at least this many times SparseOptions::min_tracks
 // (GridedFeatureOptions::min_shared_tracks): the adjustment still has to
-// reject the tracks that do not fit, up to half of a real window's (fr1/rpy
-// windows kept 64-85 %, the generator's sweeps 97 % in the median and 32-55 %
-// in their tail), and a floor at min_tracks itself left fr1/rpy 14-23 with 20
-// shared tracks, 13 of them in front: a failure
-// (docs/experiments/029-room-above-the-track-floor.md).
+// reject the tracks that do not fit, up to half of a real window's, and keep
+// min_tracks in front (docs/experiments/029-room-above-the-track-floor.md).
 constexpr int kSharedTracksPerMinTrack = 2;
 
 SparseReconstruction TrackForSparse(const std::vector<cv::Mat>& frames, int reference,
