@@ -33,6 +33,9 @@
 //               footage.
 //   --exif: each burst carries its true focal length as EXIF's 35 mm
 //               equivalent, in whole mm as cameras write it (a prior on f).
+//   --pinned-depth: each burst's JSON line also carries "pinned", the
+//               sparse stage's tracks pinned to the true depth
+//               (bench/pinned_depth.h; docs/experiments/032-tracks-pinned-to-the-true-depth.md).
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -46,6 +49,7 @@
 #include <string>
 #include <vector>
 
+#include "bench/pinned_depth.h"
 #include "bench/report_options.h"
 #include "core/io/exif_focal.h"
 #include "core/pipeline/evaluation.h"
@@ -77,6 +81,8 @@ struct DepthSweepOutcome {
   std::string quality;
   std::vector<std::string> warnings;
   double total_ms = 0.0;
+  // bench/pinned_depth.h's oracle, where --pinned-depth asked for it.
+  nlohmann::json pinned;
 };
 
 // keep: where not empty, the burst is written to keep/burst and its result
@@ -88,7 +94,7 @@ struct DepthSweepOutcome {
 DepthSweepOutcome RunDepthSweepBurst(const SynthOptions& settings, const std::string& keep,
                                      PipelineOptions pipeline,
                                      std::optional<KnownCalibrationMode> known, bool fused,
-                                     bool exif) {
+                                     bool exif, bool pinned) {
   DepthSweepOutcome outcome;
   outcome.settings = settings;
   const SynthBurst synth = SynthesizeBurst(settings);
@@ -132,6 +138,11 @@ DepthSweepOutcome RunDepthSweepBurst(const SynthOptions& settings, const std::st
       output.result.bundle_adjustment.from_self_calibration;
   outcome.quality = output.result.calibration_detail.value("quality", "");
   outcome.warnings = output.result.warnings;
+  if (pinned) {
+    const std::optional<PinnedDepth> oracle = PinDepthToTruth(
+        burst, synth.truth.depth, textured, *output.sparse, pipeline.sparse, pipeline.dense);
+    if (oracle) outcome.pinned = ToJson(*oracle);
+  }
   return outcome;
 }
 
@@ -153,6 +164,7 @@ nlohmann::json ToJson(const DepthSweepOutcome& o) {
   j["sparse_detail"] = o.sparse_detail;
   j["quality"] = o.quality;
   j["warnings"] = o.warnings;
+  if (!o.pinned.is_null()) j["pinned"] = o.pinned;
   return j;
 }
 
@@ -244,7 +256,7 @@ int main(int argc, char** argv) {
   std::string camera = "phone", field_of_view = "normal", motion = "tremor", keep;
   PipelineOptions pipeline;
   std::optional<KnownCalibrationMode> known;
-  bool fused = false, exif = false;
+  bool fused = false, exif = false, pinned = false;
   double oscillation_deg = 0.0;
   bool line_path = false;
   try {
@@ -276,6 +288,8 @@ int main(int argc, char** argv) {
         known = fused ? KnownCalibrationMode::kPrior : ParseKnownCalibrationMode(argv[i]);
       } else if (!std::strcmp(argv[i], "--exif")) {
         exif = true;
+      } else if (!std::strcmp(argv[i], "--pinned-depth")) {
+        pinned = true;
       } else if (!std::strcmp(argv[i], "--oscillation") && i + 1 < argc) {
         oscillation_deg = NonNegativeNumber("--oscillation", argv[++i]);
       } else if (!std::strcmp(argv[i], "--hand-path")) {
@@ -295,6 +309,7 @@ int main(int argc, char** argv) {
             "                   [--only I [--keep DIR]]\n"
             "                   [--reweight-rounds N] [--known prior|fixed|fused] [--exif]\n"
             "                   [--without LAYER,...] [--line-path] [--oscillation DEG]\n"
+            "                   [--pinned-depth]\n"
             "       depth_sweep --defaults N [--camera ...] [--only I [--keep DIR]]\n"
             "                   [--known prior|fixed|fused] [--exif]\n");
         return 2;
@@ -337,7 +352,7 @@ int main(int argc, char** argv) {
   }
   std::vector<DepthSweepOutcome> outcomes;
   for (const SynthOptions& settings : sweep) {
-    outcomes.push_back(RunDepthSweepBurst(settings, keep, pipeline, known, fused, exif));
+    outcomes.push_back(RunDepthSweepBurst(settings, keep, pipeline, known, fused, exif, pinned));
     std::printf("%s\n", ToJson(outcomes.back()).dump().c_str());
     std::fflush(stdout);
   }

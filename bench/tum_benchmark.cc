@@ -9,7 +9,7 @@
 //   tum_benchmark [--dataset DIR] [--frames N] [--step S] [--start K] [--calibration FILE]
 //                 [--rolling-shutter global|estimate|R] [--pictures DIR]
 //                 [--semi-global off|P1:P2] [--downscale N] [--without LAYER,...]
-//                 [--true-poses R] [--shifts N]
+//                 [--true-poses R] [--shifts N] [--pinned-depth on|off]
 // --without: sparse layers switched off by name (core/sparse/sparse_layers.h).
 // --downscale 2 runs the same windows at 320x240 (frames area-averaged, the
 // Kinect depth and the calibration scaled to match; TumSequence).
@@ -21,6 +21,10 @@
 // the published camera, the motion capture's poses, readout R (a fraction of
 // the frame interval) and the Kinect's depth range: what the dense stage
 // makes of the window when the geometry is right.
+// --pinned-depth on: each published-calibration line also carries "pinned":
+// the sparse stage's tracks pinned to the Kinect's depth, the poses adjusted
+// to it, and the dense stage over that geometry (bench/pinned_depth.h;
+// docs/experiments/032-tracks-pinned-to-the-true-depth.md).
 // --start K: the first window's first frame. ../shared/data/tum_fr1_rpy holds
 // eight windows of 12 frames (one before and one after the 10 that count), so
 // its windows are --dataset ../shared/data/tum_fr1_rpy --start 1 --step 12.
@@ -41,6 +45,7 @@
 #include <string>
 #include <vector>
 
+#include "bench/pinned_depth.h"
 #include "bench/report_options.h"
 #include "bench/tum_pictures.h"
 #include "bench/tum_sequence.h"
@@ -72,6 +77,12 @@ void ParseSemiGlobal(const std::string& text, DenseOptions* dense) {
     throw std::invalid_argument("--semi-global takes off or P1:P2, got " + text);
   }
   dense->semi_global.Check();
+}
+
+// "on" or "off", else std::invalid_argument naming the option.
+bool ParseOnOff(const std::string& option, const std::string& text) {
+  if (text == "on" || text == "off") return text == "on";
+  throw std::invalid_argument(option + " takes on or off, got " + text);
 }
 
 // The estimated poses against the true ones (both X_i = R_i X_ref + T_i).
@@ -123,6 +134,7 @@ int main(int argc, char** argv) {
   std::string pictures;
   int frames = 10, step = 3, start = 0, downscale = 1, shifts = 1;
   double true_poses_readout = -1.0;  // --true-poses: none
+  bool pinned_depth = false;
   RollingShutterOptions rolling_shutter;
   DenseOptions dense;
   std::optional<TumSequence> opened;  // once the options are read
@@ -154,6 +166,8 @@ int main(int argc, char** argv) {
         sparse = WithoutLayers(sparse, value);
       else if (option == "--true-poses")
         true_poses_readout = NonNegativeNumber("--true-poses", value);
+      else if (option == "--pinned-depth")
+        pinned_depth = ParseOnOff("--pinned-depth", value);
       else if (option == "--shifts")
         shifts = WholeNumber("--shifts", value, 1);
       else
@@ -252,6 +266,17 @@ int main(int argc, char** argv) {
                         PosesOfFrames(true_poses, output.sparse->feature_stats.kept_frames));
           if (line["pose_error"].is_object())
             row.translation_residual = line["pose_error"]["translation_residual"];
+          if (pinned_depth && mode == "known") {
+            const std::optional<PinnedDepth> pinned =
+                PinDepthToTruth(burst, truth, cv::Mat(), *output.sparse, options.sparse, dense);
+            if (pinned) {
+              const std::vector<Pose> kept =
+                  PosesOfFrames(true_poses, output.sparse->feature_stats.kept_frames);
+              line["pinned"] = ToJson(*pinned);
+              line["pinned"]["free_pose_error"] = PoseError(pinned->free.poses, kept);
+              line["pinned"]["pinned_pose_error"] = PoseError(pinned->pinned.poses, kept);
+            }
+          }
         }
         line.update({{"depth", ToJson(row.score)},
                      {"f", row.f},

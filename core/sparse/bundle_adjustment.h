@@ -33,6 +33,10 @@ struct BundleAdjustmentOptions {
   double lens_k_prior_sigma = 0.0;
   // Holds f, k1, k2 at the state's values (a known calibration).
   bool fix_intrinsics = false;
+  // Holds every inverse depth at the state's values: the poses (and readout,
+  // velocities) that best explain the tracks at depths given from elsewhere,
+  // e.g. a depth sensor's (bench/tum_benchmark.cc --pinned-depth).
+  bool hold_inverse_depths = false;
   // Estimates the rolling shutter's readout (SparseState::readout is its
   // start), in [-kMaxReadout, kMaxReadout]; otherwise the state's readout is
   // held. Not bounded at 0: a global shutter's readout then converges like

@@ -1,0 +1,119 @@
+#include "bench/pinned_depth.h"
+
+#include <algorithm>
+#include <cmath>
+#include <nlohmann/json.hpp>
+#include <stdexcept>
+
+#include "bench/tum_sequence.h"
+#include "core/pipeline/frame_selection.h"
+#include "core/sparse/bundle_adjustment.h"
+
+namespace dfsm {
+
+void PinnedDepthOptions::Check() const {
+  if (flat_radius < 0) throw std::invalid_argument("pinned depth: flat_radius must be >= 0");
+  if (!(flat_tolerance > 0.0))
+    throw std::invalid_argument("pinned depth: flat_tolerance must be > 0");
+  if (min_tracks < 1) throw std::invalid_argument("pinned depth: min_tracks must be >= 1");
+}
+
+namespace {
+
+// The truth's depth at `pixel` where it is flat around it (options), else 0.
+double FlatTruthDepth(const cv::Mat& truth, const Eigen::Vector2d& pixel,
+                      const PinnedDepthOptions& options) {
+  const int x = static_cast<int>(std::lround(pixel.x())),
+            y = static_cast<int>(std::lround(pixel.y()));
+  const int r = options.flat_radius;
+  if (x < r || y < r || x >= truth.cols - r || y >= truth.rows - r) return 0.0;
+  const double z = truth.at<float>(y, x);
+  if (!(z > 0.0)) return 0.0;
+  for (int v = y - r; v <= y + r; ++v)
+    for (int u = x - r; u <= x + r; ++u) {
+      const double around = truth.at<float>(v, u);
+      if (!(around > 0.0) || std::abs(around / z - 1.0) > options.flat_tolerance) return 0.0;
+    }
+  return z;
+}
+
+// Each used track's RMS error at `state`, and their median.
+double MedianTrackError(const FeatureTracks& tracks, const std::vector<bool>& use,
+                        const SparseState& state) {
+  const std::vector<double> errors = TrackReprojectionErrors(tracks, state);
+  std::vector<double> used;
+  for (int j = 0; j < tracks.num_tracks(); ++j)
+    if (use[j]) used.push_back(errors[j]);
+  return WindowMedian(used);
+}
+
+DepthEvaluation DenseOver(const Burst& kept, const cv::Mat& truth, const cv::Mat& mask,
+                          const FeatureTracks& tracks, const std::vector<bool>& use,
+                          const SparseState& state, DenseOptions dense) {
+  dense.readout = state.readout;
+  dense.frame_times = state.frame_times;
+  dense.angular_velocities = state.angular_velocities;
+  std::vector<double> inliers;
+  for (int j = 0; j < tracks.num_tracks(); ++j)
+    if (use[j] && state.inverse_depths[j] > 0.0) inliers.push_back(state.inverse_depths[j]);
+  const DenseDepth depth = ComputeDenseDepth(kept, state.camera, state.poses, inliers, dense);
+  return EvaluateDepth(depth.depth, truth, mask);
+}
+
+}  // namespace
+
+std::optional<PinnedDepth> PinDepthToTruth(const Burst& burst, const cv::Mat& truth,
+                                           const cv::Mat& mask, const SparseReconstruction& sparse,
+                                           const SparseOptions& sparse_options,
+                                           const DenseOptions& dense,
+                                           const PinnedDepthOptions& options) {
+  options.Check();
+  const FeatureTracks& tracks = sparse.tracks;
+  std::vector<bool> use = sparse.inliers;
+  std::vector<double> truth_inverse(tracks.num_tracks(), 0.0), estimated, given;
+  for (int j = 0; j < tracks.num_tracks(); ++j) {
+    if (!use[j]) continue;
+    const double z = FlatTruthDepth(truth, tracks.pixels[tracks.reference].col(j), options);
+    use[j] = z > 0.0 && sparse.state.inverse_depths[j] > 0.0;
+    if (!use[j]) continue;
+    truth_inverse[j] = 1.0 / z;
+    estimated.push_back(sparse.state.inverse_depths[j]);
+    given.push_back(truth_inverse[j]);
+  }
+  if (static_cast<int>(given.size()) < options.min_tracks) return std::nullopt;
+  BundleAdjustmentOptions adjust = sparse_options.bundle_adjustment;
+  adjust.fix_intrinsics = true;
+  adjust.estimate_readout =
+      sparse_options.rolling_shutter.mode == RollingShutterOptions::Mode::kEstimate;
+  if (!sparse.state.angular_velocities.empty())
+    adjust.angular_velocity_sigma_px = sparse_options.angular_velocity_sigma_px;
+  PinnedDepth out;
+  out.tracks = static_cast<int>(given.size());
+  out.free = out.pinned = sparse.state;
+  out.free_rms_px = RunBundleAdjustment(tracks, use, &out.free, adjust).rms_reprojection_px;
+  const double scale = WindowMedian(estimated) / WindowMedian(given);
+  for (int j = 0; j < tracks.num_tracks(); ++j)
+    if (use[j]) out.pinned.inverse_depths[j] = scale * truth_inverse[j];
+  adjust.hold_inverse_depths = true;
+  out.pinned_rms_px = RunBundleAdjustment(tracks, use, &out.pinned, adjust).rms_reprojection_px;
+  out.free_median_px = MedianTrackError(tracks, use, out.free);
+  out.pinned_median_px = MedianTrackError(tracks, use, out.pinned);
+  const Burst kept = SelectFrames(burst, sparse.feature_stats.kept_frames);
+  out.free_depth = DenseOver(kept, truth, mask, tracks, use, out.free, dense);
+  out.pinned_depth = DenseOver(kept, truth, mask, tracks, use, out.pinned, dense);
+  return out;
+}
+
+nlohmann::json ToJson(const PinnedDepth& pinned) {
+  return {{"tracks", pinned.tracks},
+          {"free_rms_px", pinned.free_rms_px},
+          {"pinned_rms_px", pinned.pinned_rms_px},
+          {"free_median_px", pinned.free_median_px},
+          {"pinned_median_px", pinned.pinned_median_px},
+          {"free_readout", pinned.free.readout},
+          {"pinned_readout", pinned.pinned.readout},
+          {"free_depth", ToJson(pinned.free_depth)},
+          {"pinned_depth", ToJson(pinned.pinned_depth)}};
+}
+
+}  // namespace dfsm

@@ -1,0 +1,60 @@
+// An oracle for the sparse stage on data with a true depth map (TUM's Kinect,
+// the generator's truth): the tracks' inverse depths set to the truth's and
+// held, the poses (readout, velocities) adjusted to them under the stage's own
+// camera. Two questions it answers: how much worse do the tracks fit the true
+// depths than their own minimum, under the model the adjustment uses, and
+// what does the dense stage make of a geometry anchored to the truth.
+#pragma once
+
+#include <nlohmann/json_fwd.hpp>
+#include <opencv2/core.hpp>
+#include <optional>
+
+#include "core/dense/dense_depth.h"
+#include "core/io/burst.h"
+#include "core/pipeline/evaluation.h"
+#include "core/sparse/sparse_reconstruction.h"
+
+namespace dfsm {
+
+struct PinnedDepthOptions {
+  // A track is pinned only where the truth is flat around its reference
+  // pixel: every truth pixel within this radius has depth within
+  // flat_tolerance of the centre's. Corners sit on depth edges, where a
+  // truth registered a few pixels off (TUM's Kinect: 1-4 px) gives the
+  // other surface's depth.
+  int flat_radius = 4;
+  double flat_tolerance = 0.03;
+  // Fewer pinned tracks than this: no answer.
+  int min_tracks = 8;
+
+  // Throws std::invalid_argument naming the option out of range.
+  void Check() const;
+};
+
+struct PinnedDepth {
+  int tracks = 0;  // inlier tracks pinned
+  // Both adjusted from the stage's solution over the pinned tracks, the
+  // camera held: `free` with each inverse depth free (the tracks' own
+  // minimum), `pinned` with the truth's, one scale (the solution's median).
+  SparseState free, pinned;
+  double free_rms_px = 0.0, pinned_rms_px = 0.0;
+  // Medians over the pinned tracks of each track's RMS error.
+  double free_median_px = 0.0, pinned_median_px = 0.0;
+  // The dense stage over the kept frames (not exposure-compensated) with
+  // each geometry, scored against the truth under `mask`.
+  DepthEvaluation free_depth, pinned_depth;
+};
+
+// `truth`: depth (CV_32FC1, 0 = none) of the burst's reference, in the
+// captured pixels; `sparse`: the stage run with `sparse_options` on `burst`.
+// Empty where fewer than options.min_tracks tracks can be pinned.
+std::optional<PinnedDepth> PinDepthToTruth(const Burst& burst, const cv::Mat& truth,
+                                           const cv::Mat& mask, const SparseReconstruction& sparse,
+                                           const SparseOptions& sparse_options,
+                                           const DenseOptions& dense,
+                                           const PinnedDepthOptions& options = {});
+
+nlohmann::json ToJson(const PinnedDepth& pinned);
+
+}  // namespace dfsm

@@ -1,0 +1,95 @@
+#include "bench/pinned_depth.h"
+
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+#include <stdexcept>
+
+#include "core/pipeline/pipeline.h"
+#include "core/synth/burst_synthesizer.h"
+
+namespace dfsm {
+namespace {
+
+struct Reconstructed {
+  SynthBurst synth;
+  Burst burst;
+  PipelineOptions options;
+  SparseReconstruction sparse;
+};
+
+// A VGA burst of the generator, its own camera held as a known calibration.
+Reconstructed Reconstruct() {
+  SynthOptions synth;
+  synth.width = 640;
+  synth.height = 480;
+  synth.rotation_deg = 1.0;
+  synth.seed = 7;
+  Reconstructed out{SynthesizeBurst(synth), {}, {}, {}};
+  out.burst = ToBurst(out.synth);
+  KnownCalibration known;
+  known.camera = out.synth.truth.camera;
+  known.mode = KnownCalibrationMode::kFixed;
+  out.options.sparse.known = known;
+  out.sparse = ReconstructSparseStage(out.burst, out.options);
+  return out;
+}
+
+// On a generated burst the true depths fit the tracks nearly as well as the
+// tracks' own minimum (the model is the renderer's), and the dense stage over
+// the geometry pinned to them is as good as over the stage's own or better.
+TEST(PinnedDepth, TheTruthFitsAGeneratedBurst) {
+  const Reconstructed r = Reconstruct();
+  const std::optional<PinnedDepth> pinned = PinDepthToTruth(
+      r.burst, r.synth.truth.depth, cv::Mat(), r.sparse, r.options.sparse, r.options.dense);
+  ASSERT_TRUE(pinned);
+  EXPECT_GE(pinned->tracks, 50);
+  EXPECT_LT(pinned->pinned_rms_px, 0.15);
+  EXPECT_LT(pinned->pinned_median_px, 1.5 * pinned->free_median_px);
+  EXPECT_LT(pinned->pinned_depth.abs_rel, 0.04);
+  EXPECT_LE(pinned->pinned_depth.abs_rel, pinned->free_depth.abs_rel + 0.005);
+  // The held depths are the truth's, up to one scale.
+  const FeatureTracks& tracks = r.sparse.tracks;
+  double ratio = 0.0;
+  int checked = 0;
+  for (int j = 0; j < tracks.num_tracks() && checked < 20; ++j) {
+    const Eigen::Vector2d p = tracks.pixels[tracks.reference].col(j);
+    const double z = r.synth.truth.depth.at<float>(static_cast<int>(std::lround(p.y())),
+                                                   static_cast<int>(std::lround(p.x())));
+    if (!r.sparse.inliers[j] ||
+        pinned->pinned.inverse_depths[j] == r.sparse.state.inverse_depths[j])
+      continue;
+    const double scale = pinned->pinned.inverse_depths[j] * z;
+    if (checked++ == 0) ratio = scale;
+    EXPECT_NEAR(scale / ratio, 1.0, 1e-9) << "track " << j;
+  }
+  EXPECT_GT(checked, 0);
+  const nlohmann::json json = ToJson(*pinned);
+  EXPECT_EQ(json.at("tracks").get<int>(), pinned->tracks);
+  EXPECT_DOUBLE_EQ(json.at("pinned_depth").at("abs_rel").get<double>(),
+                   pinned->pinned_depth.abs_rel);
+}
+
+// No truth at the tracks (a depth sensor that saw nothing): no answer.
+TEST(PinnedDepth, NoAnswerWithoutTruthAtTheTracks) {
+  const Reconstructed r = Reconstruct();
+  const cv::Mat none(r.synth.truth.depth.size(), CV_32FC1, cv::Scalar(0.0f));
+  EXPECT_FALSE(
+      PinDepthToTruth(r.burst, none, cv::Mat(), r.sparse, r.options.sparse, r.options.dense));
+}
+
+TEST(PinnedDepth, OptionsOutOfRangeAreNamed) {
+  PinnedDepthOptions options;
+  options.Check();
+  options.flat_radius = -1;
+  EXPECT_THROW(options.Check(), std::invalid_argument);
+  options = {};
+  options.flat_tolerance = 0.0;
+  EXPECT_THROW(options.Check(), std::invalid_argument);
+  options = {};
+  options.min_tracks = 0;
+  EXPECT_THROW(options.Check(), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace dfsm
