@@ -33,6 +33,9 @@
 //               footage.
 //   --exif: each burst carries its true focal length as EXIF's 35 mm
 //               equivalent, in whole mm as cameras write it (a prior on f).
+//   --rolling-shutter global|estimate|R: the pipeline's rolling-shutter mode
+//               (estimate, the default; R: a readout held, as a device's
+//               datasheet gives it).
 //   --pinned-depth: each burst's JSON line also carries "pinned", the
 //               sparse stage's tracks pinned to the true depth
 //               (bench/pinned_depth.h; docs/experiments/032-tracks-pinned-to-the-true-depth.md).
@@ -288,6 +291,8 @@ int main(int argc, char** argv) {
         known = fused ? KnownCalibrationMode::kPrior : ParseKnownCalibrationMode(argv[i]);
       } else if (!std::strcmp(argv[i], "--exif")) {
         exif = true;
+      } else if (!std::strcmp(argv[i], "--rolling-shutter") && i + 1 < argc) {
+        pipeline.sparse.rolling_shutter = ParseRollingShutter(argv[++i]);
       } else if (!std::strcmp(argv[i], "--pinned-depth")) {
         pinned = true;
       } else if (!std::strcmp(argv[i], "--oscillation") && i + 1 < argc) {
@@ -309,7 +314,7 @@ int main(int argc, char** argv) {
             "                   [--only I [--keep DIR]]\n"
             "                   [--reweight-rounds N] [--known prior|fixed|fused] [--exif]\n"
             "                   [--without LAYER,...] [--line-path] [--oscillation DEG]\n"
-            "                   [--pinned-depth]\n"
+            "                   [--rolling-shutter global|estimate|R] [--pinned-depth]\n"
             "       depth_sweep --defaults N [--camera ...] [--only I [--keep DIR]]\n"
             "                   [--known prior|fixed|fused] [--exif]\n");
         return 2;
