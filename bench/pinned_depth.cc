@@ -96,6 +96,9 @@ std::optional<PinnedDepth> PinDepthToTruth(const Burst& burst, const cv::Mat& tr
     if (use[j]) out.pinned.inverse_depths[j] = scale * truth_inverse[j];
   adjust.hold_inverse_depths = true;
   out.pinned_rms_px = RunBundleAdjustment(tracks, use, &out.pinned, adjust).rms_reprojection_px;
+  out.camera_at_truth = out.pinned;
+  adjust.fix_intrinsics = false;
+  RunBundleAdjustment(tracks, use, &out.camera_at_truth, adjust);
   out.free_median_px = MedianTrackError(tracks, use, out.free);
   out.pinned_median_px = MedianTrackError(tracks, use, out.pinned);
   const Burst kept = SelectFrames(burst, sparse.feature_stats.kept_frames);
@@ -110,6 +113,11 @@ nlohmann::json ToJson(const PinnedDepth& pinned) {
           {"pinned_rms_px", pinned.pinned_rms_px},
           {"free_median_px", pinned.free_median_px},
           {"pinned_median_px", pinned.pinned_median_px},
+          {"camera_at_truth",
+           {{"f", pinned.camera_at_truth.camera.f},
+            {"k1", pinned.camera_at_truth.camera.k1},
+            {"k2", pinned.camera_at_truth.camera.k2},
+            {"readout", pinned.camera_at_truth.readout}}},
           {"free_readout", pinned.free.readout},
           {"pinned_readout", pinned.pinned.readout},
           {"free_depth", ToJson(pinned.free_depth)},

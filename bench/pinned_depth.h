@@ -38,6 +38,9 @@ struct PinnedDepth {
   // camera held: `free` with each inverse depth free (the tracks' own
   // minimum), `pinned` with the truth's, one scale (the solution's median).
   SparseState free, pinned;
+  // `pinned` adjusted once more with f, k1 and k2 free (the inverse depths
+  // still held): the camera the tracks choose once their depths are right.
+  SparseState camera_at_truth;
   double free_rms_px = 0.0, pinned_rms_px = 0.0;
   // Medians over the pinned tracks of each track's RMS error.
   double free_median_px = 0.0, pinned_median_px = 0.0;

@@ -36,8 +36,9 @@ Reconstructed Reconstruct() {
 }
 
 // On a generated burst the true depths fit the tracks nearly as well as the
-// tracks' own minimum (the model is the renderer's), and the dense stage over
-// the geometry pinned to them is as good as over the stage's own or better.
+// tracks' own minimum (the model is the renderer's), the dense stage over
+// the geometry pinned to them is as good as over the stage's own or better,
+// and the camera freed with them held stays the true one.
 TEST(PinnedDepth, TheTruthFitsAGeneratedBurst) {
   const Reconstructed r = Reconstruct();
   const std::optional<PinnedDepth> pinned = PinDepthToTruth(
@@ -64,8 +65,13 @@ TEST(PinnedDepth, TheTruthFitsAGeneratedBurst) {
     EXPECT_NEAR(scale / ratio, 1.0, 1e-9) << "track " << j;
   }
   EXPECT_GT(checked, 0);
+  // Freed with the depths held, the camera stays near the true one.
+  EXPECT_NEAR(pinned->camera_at_truth.camera.f / r.synth.truth.camera.f, 1.0, 0.03);
+  EXPECT_EQ(pinned->camera_at_truth.inverse_depths, pinned->pinned.inverse_depths);
   const nlohmann::json json = ToJson(*pinned);
   EXPECT_EQ(json.at("tracks").get<int>(), pinned->tracks);
+  EXPECT_DOUBLE_EQ(json.at("camera_at_truth").at("f").get<double>(),
+                   pinned->camera_at_truth.camera.f);
   EXPECT_DOUBLE_EQ(json.at("pinned_depth").at("abs_rel").get<double>(),
                    pinned->pinned_depth.abs_rel);
 }

@@ -21,9 +21,10 @@
 // the published camera, the motion capture's poses, readout R (a fraction of
 // the frame interval) and the Kinect's depth range: what the dense stage
 // makes of the window when the geometry is right.
-// --pinned-depth on: each published-calibration line also carries "pinned":
-// the sparse stage's tracks pinned to the Kinect's depth, the poses adjusted
-// to it, and the dense stage over that geometry (bench/pinned_depth.h;
+// --pinned-depth on: each line also carries "pinned": the sparse stage's
+// tracks pinned to the Kinect's depth, the poses adjusted to it under the
+// mode's camera, the dense stage over that geometry, and the camera the
+// tracks choose at those depths (bench/pinned_depth.h;
 // docs/experiments/032-tracks-pinned-to-the-true-depth.md).
 // --start K: the first window's first frame. ../shared/data/tum_fr1_rpy holds
 // eight windows of 12 frames (one before and one after the 10 that count), so
@@ -266,7 +267,7 @@ int main(int argc, char** argv) {
                         PosesOfFrames(true_poses, output.sparse->feature_stats.kept_frames));
           if (line["pose_error"].is_object())
             row.translation_residual = line["pose_error"]["translation_residual"];
-          if (pinned_depth && mode == "known") {
+          if (pinned_depth) {
             const std::optional<PinnedDepth> pinned =
                 PinDepthToTruth(burst, truth, cv::Mat(), *output.sparse, options.sparse, dense);
             if (pinned) {
