@@ -37,7 +37,7 @@ double FlatTruthDepth(const cv::Mat& truth, const Eigen::Vector2d& pixel,
   return z;
 }
 
-// Each used track's RMS error at `state`, and their median.
+// The median over the used tracks of each one's RMS error at `state`.
 double MedianTrackError(const FeatureTracks& tracks, const std::vector<bool>& use,
                         const SparseState& state) {
   const std::vector<double> errors = TrackReprojectionErrors(tracks, state);

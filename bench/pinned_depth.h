@@ -1,9 +1,10 @@
 // An oracle for the sparse stage on data with a true depth map (TUM's Kinect,
 // the generator's truth): the tracks' inverse depths set to the truth's and
 // held, the poses (readout, velocities) adjusted to them under the stage's own
-// camera. Two questions it answers: how much worse do the tracks fit the true
-// depths than their own minimum, under the model the adjustment uses, and
-// what does the dense stage make of a geometry anchored to the truth.
+// camera. What it answers: how much worse do the tracks fit the true depths
+// than their own minimum, under the model the adjustment uses; what does the
+// dense stage make of a geometry anchored to the truth; and which camera do
+// the tracks choose once their depths are right.
 #pragma once
 
 #include <nlohmann/json_fwd.hpp>

@@ -91,6 +91,8 @@ BundleAdjustmentSummary RunBundleAdjustment(const FeatureTracks& tracks,
                                             const BundleAdjustmentOptions& options,
                                             CalibrationUncertainty* uncertainty) {
   options.Check();
+  if (uncertainty && options.hold_inverse_depths)
+    throw std::invalid_argument("no covariance of an adjustment whose inverse depths are held");
   const int n = tracks.num_frames();
   double intrinsics[3] = {state->camera.f, state->camera.k1, state->camera.k2};
   std::vector<std::array<double, 6>> poses(n);

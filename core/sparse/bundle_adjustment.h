@@ -35,7 +35,8 @@ struct BundleAdjustmentOptions {
   bool fix_intrinsics = false;
   // Holds every inverse depth at the state's values: the poses (and readout,
   // velocities) that best explain the tracks at depths given from elsewhere,
-  // e.g. a depth sensor's (bench/tum_benchmark.cc --pinned-depth).
+  // e.g. a depth sensor's (bench/pinned_depth.h). The depths are then no
+  // parameters, so no covariance is computed with it.
   bool hold_inverse_depths = false;
   // Estimates the rolling shutter's readout (SparseState::readout is its
   // start), in [-kMaxReadout, kMaxReadout]; otherwise the state's readout is

@@ -161,6 +161,9 @@ TEST(BundleAdjustment, HoldsInverseDepthsWhereAsked) {
   EXPECT_LT(at_truth.rms_reprojection_px, 0.05);
   EXPECT_LT(Compare(truth, sim).rotation_deg, 0.01);
   EXPECT_GT(at_off.rms_reprojection_px, 2.0 * at_truth.rms_reprojection_px);
+  CalibrationUncertainty uncertainty;
+  EXPECT_THROW(RunBundleAdjustment(sim.tracks, use, &off, held, &uncertainty),
+               std::invalid_argument);
 }
 
 TEST(BundleAdjustment, ReportsReprojectionErrorPerTrack) {
