@@ -88,7 +88,7 @@ std::optional<PinnedDepth> PinDepthToTruth(const Burst& burst, const cv::Mat& tr
   if (!sparse.state.angular_velocities.empty())
     adjust.angular_velocity_sigma_px = sparse_options.angular_velocity_sigma_px;
   PinnedDepth out;
-  out.tracks = static_cast<int>(given.size());
+  out.pinned_tracks = use;
   out.free = out.pinned = sparse.state;
   out.free_rms_px = RunBundleAdjustment(tracks, use, &out.free, adjust).rms_reprojection_px;
   const double scale = WindowMedian(estimated) / WindowMedian(given);
@@ -107,8 +107,12 @@ std::optional<PinnedDepth> PinDepthToTruth(const Burst& burst, const cv::Mat& tr
   return out;
 }
 
+int PinnedDepth::tracks() const {
+  return static_cast<int>(std::count(pinned_tracks.begin(), pinned_tracks.end(), true));
+}
+
 nlohmann::json ToJson(const PinnedDepth& pinned) {
-  return {{"tracks", pinned.tracks},
+  return {{"tracks", pinned.tracks()},
           {"free_rms_px", pinned.free_rms_px},
           {"pinned_rms_px", pinned.pinned_rms_px},
           {"free_median_px", pinned.free_median_px},

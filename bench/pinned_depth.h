@@ -10,6 +10,7 @@
 #include <nlohmann/json_fwd.hpp>
 #include <opencv2/core.hpp>
 #include <optional>
+#include <vector>
 
 #include "core/dense/dense_depth.h"
 #include "core/io/burst.h"
@@ -34,7 +35,9 @@ struct PinnedDepthOptions {
 };
 
 struct PinnedDepth {
-  int tracks = 0;  // inlier tracks pinned
+  // Per track of the stage: an inlier pinned to the truth. Both adjustments
+  // below run over these tracks only.
+  std::vector<bool> pinned_tracks;
   // Both adjusted from the stage's solution over the pinned tracks, the
   // camera held: `free` with each inverse depth free (the tracks' own
   // minimum), `pinned` with the truth's, one scale (the solution's median).
@@ -48,6 +51,8 @@ struct PinnedDepth {
   // The dense stage over the kept frames (not exposure-compensated) with
   // each geometry, scored against the truth under `mask`.
   DepthEvaluation free_depth, pinned_depth;
+
+  int tracks() const;  // how many were pinned
 };
 
 // `truth`: depth (CV_32FC1, 0 = none) of the burst's reference, in the

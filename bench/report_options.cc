@@ -88,4 +88,9 @@ uint64_t SeedNumber(const char* option, const std::string& text) {
   return static_cast<uint64_t>(*value);
 }
 
+bool OnOff(const char* option, const std::string& text) {
+  if (text != "on" && text != "off") Refuse(option, "on or off", text);
+  return text == "on";
+}
+
 }  // namespace dfsm

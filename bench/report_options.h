@@ -24,4 +24,7 @@ double NonNegativeNumber(const char* option, const std::string& text);
 // A random seed: a whole number from 0 to 2^64 - 1.
 uint64_t SeedNumber(const char* option, const std::string& text);
 
+// A switch: "on" (true) or "off" (false), nothing else.
+bool OnOff(const char* option, const std::string& text);
+
 }  // namespace dfsm

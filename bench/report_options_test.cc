@@ -50,5 +50,14 @@ TEST(ReportOptions, SeedsAreWholeNumbersFromZero) {
     EXPECT_NE(Refusal([&] { SeedNumber("--seed", text); }), "") << "'" << text << "'";
 }
 
+TEST(ReportOptions, SwitchesAreOnOrOff) {
+  EXPECT_TRUE(OnOff("--pinned-depth", "on"));
+  EXPECT_FALSE(OnOff("--pinned-depth", "off"));
+  EXPECT_EQ(Refusal([] { OnOff("--pinned-depth", "yes"); }),
+            "--pinned-depth takes on or off, got 'yes'");
+  for (const char* text : {"", "On", "1", "true", " on", "off "})
+    EXPECT_NE(Refusal([&] { OnOff("--pinned-depth", text); }), "") << "'" << text << "'";
+}
+
 }  // namespace
 }  // namespace dfsm

@@ -80,12 +80,6 @@ void ParseSemiGlobal(const std::string& text, DenseOptions* dense) {
   dense->semi_global.Check();
 }
 
-// "on" or "off", else std::invalid_argument naming the option.
-bool ParseOnOff(const std::string& option, const std::string& text) {
-  if (text == "on" || text == "off") return text == "on";
-  throw std::invalid_argument(option + " takes on or off, got " + text);
-}
-
 // The estimated poses against the true ones (both X_i = R_i X_ref + T_i).
 nlohmann::json PoseError(const std::vector<Pose>& estimated, const std::vector<Pose>& truth) {
   if (estimated.size() != truth.size() || truth.empty()) return nullptr;
@@ -168,7 +162,7 @@ int main(int argc, char** argv) {
       else if (option == "--true-poses")
         true_poses_readout = NonNegativeNumber("--true-poses", value);
       else if (option == "--pinned-depth")
-        pinned_depth = ParseOnOff("--pinned-depth", value);
+        pinned_depth = OnOff("--pinned-depth", value);
       else if (option == "--shifts")
         shifts = WholeNumber("--shifts", value, 1);
       else
@@ -262,20 +256,18 @@ int main(int argc, char** argv) {
         line["known_fit"] = fit;
         if (output.sparse) {
           // The sparse stage's poses are those of the frames it kept.
-          line["pose_error"] =
-              PoseError(output.sparse->state.poses,
-                        PosesOfFrames(true_poses, output.sparse->feature_stats.kept_frames));
+          const std::vector<Pose> kept_truth =
+              PosesOfFrames(true_poses, output.sparse->feature_stats.kept_frames);
+          line["pose_error"] = PoseError(output.sparse->state.poses, kept_truth);
           if (line["pose_error"].is_object())
             row.translation_residual = line["pose_error"]["translation_residual"];
           if (pinned_depth) {
             const std::optional<PinnedDepth> pinned =
                 PinDepthToTruth(burst, truth, cv::Mat(), *output.sparse, options.sparse, dense);
             if (pinned) {
-              const std::vector<Pose> kept =
-                  PosesOfFrames(true_poses, output.sparse->feature_stats.kept_frames);
               line["pinned"] = ToJson(*pinned);
-              line["pinned"]["free_pose_error"] = PoseError(pinned->free.poses, kept);
-              line["pinned"]["pinned_pose_error"] = PoseError(pinned->pinned.poses, kept);
+              line["pinned"]["free_pose_error"] = PoseError(pinned->free.poses, kept_truth);
+              line["pinned"]["pinned_pose_error"] = PoseError(pinned->pinned.poses, kept_truth);
             }
           }
         }
