@@ -135,6 +135,7 @@ int Run(const std::vector<Input>& inputs, double consistency_probability) {
     joint_line["disagreements"] = disagreements;
     joint_line["readout"] = joint.readout;
     joint_line["dispersion"] = joint.dispersion;
+    joint_line["focal_dispersion"] = joint.focal_dispersion;
     joint_line["fitted_f"] = joint.fitted_camera.f;
     joint_line["bias_f"] = joint.bias ? joint.bias->f : 0.0;
     joint_line["iterations"] = joint.iterations;

@@ -119,6 +119,10 @@ struct JointCalibration {
   // least 1: how much more than their noise says the bursts disagree, all
   // alike (model error they share). Each burst's disagreement is divided by it.
   double dispersion = 1.0;
+  // How much more the joined bursts' own focal lengths scatter about the
+  // shared one than their own sigma_f says, at least 1: the shared f's
+  // variance takes it, k1's, k2's and the readout's take `dispersion`.
+  double focal_dispersion = 1.0;
   // Fewer bursts than min_bursts_to_leave_out, and one disagreeing beyond
   // the bound: every burst stayed, and the verdict says so.
   bool undecided = false;
@@ -136,7 +140,7 @@ JointCalibration AdjustJointly(const std::vector<JointBurst>& bursts,
 
 // The joint calibration as `dfsm calibrate`'s joint.json and dfsmd's joint
 // result both give it: the shared camera, readout, uncertainty, verdict,
-// dispersion and fit, and per burst (`bursts`' names) its outcome and
+// dispersions and fit, and per burst (`bursts`' names) its outcome and
 // disagreement, and where it joined its tracks, RMS and poses.
 nlohmann::json ToJson(const JointCalibration& joint, const std::vector<JointBurst>& bursts);
 

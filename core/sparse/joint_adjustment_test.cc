@@ -99,6 +99,30 @@ TEST(JointAdjustment, LeavesOutTheBurstsOfAnotherCamera) {
       << joint.verdict.reasons.back();
 }
 
+// The shared f's sigma takes how far the bursts' own focal lengths scatter
+// against their own sigma_f, and k1's and k2's do not: the same bursts
+// claiming a tenth of their sigma_f scatter a hundred times more than they
+// say, which widens f's sigma alone, by the square root of the focal
+// dispersion; the camera itself does not move.
+TEST(JointAdjustment, TheFocalLengthsOwnScatterWidensTheSharedFsSigmaAlone) {
+  const std::vector<JointBurst> bursts = BurstsOfOneCamera(704.0, -0.06, 5, 1, 1.0, 0.1);
+  std::vector<JointBurst> overconfident = bursts;
+  for (JointBurst& burst : overconfident) burst.sigma_f_percent /= 10.0;
+  const JointCalibration joint = AdjustJointly(bursts, GlobalShutter());
+  const JointCalibration claimed = AdjustJointly(overconfident, GlobalShutter());
+  ASSERT_TRUE(joint.uncertainty.available && claimed.uncertainty.available);
+  EXPECT_GT(claimed.focal_dispersion, 10.0 * joint.focal_dispersion);
+  EXPECT_NEAR(claimed.fitted_camera.f, joint.fitted_camera.f, 1e-6 * joint.fitted_camera.f);
+  EXPECT_NEAR(
+      claimed.uncertainty.sigma_f_px(),
+      joint.uncertainty.sigma_f_px() * std::sqrt(claimed.focal_dispersion / joint.focal_dispersion),
+      1e-3 * claimed.uncertainty.sigma_f_px());
+  EXPECT_NEAR(claimed.uncertainty.sigma_k1(), joint.uncertainty.sigma_k1(),
+              1e-3 * joint.uncertainty.sigma_k1());
+  EXPECT_NEAR(claimed.uncertainty.sigma_k2(), joint.uncertainty.sigma_k2(),
+              1e-3 * joint.uncertainty.sigma_k2());
+}
+
 // Two bursts of two cameras cannot say which one is odd: both stay, and the
 // verdict says they disagree.
 TEST(JointAdjustment, TwoBurstsOfTwoCamerasAreSaidToDisagree) {
