@@ -408,12 +408,14 @@ double Dispersion(const std::vector<double>& disagreements) {
 // How much more the round's bursts' own focal lengths scatter about the
 // shared one than their own sigma_f says (a Birge ratio): the sum of
 // ((f_k - f) / sigma_k)^2 over the bursts that have a sigma, divided by one
-// less than their count, at least 1. The disagreement's dispersion weighs
+// less than their count, at least 1; the disagreement's `dispersion` where
+// fewer than two bursts have a sigma to measure it by. That one weighs
 // the three intrinsics together, and on real footage it is the lens model's
 // misfit in k1 and k2 (fr1/rpy, the flower clip) while the focal lengths
 // agree; on the generator's hand's path the focal lengths scatter more than
 // the disagreement says (docs/experiments/033).
-double FocalDispersion(const std::vector<JointBurst>& bursts, const Round& round) {
+double FocalDispersion(const std::vector<JointBurst>& bursts, const Round& round,
+                       double dispersion) {
   double sum = 0.0;
   int count = 0;
   for (const int k : round.active) {
@@ -424,7 +426,7 @@ double FocalDispersion(const std::vector<JointBurst>& bursts, const Round& round
     sum += deviation * deviation;
     ++count;
   }
-  return count > 1 ? std::max(1.0, sum / (count - 1)) : 1.0;
+  return count > 1 ? std::max(1.0, sum / (count - 1)) : dispersion;
 }
 
 // The shared camera's covariance scaled by how much more than their noise the
@@ -534,7 +536,7 @@ JointCalibration AdjustJointly(const std::vector<JointBurst>& bursts,
   joint.bias = JointBias(bursts, options, round, joint.uncertainty);
   // Bursts that scatter more than their noise says scatter the shared camera
   // as much.
-  joint.focal_dispersion = FocalDispersion(bursts, round);
+  joint.focal_dispersion = FocalDispersion(bursts, round, joint.dispersion);
   if (joint.uncertainty.available)
     ScaleByDispersion(joint.focal_dispersion, joint.dispersion, round.camera, &joint.uncertainty);
   joint.camera = Debiased(round.camera, joint.bias);

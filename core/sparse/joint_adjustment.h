@@ -120,8 +120,9 @@ struct JointCalibration {
   // alike (model error they share). Each burst's disagreement is divided by it.
   double dispersion = 1.0;
   // How much more the joined bursts' own focal lengths scatter about the
-  // shared one than their own sigma_f says, at least 1: the shared f's
-  // variance takes it, k1's, k2's and the readout's take `dispersion`.
+  // shared one than their own sigma_f says, at least 1 (`dispersion` where
+  // fewer than two have a sigma): the shared f's variance takes it, k1's,
+  // k2's and the readout's take `dispersion`.
   double focal_dispersion = 1.0;
   // Fewer bursts than min_bursts_to_leave_out, and one disagreeing beyond
   // the bound: every burst stayed, and the verdict says so.

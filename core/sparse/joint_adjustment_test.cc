@@ -121,6 +121,12 @@ TEST(JointAdjustment, TheFocalLengthsOwnScatterWidensTheSharedFsSigmaAlone) {
               1e-3 * joint.uncertainty.sigma_k1());
   EXPECT_NEAR(claimed.uncertainty.sigma_k2(), joint.uncertainty.sigma_k2(),
               1e-3 * joint.uncertainty.sigma_k2());
+  // Bursts without a sigma of their own (0: unknown) leave f the
+  // disagreement's dispersion.
+  std::vector<JointBurst> unknown = bursts;
+  for (JointBurst& burst : unknown) burst.sigma_f_percent = 0.0;
+  const JointCalibration without = AdjustJointly(unknown, GlobalShutter());
+  EXPECT_EQ(without.focal_dispersion, without.dispersion);
 }
 
 // Two bursts of two cameras cannot say which one is odd: both stay, and the
