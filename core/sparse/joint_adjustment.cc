@@ -42,7 +42,12 @@ JointBurst JointBurstOf(const std::string& name, const SparseReconstruction& spa
   const CalibrationUncertainty& uncertainty =
       sparse.self_estimate ? sparse.self_estimate->uncertainty : sparse.uncertainty;
   burst.noise_px = uncertainty.residual_sigma_px;
-  if (uncertainty.available) burst.sigma_f_percent = uncertainty.sigma_f_percent(own->f);
+  // After a fallback the uncertainty is the refit's, with fewer lens terms
+  // than the own camera: its sigma_f is not the own camera's, which stays
+  // unknown.
+  const bool own_is_replaced = !sparse.self_estimate && sparse.DroppedLensTerms();
+  if (uncertainty.available && !own_is_replaced)
+    burst.sigma_f_percent = uncertainty.sigma_f_percent(own->f);
   return burst;
 }
 
@@ -408,12 +413,10 @@ double Dispersion(const std::vector<double>& disagreements) {
 // How much more the round's bursts' own focal lengths scatter about the
 // shared one than their own sigma_f says (a Birge ratio): the sum of
 // ((f_k - f) / sigma_k)^2 over the bursts that have a sigma, divided by one
-// less than their count, at least 1; the disagreement's `dispersion` where
-// fewer than two bursts have a sigma to measure it by. That one weighs
-// the three intrinsics together, and on real footage it is the lens model's
-// misfit in k1 and k2 (fr1/rpy, the flower clip) while the focal lengths
-// agree; on the generator's hand's path the focal lengths scatter more than
-// the disagreement says (docs/experiments/033).
+// less than their count, at least 1; `dispersion` where fewer than two have
+// one. The disagreement's dispersion weighs f, k1 and k2 together, and a
+// lens the model does not follow scatters k1 and k2 while the focal lengths
+// agree (docs/sparse.md, "One camera over several bursts").
 double FocalDispersion(const std::vector<JointBurst>& bursts, const Round& round,
                        double dispersion) {
   double sum = 0.0;
@@ -534,8 +537,6 @@ JointCalibration AdjustJointly(const std::vector<JointBurst>& bursts,
       joint.bursts[round.active[b]].disagreement = current.disagreements[b] / joint.dispersion;
   joint.fitted_camera = round.camera;
   joint.bias = JointBias(bursts, options, round, joint.uncertainty);
-  // Bursts that scatter more than their noise says scatter the shared camera
-  // as much.
   joint.focal_dispersion = FocalDispersion(bursts, round, joint.dispersion);
   if (joint.uncertainty.available)
     ScaleByDispersion(joint.focal_dispersion, joint.dispersion, round.camera, &joint.uncertainty);

@@ -40,7 +40,8 @@ struct JointBurst {
   // Its own tracking noise (the RMS of its residuals, CalibrationUncertainty::
   // residual_sigma_px); 0: unknown, the joint problem's is taken.
   double noise_px = 0.0;
-  // Its own sigma of f, percent; 0: unknown. Orders the starts.
+  // Its own sigma of f, percent; 0: unknown. Orders the starts and measures
+  // the focal dispersion (JointCalibration::focal_dispersion).
   double sigma_f_percent = 0.0;
 };
 
@@ -111,7 +112,9 @@ struct JointCalibration {
   CameraModel fitted_camera;
   std::optional<IntrinsicsBias> bias;
   double readout = 0.0;
-  CalibrationUncertainty uncertainty;  // of the shared intrinsics, from the joint problem
+  // Of the shared intrinsics, from the joint problem, scaled by the
+  // dispersions below.
+  CalibrationUncertainty uncertainty;
   CalibrationVerdict verdict;
   std::vector<JointBurstResult> bursts;  // in the order given
   double start_f = 0.0;                  // the chosen start's focal length

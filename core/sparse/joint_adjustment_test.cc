@@ -111,6 +111,13 @@ TEST(JointAdjustment, TheFocalLengthsOwnScatterWidensTheSharedFsSigmaAlone) {
   const JointCalibration joint = AdjustJointly(bursts, GlobalShutter());
   const JointCalibration claimed = AdjustJointly(overconfident, GlobalShutter());
   ASSERT_TRUE(joint.uncertainty.available && claimed.uncertainty.available);
+  ASSERT_EQ(claimed.Joined(), 5);
+  double sum = 0.0;
+  for (const JointBurst& burst : overconfident) {
+    const double sigma_px = burst.sigma_f_percent / 100.0 * burst.state.camera.f;
+    sum += std::pow((burst.state.camera.f - claimed.fitted_camera.f) / sigma_px, 2);
+  }
+  EXPECT_NEAR(claimed.focal_dispersion, sum / 4.0, 1e-9 * sum);
   EXPECT_GT(claimed.focal_dispersion, 10.0 * joint.focal_dispersion);
   EXPECT_NEAR(claimed.fitted_camera.f, joint.fitted_camera.f, 1e-6 * joint.fitted_camera.f);
   EXPECT_NEAR(
@@ -121,12 +128,6 @@ TEST(JointAdjustment, TheFocalLengthsOwnScatterWidensTheSharedFsSigmaAlone) {
               1e-3 * joint.uncertainty.sigma_k1());
   EXPECT_NEAR(claimed.uncertainty.sigma_k2(), joint.uncertainty.sigma_k2(),
               1e-3 * joint.uncertainty.sigma_k2());
-  // Bursts without a sigma of their own (0: unknown) leave f the
-  // disagreement's dispersion.
-  std::vector<JointBurst> unknown = bursts;
-  for (JointBurst& burst : unknown) burst.sigma_f_percent = 0.0;
-  const JointCalibration without = AdjustJointly(unknown, GlobalShutter());
-  EXPECT_EQ(without.focal_dispersion, without.dispersion);
 }
 
 // Two bursts of two cameras cannot say which one is odd: both stay, and the
@@ -142,6 +143,13 @@ TEST(JointAdjustment, TwoBurstsOfTwoCamerasAreSaidToDisagree) {
   EXPECT_NE(joint.verdict.reasons.back().find("too few to tell which one is odd"),
             std::string::npos)
       << joint.verdict.reasons.back();
+  // Without a sigma of their own (0: unknown) the bursts leave f the
+  // disagreement's dispersion.
+  ASSERT_GT(joint.dispersion, 1.0);
+  for (JointBurst& burst : bursts) burst.sigma_f_percent = 0.0;
+  const JointCalibration unknown = AdjustJointly(bursts, GlobalShutter());
+  EXPECT_EQ(unknown.focal_dispersion, unknown.dispersion);
+  EXPECT_GT(unknown.focal_dispersion, 1.0);
 }
 
 // A burst adjusted under a known prior (EXIF, the daemon's joint or fused
@@ -173,7 +181,11 @@ TEST(JointBurstOf, TakesTheBurstsOwnCameraNotAPriorsPullNorAFallbacks) {
   fallback.calibration_used = CalibrationSource::kFallbackK1;
   fallback.rejected_camera = CameraModel::Initial(640, 480);
   fallback.rejected_camera->f = 690.0;
-  EXPECT_EQ(JointBurstOf("fallback", fallback).state.camera.f, 690.0);
+  const JointBurst replaced = JointBurstOf("fallback", fallback);
+  EXPECT_EQ(replaced.state.camera.f, 690.0);
+  // The uncertainty is the refit's, not the replaced camera's: no sigma.
+  ASSERT_TRUE(fallback.uncertainty.available);
+  EXPECT_EQ(replaced.sigma_f_percent, 0.0);
 
   SparseReconstruction held = alone.front();
   held.self_estimate.reset();
