@@ -136,6 +136,8 @@ TEST_F(DfsmdCalibrationTest, FusesTheBurstsOfOneCameraAndKeepsItAcrossARestart) 
   EXPECT_NE(made.value("key", "").find("640x480"), std::string::npos) << made.dump(2);
   ASSERT_FALSE(made["result"].is_null()) << made.dump(2);
   EXPECT_EQ(made["result"]["bursts"].size(), 4u) << made.dump(2);
+  // The solve runs on the request's thread: seconds, minutes under TSan.
+  client.set_read_timeout(std::chrono::seconds(300));
   const auto solved = client.Post("/api/v1/calibration/solve", "{}", "application/json");
   ASSERT_TRUE(solved);
   ASSERT_EQ(solved->status, 200) << solved->body;
