@@ -39,15 +39,13 @@ JointBurst JointBurstOf(const std::string& name, const SparseReconstruction& spa
   // its camera is its own, not a known prior's pull or a fallback's.
   burst.state = sparse.state;
   burst.state.camera = *own;
-  const CalibrationUncertainty& uncertainty =
-      sparse.self_estimate ? sparse.self_estimate->uncertainty : sparse.uncertainty;
-  burst.noise_px = uncertainty.residual_sigma_px;
-  // After a fallback the uncertainty is the refit's, with fewer lens terms
-  // than the own camera: its sigma_f is not the own camera's, which stays
-  // unknown.
-  const bool own_is_replaced = !sparse.self_estimate && sparse.DroppedLensTerms();
-  if (uncertainty.available && !own_is_replaced)
-    burst.sigma_f_percent = uncertainty.sigma_f_percent(own->f);
+  // The noise is the tracks' under the camera the burst ended with (a
+  // fallback's refit included); sigma_f only where it is the own camera's.
+  burst.noise_px = (sparse.self_estimate ? sparse.self_estimate->uncertainty : sparse.uncertainty)
+                       .residual_sigma_px;
+  const CalibrationUncertainty* own_uncertainty = sparse.OwnUncertainty();
+  if (own_uncertainty && own_uncertainty->available)
+    burst.sigma_f_percent = own_uncertainty->sigma_f_percent(own->f);
   return burst;
 }
 

@@ -196,6 +196,12 @@ std::optional<CameraModel> SparseReconstruction::OwnCamera() const {
   return std::nullopt;
 }
 
+const CalibrationUncertainty* SparseReconstruction::OwnUncertainty() const {
+  if (self_estimate) return &self_estimate->uncertainty;
+  if (calibration_used == CalibrationSource::kSelf) return &uncertainty;
+  return nullptr;
+}
+
 bool SparseReconstruction::DroppedLensTerms() const {
   return calibration_used == CalibrationSource::kFallbackK1 ||
          calibration_used == CalibrationSource::kFallbackK0;

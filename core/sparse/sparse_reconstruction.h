@@ -340,6 +340,11 @@ struct SparseReconstruction {
   // its own tracks' cost, which a joint calibration measures a burst's
   // disagreement from.
   std::optional<CameraModel> OwnCamera() const;
+  // The uncertainty that goes with OwnCamera: its self-calibration's, or the
+  // burst's own where it calibrated itself. Null after a fallback (the
+  // uncertainty is then the refit's, with fewer lens terms than the own
+  // camera) and under a known camera.
+  const CalibrationUncertainty* OwnUncertainty() const;
   // Whether the tracks were refitted with fewer lens terms than the
   // adjustment estimated (calibration_used kFallbackK1 or kFallbackK0): the
   // relief is then one the burst's own lens model did not choose.
