@@ -353,16 +353,28 @@ std::optional<IntrinsicsBias> JointBias(const std::vector<JointBurst>& bursts,
   return bias;
 }
 
-// Twice the rise of burst k's cost from its own camera to `camera`, in
+// A burst's own minimum of the cost its profiles measure: its adjustment
+// with the intrinsics (and the readout, where estimated) free as well, from
+// its own solution, without priors. Where its stage refined its camera with
+// each frame's angular velocity, that camera is not the minimum on the line
+// between frame poses, which the joint problem and the profiles follow:
+// measured from it, a rise can be negative.
+double OwnMinimumCost(const JointBurst& burst, const JointAdjustmentOptions& options) {
+  BundleAdjustmentOptions own = ProfileOptions(options);
+  own.fix_intrinsics = false;
+  own.max_iterations = options.bundle_adjustment.max_iterations;
+  SparseState state = burst.state;
+  return RunBundleAdjustment(burst.tracks, burst.use, &state, own).final_cost;
+}
+
+// Twice the rise of burst k's cost from its own minimum to `camera`, in
 // units of its inflated noise variance (raw: before any dispersion).
 double Disagreement(const std::vector<JointBurst>& bursts, int k,
                     const JointAdjustmentOptions& options, const CameraModel& camera,
                     double readout, double joint_noise_px, std::vector<double>* own_costs) {
   const BundleAdjustmentOptions profile_options = ProfileOptions(options);
   const JointBurst& burst = bursts[k];
-  if (std::isinf((*own_costs)[k]))
-    (*own_costs)[k] =
-        ProfileUnder(burst, burst.state.camera, burst.state.readout, profile_options).cost;
+  if (std::isinf((*own_costs)[k])) (*own_costs)[k] = OwnMinimumCost(burst, options);
   const double joint_cost = ProfileUnder(burst, camera, readout, profile_options).cost;
   const double noise = (burst.noise_px > 0.0 ? burst.noise_px : joint_noise_px) *
                        UncertaintyInflation(options.bundle_adjustment, camera);
@@ -480,28 +492,19 @@ CalibrationVerdict JudgeJointly(const std::vector<JointBurst>& bursts,
   return verdict;
 }
 
-}  // namespace
-
-JointCalibration AdjustJointly(const std::vector<JointBurst>& bursts,
-                               const JointAdjustmentOptions& options) {
-  options.Check();
-  for (const JointBurst& burst : bursts)
-    if (burst.state.camera.width != bursts.front().state.camera.width ||
-        burst.state.camera.height != bursts.front().state.camera.height)
-      throw ReconstructionError("joint calibration: bursts of different image sizes (" +
-                                bursts.front().name + " and " + burst.name +
-                                "): one camera's bursts share one size");
-  JointCalibration joint;
-  joint.bursts.resize(bursts.size());
+// Adjusts every burst jointly, then leaves out, one at a time, the burst that
+// disagrees most where it disagrees with the others alone, its disagreement
+// divided by theirs (Dispersion): a burst that pulled the joint camera
+// towards itself cannot hide behind the scatter it caused. Each burst's
+// outcome, and a left-out one's disagreement, go to `joint`; returns the last
+// round.
+SolvedRound LeaveOutDisagreeing(const std::vector<JointBurst>& bursts,
+                                const JointAdjustmentOptions& options, JointCalibration* joint) {
   std::vector<int> all(bursts.size());
   for (size_t k = 0; k < bursts.size(); ++k) all[k] = static_cast<int>(k);
   std::vector<double> own_costs(bursts.size(), std::numeric_limits<double>::infinity());
   const double max_disagreement = ChiSquareQuantile(options.consistency_probability, 3);
-  if (bursts.empty()) throw ReconstructionError("joint calibration: no burst to adjust");
   SolvedRound current = SolveRound(bursts, options, all, &own_costs);
-  // The burst that disagrees most is tested against the others alone, its
-  // disagreement divided by theirs (Dispersion): a burst that pulled the
-  // joint camera towards itself cannot hide behind the scatter it caused.
   while (static_cast<int>(current.round.active.size()) >= options.min_bursts_to_leave_out) {
     const std::vector<double>& raw = current.disagreements;
     const size_t worst = std::max_element(raw.begin(), raw.end()) - raw.begin();
@@ -514,44 +517,70 @@ JointCalibration AdjustJointly(const std::vector<JointBurst>& bursts,
         Disagreement(bursts, suspect, options, without.round.camera, without.round.readout,
                      without.uncertainty.residual_sigma_px, &own_costs) /
         Dispersion(without.disagreements);
-    joint.bursts[suspect].disagreement = disagreement;
+    joint->bursts[suspect].disagreement = disagreement;
     if (disagreement <= max_disagreement) break;
-    joint.bursts[suspect].outcome = JointOutcome::kDisagrees;
+    joint->bursts[suspect].outcome = JointOutcome::kDisagrees;
     current = std::move(without);
   }
   const double largest_raw =
       *std::max_element(current.disagreements.begin(), current.disagreements.end());
-  joint.undecided =
+  joint->undecided =
       static_cast<int>(current.round.active.size()) < options.min_bursts_to_leave_out &&
       largest_raw > max_disagreement;
-  Round& round = current.round;
-  joint.start_f = round.start_f;
-  joint.iterations = current.summary.num_successful_steps + current.summary.num_unsuccessful_steps;
-  joint.converged = current.summary.termination_type == ceres::CONVERGENCE;
-  joint.uncertainty = current.uncertainty;
-  joint.dispersion = Dispersion(current.disagreements);
+  return current;
+}
+
+// The joint calibration of the round `solved`: its dispersions, the
+// covariance scaled by them, the noise bias taken off, each joined burst's
+// poses and fit, and the verdict. `joint` holds the bursts' outcomes.
+void Conclude(const std::vector<JointBurst>& bursts, const JointAdjustmentOptions& options,
+              const SolvedRound& solved, JointCalibration* joint) {
+  const Round& round = solved.round;
+  joint->start_f = round.start_f;
+  joint->iterations = solved.summary.num_successful_steps + solved.summary.num_unsuccessful_steps;
+  joint->converged = solved.summary.termination_type == ceres::CONVERGENCE;
+  joint->uncertainty = solved.uncertainty;
+  joint->dispersion = Dispersion(solved.disagreements);
   for (size_t b = 0; b < round.active.size(); ++b)
-    if (joint.bursts[round.active[b]].outcome == JointOutcome::kJoined)
-      joint.bursts[round.active[b]].disagreement = current.disagreements[b] / joint.dispersion;
-  joint.fitted_camera = round.camera;
-  joint.bias = JointBias(bursts, options, round, joint.uncertainty);
-  joint.focal_dispersion = FocalDispersion(bursts, round, joint.dispersion);
-  if (joint.uncertainty.available)
-    ScaleByDispersion(joint.focal_dispersion, joint.dispersion, round.camera, &joint.uncertainty);
-  joint.camera = Debiased(round.camera, joint.bias);
-  joint.readout = round.readout;
+    joint->bursts[round.active[b]].disagreement = solved.disagreements[b] / joint->dispersion;
+  joint->fitted_camera = round.camera;
+  joint->bias = JointBias(bursts, options, round, joint->uncertainty);
+  joint->focal_dispersion = FocalDispersion(bursts, round, joint->dispersion);
+  if (joint->uncertainty.available)
+    ScaleByDispersion(joint->focal_dispersion, joint->dispersion, round.camera,
+                      &joint->uncertainty);
+  joint->camera = Debiased(round.camera, joint->bias);
+  joint->readout = round.readout;
   double sum_sq = 0.0;
   int count = 0;
   for (size_t b = 0; b < round.active.size(); ++b) {
     const JointBurst& burst = bursts[round.active[b]];
-    JointBurstResult& result = joint.bursts[round.active[b]];
+    JointBurstResult& result = joint->bursts[round.active[b]];
     result.poses = round.states[b].poses;
     result.tracks = CountUsed(burst.use);
     result.rms_reprojection_px =
         RmsOverUsed(burst.tracks, burst.use, round.states[b], &sum_sq, &count);
   }
-  joint.rms_reprojection_px = count > 0 ? std::sqrt(sum_sq / count) : 0.0;
-  joint.verdict = JudgeJointly(bursts, options, joint);
+  joint->rms_reprojection_px = count > 0 ? std::sqrt(sum_sq / count) : 0.0;
+  joint->verdict = JudgeJointly(bursts, options, *joint);
+}
+
+}  // namespace
+
+JointCalibration AdjustJointly(const std::vector<JointBurst>& bursts,
+                               const JointAdjustmentOptions& options) {
+  options.Check();
+  for (const JointBurst& burst : bursts)
+    if (burst.state.camera.width != bursts.front().state.camera.width ||
+        burst.state.camera.height != bursts.front().state.camera.height)
+      throw ReconstructionError("joint calibration: bursts of different image sizes (" +
+                                bursts.front().name + " and " + burst.name +
+                                "): one camera's bursts share one size");
+  if (bursts.empty()) throw ReconstructionError("joint calibration: no burst to adjust");
+  JointCalibration joint;
+  joint.bursts.resize(bursts.size());
+  const SolvedRound solved = LeaveOutDisagreeing(bursts, options, &joint);
+  Conclude(bursts, options, solved, &joint);
   return joint;
 }
 

@@ -9,10 +9,11 @@
 //
 // A burst of another camera or zoom does not fit the shared camera. Each
 // joined burst is tested by how far holding its camera at the joint one
-// raises its cost over its own solution (a profile likelihood ratio: the
-// cost is re-minimised over its poses and inverse depths both times); the
-// burst that disagrees most is left out and the rest adjusted again, until
-// all agree. The bursts are never averaged across a disagreement.
+// raises its cost over its own minimum (a profile likelihood ratio: the cost
+// is re-minimised over its poses and inverse depths, and for the minimum over
+// its intrinsics too, from its own camera); the burst that disagrees most is
+// left out and the rest adjusted again, until all agree. The bursts are never
+// averaged across a disagreement.
 #pragma once
 
 #include <nlohmann/json_fwd.hpp>
@@ -94,8 +95,9 @@ const char* JointOutcomeName(JointOutcome outcome);  // "joined" | "disagrees"
 
 struct JointBurstResult {
   JointOutcome outcome = JointOutcome::kJoined;
-  // 2 (C(joint camera) - C(own camera)) / (inflated noise variance), C the
-  // burst's cost re-minimised over its poses and inverse depths, divided by
+  // 2 (C(joint camera) - C(own minimum)) / (inflated noise variance), C the
+  // burst's cost re-minimised over its poses and inverse depths (and its
+  // intrinsics for its own minimum, from its own camera), divided by
   // the round's dispersion (the last test it took: a burst left out is
   // tested against the camera of the round that left it out).
   double disagreement = 0.0;

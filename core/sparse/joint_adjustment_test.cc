@@ -99,6 +99,19 @@ TEST(JointAdjustment, LeavesOutTheBurstsOfAnotherCamera) {
       << joint.verdict.reasons.back();
 }
 
+// A burst's disagreement is the rise of its cost from its own minimum of the
+// joint problem's cost, wherever its own camera was found: one burst's camera
+// moved off that minimum (as a stage that refined it under another row model
+// leaves it) still rises to the joint camera, never falls.
+TEST(JointAdjustment, ADisagreementRisesFromTheBurstsOwnMinimum) {
+  std::vector<JointBurst> bursts = BurstsOfOneCamera(704.0, -0.06, 5, 31, 1.0, 0.05);
+  bursts[2].state.camera.f *= 1.05;
+  const JointCalibration joint = AdjustJointly(bursts, GlobalShutter());
+  for (size_t b = 0; b < bursts.size(); ++b)
+    EXPECT_GE(joint.bursts[b].disagreement, -1e-3) << "burst " << b;
+  EXPECT_EQ(joint.Joined(), 5);
+}
+
 // The shared f's sigma takes how far the bursts' own focal lengths scatter
 // against their own sigma_f, and k1's and k2's do not: the same bursts
 // claiming a tenth of their sigma_f scatter a hundred times more than they
