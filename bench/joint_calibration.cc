@@ -1,8 +1,9 @@
 // One camera's bursts calibrated three ways, side by side: each alone, fused
 // by information weight (core/sparse/calibration_fusion.h, as dfsmd keeps its
 // camera) and adjusted jointly (core/sparse/joint_adjustment.h, dfsm
-// calibrate's default). One JSON line per burst, then one per method, each
-// scored against the true camera.
+// calibrate's default), then the answer dfsm calibrate writes of the two
+// (core/sparse/calibration_choice.h). One JSON line per burst, then one per
+// method, each scored against the true camera.
 //   joint_calibration --dataset DIR [--start K] [--step S] [--frames N]
 //                     [--windows W] [--downscale D] [--calibration FILE]
 //                     [--consistency P]
@@ -34,6 +35,7 @@
 #include "core/io/ground_truth.h"
 #include "core/io/image_sequence.h"
 #include "core/pipeline/pipeline.h"
+#include "core/sparse/calibration_choice.h"
 #include "core/sparse/calibration_fusion.h"
 #include "core/sparse/joint_adjustment.h"
 #include "core/sparse/sparse_reconstruction.h"
@@ -117,11 +119,19 @@ int Run(const std::vector<Input>& inputs, double consistency_probability) {
   std::printf("%s\n", fused.dump().c_str());
   nlohmann::json joint_line = {{"method", "joint"}, {"bursts", inputs.size()}};
   const auto start = std::chrono::steady_clock::now();
+  nlohmann::json answer_line = {{"method", "answer"}};
   try {
     JointAdjustmentOptions joint_options = JointOptionsFor(options.sparse);
     if (consistency_probability > 0.0)
       joint_options.consistency_probability = consistency_probability;
     const JointCalibration joint = AdjustJointly(bursts, joint_options);
+    const nlohmann::json answer = AnswerJson(joint, fusion);
+    const CameraModel answered = CameraModelFromJson(answer.at("camera"));
+    answer_line["answered_by"] = answer.at("method");
+    answer_line["reason"] = answer.at("reason");
+    answer_line["f"] = answered.f;
+    Score(answered, truth, &answer_line);
+    answer_line["sigma_f_percent"] = answer.at("sigma_f_percent");
     joint_line["f"] = joint.camera.f;
     Score(joint.camera, truth, &joint_line);
     joint_line["sigma_f_percent"] =
@@ -141,10 +151,12 @@ int Run(const std::vector<Input>& inputs, double consistency_probability) {
     joint_line["iterations"] = joint.iterations;
   } catch (const std::exception& e) {
     joint_line["failed"] = e.what();
+    answer_line["failed"] = e.what();
   }
   joint_line["joint_ms"] = Milliseconds(start);
   joint_line["alone_ms"] = alone_ms;
   std::printf("%s\n", joint_line.dump().c_str());
+  std::printf("%s\n", answer_line.dump().c_str());
   return 0;
 }
 

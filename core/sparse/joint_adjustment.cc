@@ -616,6 +616,16 @@ nlohmann::json ToJson(const JointCalibration& joint, const std::vector<JointBurs
 
 std::optional<KnownCalibration> JointCalibrationPrior(const nlohmann::json& joint,
                                                       std::string* why) {
+  if (joint.contains("answer") && joint.at("answer").value("method", "") == "fused") {
+    const nlohmann::json& answer = joint.at("answer");
+    KnownCalibration known = FusedCalibrationPrior(
+        CameraModelFromJson(answer.at("camera")), answer.at("sigma_f_percent").get<double>(),
+        answer.at("distortion_sigma_px").get<double>(),
+        "fused (" + std::to_string(answer.at("bursts").get<int>()) +
+            " bursts; the joint calibration's answer: " + answer.value("reason", "") + ")");
+    known.check_fit = true;
+    return known;
+  }
   const nlohmann::json& uncertainty = joint.at("uncertainty");
   const std::string quality = joint.at("verdict").value("quality", "");
   const std::string bursts = std::to_string(joint.at("bursts_joined").get<int>()) + " bursts";

@@ -152,8 +152,10 @@ nlohmann::json ToJson(const JointCalibration& joint, const std::vector<JointBurs
 
 // The prior a joint calibration (as ToJson gives it) is for a later burst of
 // its camera: f and distortion within the joint sigma, checked against the
-// burst's own fit (KnownCalibration::check_fit). nullopt, with why, where it
-// is degenerate or has no uncertainty.
+// burst's own fit (KnownCalibration::check_fit); the fused camera's, with its
+// sigma, where its "answer" (core/sparse/calibration_choice.h) is the
+// fusion's. nullopt, with why, where the joint camera answers and is
+// degenerate or has no uncertainty.
 std::optional<KnownCalibration> JointCalibrationPrior(const nlohmann::json& joint,
                                                       std::string* why);
 

@@ -8,6 +8,7 @@
 
 #include "core/export/calibration_export.h"
 #include "core/io/file_util.h"
+#include "core/sparse/calibration_choice.h"
 #include "core/sparse/calibration_fusion.h"
 #include "core/sparse/joint_adjustment.h"
 
@@ -23,21 +24,25 @@ std::optional<KnownCalibration> PriorOf(const nlohmann::json& joint, std::string
     return std::nullopt;
   }
   known->also_self_calibrate = false;  // no fusion takes the bursts' own estimates
-  char line[200];
+  char line[240];
   std::snprintf(line, sizeof line,
-                "joint calibration of %d bursts: f %.2f px (sigma %.2f %%), %s; a prior of "
-                "every burst, checked against it",
-                joint.at("bursts_joined").get<int>(), known->camera.f, known->f_sigma_percent,
-                joint.at("verdict").value("quality", "").c_str());
+                "joint calibration of %d bursts (%s, answered by the %s camera): f %.2f px "
+                "(sigma %.2f %%); a prior of every burst, checked against it",
+                joint.at("bursts_joined").get<int>(),
+                joint.at("verdict").value("quality", "").c_str(),
+                joint.contains("answer") ? joint.at("answer").value("method", "").c_str() : "joint",
+                known->camera.f, known->f_sigma_percent);
   *said = line;
   return known;
 }
 
-// Each item's sparse stage alone, of the image size most items have.
+// Each item's sparse stage alone, of the image size most items have; the
+// fusion of their own estimates goes to `fusion`.
 std::vector<JointBurst> BurstsToJoin(const std::vector<BatchItem>& items,
                                      const BatchRunOptions& options,
-                                     const PipelineOptions& pipeline) {
+                                     const PipelineOptions& pipeline, CalibrationFusion* fusion) {
   std::vector<JointBurst> bursts;
+  std::vector<std::optional<CalibrationSample>> samples;  // each burst's
   std::map<std::pair<int, int>, int> sizes;
   for (const BatchItem& item : items) {
     // Shards calibrating at once each read into scratch of their own.
@@ -48,6 +53,8 @@ std::vector<JointBurst> BurstsToJoin(const std::vector<BatchItem>& items,
           ReconstructAlone(item, options.process.frames, pipeline, scratch);
       ++sizes[{own.state.camera.width, own.state.camera.height}];
       bursts.push_back(JointBurstOf(item.name, own));
+      std::string not_fused;
+      samples.push_back(FusionSampleOf(own, item.name, &not_fused));
     } catch (const BurstError& e) {
       std::fprintf(stderr, "dfsm batch: %s: not joined: %s\n", item.name.c_str(), e.what());
     } catch (const ReconstructionError& e) {
@@ -58,15 +65,22 @@ std::vector<JointBurst> BurstsToJoin(const std::vector<BatchItem>& items,
     const auto most =
         std::max_element(sizes.begin(), sizes.end(),
                          [](const auto& a, const auto& b) { return a.second < b.second; });
-    bursts.erase(std::remove_if(bursts.begin(), bursts.end(),
-                                [&](const JointBurst& burst) {
-                                  return std::make_pair(burst.state.camera.width,
-                                                        burst.state.camera.height) != most->first;
-                                }),
-                 bursts.end());
+    std::vector<JointBurst> kept;
+    std::vector<std::optional<CalibrationSample>> kept_samples;
+    for (size_t k = 0; k < bursts.size(); ++k) {
+      if (std::make_pair(bursts[k].state.camera.width, bursts[k].state.camera.height) !=
+          most->first)
+        continue;
+      kept.push_back(std::move(bursts[k]));
+      kept_samples.push_back(std::move(samples[k]));
+    }
+    bursts = std::move(kept);
+    samples = std::move(kept_samples);
     std::fprintf(stderr, "dfsm batch: bursts of several image sizes: %dx%d (%d bursts) joined\n",
                  most->first.first, most->first.second, most->second);
   }
+  for (const std::optional<CalibrationSample>& sample : samples)
+    if (sample) fusion->Add(*sample);
   return bursts;
 }
 
@@ -93,7 +107,8 @@ std::optional<KnownCalibration> CalibrateFirst(const std::vector<BatchItem>& ite
   if (fs::is_regular_file(dir / "joint.json", error))
     return PriorOf(nlohmann::json::parse(ReadFileToString(dir / "joint.json")), said);
   const PipelineOptions pipeline = ParsedPipelineOptions(options.process);
-  const std::vector<JointBurst> bursts = BurstsToJoin(items, options, pipeline);
+  CalibrationFusion fusion;
+  const std::vector<JointBurst> bursts = BurstsToJoin(items, options, pipeline, &fusion);
   if (bursts.empty()) {
     *said = "no burst could be calibrated; each burst calibrates itself";
     return std::nullopt;
@@ -105,9 +120,10 @@ std::optional<KnownCalibration> CalibrateFirst(const std::vector<BatchItem>& ite
     *said = std::string("no joint calibration (") + e.what() + "); each burst calibrates itself";
     return std::nullopt;
   }
-  const nlohmann::json json = ToJson(joint, bursts);
+  nlohmann::json json = ToJson(joint, bursts);
+  json["answer"] = AnswerJson(joint, fusion);
   fs::create_directories(dir);
-  WriteCalibrationFiles(dir, joint.camera);
+  WriteCalibrationFiles(dir, AnsweredCamera(json));
   WriteFileAtomically(dir / "joint.json", json.dump(2) + "\n");
   return PriorOf(json, said);
 }

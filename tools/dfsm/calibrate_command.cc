@@ -3,9 +3,10 @@
 // own solution, its own verdict); then either the joint adjustment
 // (core/sparse/joint_adjustment.h, the default: the camera shared by one
 // problem over every burst's tracks, which a burst too weak to calibrate alone
-// still informs) or the fusion dfsmd keeps over days
-// (core/sparse/calibration_fusion.h: each usable burst's estimate weighed by
-// its information).
+// still informs; the camera written is the joint one or the fusion of the
+// same bursts, as core/sparse/calibration_choice.h picks) or the fusion dfsmd
+// keeps over days (core/sparse/calibration_fusion.h: each usable burst's
+// estimate weighed by its information).
 #include <unistd.h>
 
 #include <cstdio>
@@ -14,6 +15,7 @@
 
 #include "core/export/calibration_export.h"
 #include "core/io/file_util.h"
+#include "core/sparse/calibration_choice.h"
 #include "core/sparse/calibration_fusion.h"
 #include "core/sparse/joint_adjustment.h"
 #include "core/sparse/sparse_reconstruction.h"
@@ -129,6 +131,14 @@ void PrintJoint(const JointCalibration& joint, const std::vector<JointBurst>& bu
     std::printf("            %s\n", reason.c_str());
 }
 
+void PrintAnswer(const nlohmann::json& answer) {
+  const CameraModel camera = CameraModelFromJson(answer.at("camera"));
+  std::printf("answer      %s: f %.2f px (sigma %.2f %%), k1 %.5f, k2 %.5f; %s\n",
+              answer.at("method").get<std::string>().c_str(), camera.f,
+              answer.at("sigma_f_percent").get<double>(), camera.k1, camera.k2,
+              answer.at("reason").get<std::string>().c_str());
+}
+
 // joint.json: the joint calibration, each burst's entry with its own
 // calibration beside its part in the joint one.
 nlohmann::json JointJson(const JointCalibration& joint, const std::vector<JointBurst>& bursts,
@@ -141,6 +151,9 @@ nlohmann::json JointJson(const JointCalibration& joint, const std::vector<JointB
 
 int RunJoint(const CalibrateInputs& inputs) {
   std::vector<JointBurst> bursts;
+  // Beside the joint adjustment, the fusion of the bursts' own estimates:
+  // the answer is the one of the two that calibration_choice.h picks.
+  CalibrationFusion fusion;
   std::vector<nlohmann::json> entries;
   std::vector<int> entry_of;  // each joint burst's entry
   for (const BatchItem& item : inputs.bursts) {
@@ -165,6 +178,10 @@ int RunJoint(const CalibrateInputs& inputs) {
     if (!joins) continue;
     entry_of.push_back(static_cast<int>(entries.size()) - 1);
     bursts.push_back(JointBurstOf(burst_dir, *sparse));
+    std::string not_fused;
+    if (const std::optional<CalibrationSample> sample =
+            FusionSampleOf(*sparse, burst_dir, &not_fused))
+      fusion.Add(*sample);
   }
   if (bursts.empty()) {
     std::fprintf(stderr, "dfsm calibrate: no burst could be read and reconstructed\n");
@@ -178,10 +195,12 @@ int RunJoint(const CalibrateInputs& inputs) {
     return 1;
   }
   PrintJoint(joint, bursts);
+  nlohmann::json json = JointJson(joint, bursts, std::move(entries), entry_of);
+  json["answer"] = AnswerJson(joint, fusion);
+  PrintAnswer(json["answer"]);
   std::filesystem::create_directories(inputs.out_dir);
-  WriteCalibrationFiles(inputs.out_dir, joint.camera);
-  WriteFileAtomically(inputs.out_dir / "joint.json",
-                      JointJson(joint, bursts, std::move(entries), entry_of).dump(2) + "\n");
+  WriteCalibrationFiles(inputs.out_dir, AnsweredCamera(json));
+  WriteFileAtomically(inputs.out_dir / "joint.json", json.dump(2) + "\n");
   return 0;
 }
 
@@ -203,9 +222,10 @@ int RunCalibrateCommand(const Args& args) {
       ->required();
   app.add_option("--out", out_dir,
                  "written: calibration.json and calibration.yaml of the camera (as 'dfsm process' "
-                 "writes them) and joint.json (the shared camera with its sigma and verdict, and "
-                 "each burst's own calibration, outcome and poses) or, with --method fusion, "
-                 "fusion.json")
+                 "writes them) and joint.json (the shared camera with its sigma and verdict, "
+                 "each burst's own calibration, outcome and poses, and the answer: the joint "
+                 "camera or the fusion of the same bursts where it agrees and is the more "
+                 "certain) or, with --method fusion, fusion.json")
       ->required();
   app.add_option("--method", method,
                  "joint: one adjustment over every burst's tracks, the camera shared (bursts "

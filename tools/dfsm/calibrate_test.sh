@@ -28,6 +28,12 @@ grep -q "1 of 4 bursts disagree" "$work/log" || fail "the disagreement is not sa
 # The joint focal length within 5 % of the camera's 352 px (1.1 x 320).
 f=$(sed -n 's/^joint *f \([0-9.]*\) px.*/\1/p' "$work/log")
 awk -v f="$f" 'BEGIN { exit !(f > 334.4 && f < 369.6) }' || fail "joint f $f px, not within 5 % of 352"
+# The answer: the joint camera or the fusion of the same bursts, said, and
+# the camera calibration.json holds.
+grep -Eq '^answer +(joint|fused): f [0-9.]+ px' "$work/log" || fail "no answer said"
+answer=$(python3 -c 'import json,sys; print("%.6f" % json.load(open(sys.argv[1]))["answer"]["camera"]["fx"])' "$joint")
+written=$(python3 -c 'import json,sys; print("%.6f" % json.load(open(sys.argv[1]))["camera_matrix"]["data"][0])' "$work/joint/calibration.json")
+[ "$answer" = "$written" ] || fail "calibration.json's f $written px is not the answer's $answer px"
 # One burst as dfsmd serves it (a tar of its directory) reads as the directory.
 tar -C "$work" -cf "$work/camera-3.tar" camera-3
 "$dfsm" calibrate "$work/camera-1" "$work/camera-2" "$work/camera-3.tar" --method fusion \
