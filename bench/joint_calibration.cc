@@ -125,13 +125,6 @@ int Run(const std::vector<Input>& inputs, double consistency_probability) {
     if (consistency_probability > 0.0)
       joint_options.consistency_probability = consistency_probability;
     const JointCalibration joint = AdjustJointly(bursts, joint_options);
-    const nlohmann::json answer = AnswerJson(joint, fusion);
-    const CameraModel answered = CameraModelFromJson(answer.at("camera"));
-    answer_line["answered_by"] = answer.at("method");
-    answer_line["reason"] = answer.at("reason");
-    answer_line["f"] = answered.f;
-    Score(answered, truth, &answer_line);
-    answer_line["sigma_f_percent"] = answer.at("sigma_f_percent");
     joint_line["f"] = joint.camera.f;
     Score(joint.camera, truth, &joint_line);
     joint_line["sigma_f_percent"] =
@@ -149,6 +142,12 @@ int Run(const std::vector<Input>& inputs, double consistency_probability) {
     joint_line["fitted_f"] = joint.fitted_camera.f;
     joint_line["bias_f"] = joint.bias ? joint.bias->f : 0.0;
     joint_line["iterations"] = joint.iterations;
+    const Answer answer = ChooseAnswer(joint, fusion);
+    answer_line["answered_by"] = CalibrationAnswerName(answer.choice.answer);
+    answer_line["reason"] = answer.choice.reason;
+    answer_line["f"] = answer.camera.f;
+    Score(answer.camera, truth, &answer_line);
+    answer_line["sigma_f_percent"] = answer.sigma_f_percent;
   } catch (const std::exception& e) {
     joint_line["failed"] = e.what();
     answer_line["failed"] = e.what();

@@ -16,18 +16,25 @@ const char* CalibrationAnswerName(CalibrationAnswer answer) {
 
 void CalibrationChoiceOptions::Check() const {
   if (!(max_disagreement_sigma > 0.0))
-    throw std::invalid_argument("max_disagreement_sigma must be > 0");
-  if (min_fused_bursts < 1) throw std::invalid_argument("min_fused_bursts must be >= 1");
+    throw std::invalid_argument("max_disagreement_sigma must be > 0, got " +
+                                FixedText(max_disagreement_sigma));
+  if (min_fused_bursts < 1)
+    throw std::invalid_argument("min_fused_bursts must be >= 1, got " +
+                                std::to_string(min_fused_bursts));
 }
 
 CalibrationChoice ChooseCalibration(const FocalAnswer& joint,
                                     const std::optional<FocalAnswer>& fused,
                                     const CalibrationChoiceOptions& options) {
   options.Check();
-  if (!fused || fused->bursts < options.min_fused_bursts || !(fused->sigma_f_percent > 0.0))
+  if (!fused || fused->bursts < options.min_fused_bursts)
     return {CalibrationAnswer::kJoint, "no fusion of " + std::to_string(options.min_fused_bursts) +
                                            " or more bursts to compare"};
-  const double sigma_px = std::hypot(joint.sigma_f_percent / 100.0 * joint.f,
+  if (!(fused->sigma_f_percent > 0.0))
+    return {CalibrationAnswer::kJoint, "the fusion has no sigma to compare"};
+  // A joint camera without a sigma is compared by the fusion's alone.
+  const bool joint_sigma = joint.sigma_f_percent > 0.0;
+  const double sigma_px = std::hypot(joint_sigma ? joint.sigma_f_percent / 100.0 * joint.f : 0.0,
                                      fused->sigma_f_percent / 100.0 * fused->f);
   const double apart = std::abs(joint.f - fused->f) / sigma_px;
   const std::string fusion = "the fusion of " + std::to_string(fused->bursts) + " bursts (f " +
@@ -37,46 +44,47 @@ CalibrationChoice ChooseCalibration(const FocalAnswer& joint,
     return {CalibrationAnswer::kJoint,
             fusion + " is " + FixedText(apart) +
                 " sigma from the joint camera: another camera among the bursts?"};
-  if (joint.degenerate)
-    return {CalibrationAnswer::kFused,
-            "the joint camera is degenerate, and " + fusion + " agrees with it"};
+  if (joint.degenerate || !joint_sigma)
+    return {CalibrationAnswer::kFused, std::string("the joint camera is ") +
+                                           (joint.degenerate ? "degenerate" : "without a sigma") +
+                                           ", and " + fusion + " agrees with it"};
   if (fused->sigma_f_percent < joint.sigma_f_percent)
     return {CalibrationAnswer::kFused,
             fusion + " agrees with the joint camera and is the more certain"};
   return {CalibrationAnswer::kJoint, "the joint camera is the more certain; " + fusion + " agrees"};
 }
 
-nlohmann::json AnswerJson(const JointCalibration& joint, const CalibrationFusion& fusion,
-                          const CalibrationChoiceOptions& options) {
-  FocalAnswer joint_answer;
-  joint_answer.f = joint.camera.f;
-  joint_answer.sigma_f_percent =
+Answer ChooseAnswer(const JointCalibration& joint, const CalibrationFusion& fusion,
+                    const CalibrationChoiceOptions& options) {
+  Answer answer;
+  answer.camera = joint.camera;
+  answer.sigma_f_percent =
       joint.uncertainty.available ? joint.uncertainty.sigma_f_percent(joint.camera.f) : 0.0;
-  joint_answer.degenerate = joint.verdict.quality == CalibrationQuality::kDegenerate;
-  joint_answer.bursts = joint.Joined();
+  answer.distortion_sigma_px = joint.uncertainty.distortion_sigma_px;
+  answer.bursts = joint.Joined();
+  const FocalAnswer joint_answer{answer.camera.f, answer.sigma_f_percent,
+                                 joint.verdict.quality == CalibrationQuality::kDegenerate,
+                                 answer.bursts};
   std::optional<FocalAnswer> fused;
   if (!fusion.empty())
     fused = FocalAnswer{fusion.camera().f, fusion.sigma_f_percent(), false, fusion.bursts()};
-  const CalibrationChoice choice = ChooseCalibration(joint_answer, fused, options);
-  nlohmann::json answer = {{"method", CalibrationAnswerName(choice.answer)},
-                           {"reason", choice.reason}};
-  if (choice.answer == CalibrationAnswer::kFused) {
-    answer["camera"] = ToJson(fusion.camera());
-    answer["sigma_f_percent"] = fusion.sigma_f_percent();
-    answer["distortion_sigma_px"] = fusion.distortion_sigma_px();
-    answer["bursts"] = fusion.bursts();
-  } else {
-    answer["camera"] = ToJson(joint.camera);
-    answer["sigma_f_percent"] = joint_answer.sigma_f_percent;
-    answer["distortion_sigma_px"] = joint.uncertainty.distortion_sigma_px;
-    answer["bursts"] = joint_answer.bursts;
+  answer.choice = ChooseCalibration(joint_answer, fused, options);
+  if (answer.choice.answer == CalibrationAnswer::kFused) {
+    answer.camera = fusion.camera();
+    answer.sigma_f_percent = fusion.sigma_f_percent();
+    answer.distortion_sigma_px = fusion.distortion_sigma_px();
+    answer.bursts = fusion.bursts();
   }
   return answer;
 }
 
-CameraModel AnsweredCamera(const nlohmann::json& joint) {
-  if (joint.contains("answer")) return CameraModelFromJson(joint.at("answer").at("camera"));
-  return CameraModelFromJson(joint.at("camera"));
+nlohmann::json ToJson(const Answer& answer) {
+  return {{"method", CalibrationAnswerName(answer.choice.answer)},
+          {"reason", answer.choice.reason},
+          {"camera", ToJson(answer.camera)},
+          {"sigma_f_percent", answer.sigma_f_percent},
+          {"distortion_sigma_px", answer.distortion_sigma_px},
+          {"bursts", answer.bursts}};
 }
 
 }  // namespace dfsm

@@ -28,7 +28,7 @@ struct FocalAnswer {
   double f = 0.0;
   double sigma_f_percent = 0.0;  // 0: no uncertainty
   bool degenerate = false;       // its verdict
-  int bursts = 0;                // it is made of
+  int bursts = 0;                // the bursts it is made of
 };
 
 struct CalibrationChoiceOptions {
@@ -48,19 +48,28 @@ struct CalibrationChoice {
 };
 
 // The joint answer, unless the fusion agrees with it and either is the more
-// certain or the joint one is degenerate.
+// certain or the joint one is degenerate or has no sigma.
 CalibrationChoice ChooseCalibration(const FocalAnswer& joint,
                                     const std::optional<FocalAnswer>& fused,
                                     const CalibrationChoiceOptions& options = {});
 
-// The choice between `joint` and `fusion` (empty: none) as joint.json's
-// "answer": the method, why, and the chosen camera with its f and distortion
-// sigma and the bursts it is made of.
-nlohmann::json AnswerJson(const JointCalibration& joint, const CalibrationFusion& fusion,
-                          const CalibrationChoiceOptions& options = {});
+// The answer chosen between a joint calibration and the fusion of the same
+// bursts: the camera to write and to give as a prior, with its sigmas.
+struct Answer {
+  CalibrationChoice choice;
+  CameraModel camera;
+  double sigma_f_percent = 0.0;  // 0: none
+  double distortion_sigma_px = 0.0;
+  int bursts = 0;
+};
 
-// The camera a joint.json gives: its "answer"'s where it has one, the joint
-// camera's otherwise.
-CameraModel AnsweredCamera(const nlohmann::json& joint);
+// `joint` or `fusion` (empty: none), as ChooseCalibration picks.
+Answer ChooseAnswer(const JointCalibration& joint, const CalibrationFusion& fusion,
+                    const CalibrationChoiceOptions& options = {});
+
+// joint.json's "answer": method ("joint" | "fused"), reason, camera,
+// sigma_f_percent, distortion_sigma_px, bursts (JointCalibrationPrior reads
+// it).
+nlohmann::json ToJson(const Answer& answer);
 
 }  // namespace dfsm

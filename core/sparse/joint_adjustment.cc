@@ -358,7 +358,9 @@ std::optional<IntrinsicsBias> JointBias(const std::vector<JointBurst>& bursts,
 // its own solution, without priors. Where its stage refined its camera with
 // each frame's angular velocity, that camera is not the minimum on the line
 // between frame poses, which the joint problem and the profiles follow:
-// measured from it, a rise can be negative.
+// measured from it, a rise can be negative. It runs to one adjustment's
+// iteration budget, not profile_iterations: with its intrinsics free it has
+// further to go than a profile.
 double OwnMinimumCost(const JointBurst& burst, const JointAdjustmentOptions& options) {
   BundleAdjustmentOptions own = ProfileOptions(options);
   own.fix_intrinsics = false;

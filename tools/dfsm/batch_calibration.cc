@@ -36,13 +36,19 @@ std::optional<KnownCalibration> PriorOf(const nlohmann::json& joint, std::string
   return known;
 }
 
+// One item's part in the joint calibration: its tracks and, where it
+// calibrated itself, its sample for the fusion beside it.
+struct BurstToJoin {
+  JointBurst burst;
+  std::optional<CalibrationSample> sample;
+};
+
 // Each item's sparse stage alone, of the image size most items have; the
 // fusion of their own estimates goes to `fusion`.
 std::vector<JointBurst> BurstsToJoin(const std::vector<BatchItem>& items,
                                      const BatchRunOptions& options,
                                      const PipelineOptions& pipeline, CalibrationFusion* fusion) {
-  std::vector<JointBurst> bursts;
-  std::vector<std::optional<CalibrationSample>> samples;  // each burst's
+  std::vector<BurstToJoin> joining;
   std::map<std::pair<int, int>, int> sizes;
   for (const BatchItem& item : items) {
     // Shards calibrating at once each read into scratch of their own.
@@ -52,9 +58,8 @@ std::vector<JointBurst> BurstsToJoin(const std::vector<BatchItem>& items,
       const SparseReconstruction own =
           ReconstructAlone(item, options.process.frames, pipeline, scratch);
       ++sizes[{own.state.camera.width, own.state.camera.height}];
-      bursts.push_back(JointBurstOf(item.name, own));
       std::string not_fused;
-      samples.push_back(FusionSampleOf(own, item.name, &not_fused));
+      joining.push_back({JointBurstOf(item.name, own), FusionSampleOf(own, item.name, &not_fused)});
     } catch (const BurstError& e) {
       std::fprintf(stderr, "dfsm batch: %s: not joined: %s\n", item.name.c_str(), e.what());
     } catch (const ReconstructionError& e) {
@@ -65,22 +70,21 @@ std::vector<JointBurst> BurstsToJoin(const std::vector<BatchItem>& items,
     const auto most =
         std::max_element(sizes.begin(), sizes.end(),
                          [](const auto& a, const auto& b) { return a.second < b.second; });
-    std::vector<JointBurst> kept;
-    std::vector<std::optional<CalibrationSample>> kept_samples;
-    for (size_t k = 0; k < bursts.size(); ++k) {
-      if (std::make_pair(bursts[k].state.camera.width, bursts[k].state.camera.height) !=
-          most->first)
-        continue;
-      kept.push_back(std::move(bursts[k]));
-      kept_samples.push_back(std::move(samples[k]));
-    }
-    bursts = std::move(kept);
-    samples = std::move(kept_samples);
+    joining.erase(std::remove_if(joining.begin(), joining.end(),
+                                 [&](const BurstToJoin& item) {
+                                   const CameraModel& camera = item.burst.state.camera;
+                                   return std::make_pair(camera.width, camera.height) !=
+                                          most->first;
+                                 }),
+                  joining.end());
     std::fprintf(stderr, "dfsm batch: bursts of several image sizes: %dx%d (%d bursts) joined\n",
                  most->first.first, most->first.second, most->second);
   }
-  for (const std::optional<CalibrationSample>& sample : samples)
-    if (sample) fusion->Add(*sample);
+  std::vector<JointBurst> bursts;
+  for (BurstToJoin& item : joining) {
+    if (item.sample) fusion->Add(*item.sample);
+    bursts.push_back(std::move(item.burst));
+  }
   return bursts;
 }
 
@@ -120,10 +124,11 @@ std::optional<KnownCalibration> CalibrateFirst(const std::vector<BatchItem>& ite
     *said = std::string("no joint calibration (") + e.what() + "); each burst calibrates itself";
     return std::nullopt;
   }
+  const Answer answer = ChooseAnswer(joint, fusion);
   nlohmann::json json = ToJson(joint, bursts);
-  json["answer"] = AnswerJson(joint, fusion);
+  json["answer"] = ToJson(answer);
   fs::create_directories(dir);
-  WriteCalibrationFiles(dir, AnsweredCamera(json));
+  WriteCalibrationFiles(dir, answer.camera);
   WriteFileAtomically(dir / "joint.json", json.dump(2) + "\n");
   return PriorOf(json, said);
 }

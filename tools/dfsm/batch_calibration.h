@@ -28,9 +28,11 @@ SparseReconstruction ReconstructAlone(const BatchItem& item, int max_frames,
                                       const std::filesystem::path& scratch);
 
 // The prior of the joint calibration of `items` (all of the batch's, every
-// shard alike) of the image size most of them have; nullopt where none could
-// be made, it has no uncertainty or it is degenerate (an uncertain one is a
-// prior as wide as its sigma). `said` gets one line for the user either way.
+// shard alike) of the image size most of them have: its answer's camera
+// (core/sparse/calibration_choice.h: the joint one, or the fusion of the same
+// bursts), as wide as its sigma; nullopt where none could be made, or the
+// joint camera answers and has no uncertainty or is degenerate. `said` gets
+// one line for the user either way.
 std::optional<KnownCalibration> CalibrateFirst(const std::vector<BatchItem>& items,
                                                const BatchRunOptions& options, std::string* said);
 

@@ -88,7 +88,8 @@ int RunBatchCommand(const Args& args) {
   CLI::Option* calibrate_first = app.add_flag(
       "--calibrate-first", calibrate_first_flag,
       "adjust every burst's tracks jointly first (one camera: 'dfsm calibrate'), into "
-      "DIR/calibration/, and give each burst that camera as a prior checked against it");
+      "DIR/calibration/, and give each burst its answer (the joint camera, or the fusion of "
+      "the same bursts) as a prior checked against it");
   app.add_option("--merge", merge,
                  "join the summaries of these batch directories (of shards) into --out instead "
                  "of processing")

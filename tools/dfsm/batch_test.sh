@@ -98,8 +98,14 @@ EOF
 grep -q "joint calibration of 5 bursts" "$work/log" || fail "no joint calibration of the 5 bursts"
 [ -s "$work/joint/calibration/joint.json" ] && [ -s "$work/joint/calibration/calibration.json" ] ||
   fail "DIR/calibration/ does not hold the joint calibration"
-grep -Eq '"known": "(joint \(5 bursts|fused \([0-9]+ bursts; the joint calibration)' \
+grep -Eq '"known": "(joint \(5 bursts|fused \([2-5] bursts; the joint calibration)' \
   "$work/joint/burst-2/result.json" || fail "burst-2 did not use the joint calibration's answer"
+python3 - "$work/joint/calibration" <<'EOF' || fail "calibration.json does not hold the answer's f"
+import json, sys
+answer = json.load(open(sys.argv[1] + "/joint.json"))["answer"]
+written = json.load(open(sys.argv[1] + "/calibration.json"))["camera_matrix"]["data"][0]
+assert abs(answer["camera"]["fx"] - written) < 1e-9, (answer["camera"]["fx"], written)
+EOF
 "$dfsm" batch "$work/in" --out "$work/joint" --calibrate-first --resume >"$work/log" 2>&1 || true
 grep -q "joint calibration of 5 bursts" "$work/log" || fail "the resumed run lost the joint calibration"
 

@@ -131,12 +131,10 @@ void PrintJoint(const JointCalibration& joint, const std::vector<JointBurst>& bu
     std::printf("            %s\n", reason.c_str());
 }
 
-void PrintAnswer(const nlohmann::json& answer) {
-  const CameraModel camera = CameraModelFromJson(answer.at("camera"));
+void PrintAnswer(const Answer& answer) {
   std::printf("answer      %s: f %.2f px (sigma %.2f %%), k1 %.5f, k2 %.5f; %s\n",
-              answer.at("method").get<std::string>().c_str(), camera.f,
-              answer.at("sigma_f_percent").get<double>(), camera.k1, camera.k2,
-              answer.at("reason").get<std::string>().c_str());
+              CalibrationAnswerName(answer.choice.answer), answer.camera.f, answer.sigma_f_percent,
+              answer.camera.k1, answer.camera.k2, answer.choice.reason.c_str());
 }
 
 // joint.json: the joint calibration, each burst's entry with its own
@@ -195,11 +193,12 @@ int RunJoint(const CalibrateInputs& inputs) {
     return 1;
   }
   PrintJoint(joint, bursts);
+  const Answer answer = ChooseAnswer(joint, fusion);
+  PrintAnswer(answer);
   nlohmann::json json = JointJson(joint, bursts, std::move(entries), entry_of);
-  json["answer"] = AnswerJson(joint, fusion);
-  PrintAnswer(json["answer"]);
+  json["answer"] = ToJson(answer);
   std::filesystem::create_directories(inputs.out_dir);
-  WriteCalibrationFiles(inputs.out_dir, AnsweredCamera(json));
+  WriteCalibrationFiles(inputs.out_dir, answer.camera);
   WriteFileAtomically(inputs.out_dir / "joint.json", json.dump(2) + "\n");
   return 0;
 }
@@ -224,8 +223,9 @@ int RunCalibrateCommand(const Args& args) {
                  "written: calibration.json and calibration.yaml of the camera (as 'dfsm process' "
                  "writes them) and joint.json (the shared camera with its sigma and verdict, "
                  "each burst's own calibration, outcome and poses, and the answer: the joint "
-                 "camera or the fusion of the same bursts where it agrees and is the more "
-                 "certain) or, with --method fusion, fusion.json")
+                 "camera, or the fusion of the same bursts where it agrees and is the more "
+                 "certain or the joint camera is degenerate) or, with --method fusion, "
+                 "fusion.json")
       ->required();
   app.add_option("--method", method,
                  "joint: one adjustment over every burst's tracks, the camera shared (bursts "
