@@ -17,6 +17,13 @@
 
 namespace dfsm {
 
+// The parallax (median, pixels) below which a burst is too still for depth:
+// dfsmd's "frames": "auto" fails a capture that stays below it, and a map
+// made from less is unreliable (DepthCheckOptions::min_parallax_px). Every
+// generated map below it was 17-145 % off, and half of those between it and
+// 1 px (docs/experiments/036-too-still-for-depth.md).
+inline constexpr double kTooStillParallaxPx = 0.5;
+
 // Declared only: dfsmd's job processor holds the options without the
 // pipeline's headers (Eigen's parameter names clash with <resolv.h>'s
 // macros, which the HTTP server brings in first).
@@ -32,7 +39,7 @@ struct BurstLengthOptions {
   double target_parallax_px = 2.0;
   // ... and the burst too still for depth where even all its frames stay
   // below this.
-  double min_parallax_px = 0.5;
+  double min_parallax_px = kTooStillParallaxPx;
 
   // Throws std::invalid_argument naming the option out of range.
   void Check() const;

@@ -7,6 +7,7 @@
 
 #include "core/dense/inverse_depth_lattice.h"
 #include "core/sparse/fixed_text.h"
+#include "core/sparse/parallax.h"
 
 namespace dfsm {
 namespace {
@@ -40,6 +41,12 @@ void SharesAtRangeEnds(const DenseDepth& dense, double* nearest, double* farthes
 // The verdict on the map as a whole (DepthCheckOptions::unreliable_relief).
 void JudgeAsAWhole(const DepthCheckOptions& options, DepthCheck* check) {
   std::vector<std::string>& reasons = check->unreliable_reasons;
+  // First: too little motion is the cause the user can act on, and the
+  // other measures follow from it.
+  if (check->parallax_px < options.min_parallax_px)
+    reasons.push_back("the tracks moved " + FixedText(check->parallax_px) +
+                      " px beyond the camera's rotation, less than the " +
+                      FixedText(options.min_parallax_px) + " px depth needs");
   if (check->relief_sigma >= options.unreliable_relief)
     reasons.push_back("the camera's uncertainty leaves the relief uncertain by " +
                       Percent(check->relief_sigma));
@@ -67,6 +74,15 @@ DepthCheck CheckDepthAgainstTracks(const SparseReconstruction& sparse, const Den
   options.Check();
   DepthCheck check;
   const FeatureTracks& tracks = sparse.tracks;
+  check.parallax_px = MeasureParallax(tracks, sparse.inliers, sparse.state,
+                                      sparse.bundle_adjustment.rms_reprojection_px)
+                          .median_px;
+  if (check.parallax_px < options.min_parallax_px)
+    check.warnings.push_back(
+        "move the camera a little: the tracks moved " + FixedText(check.parallax_px) +
+        " px beyond the camera's rotation (median), and depth needs " +
+        FixedText(options.min_parallax_px) +
+        " px; hold it by hand, not on a table, and let it drift a few millimetres");
   std::vector<double> disagreement;
   for (int j = 0; j < tracks.num_tracks(); ++j) {
     if (!sparse.inliers[j]) continue;
@@ -159,6 +175,9 @@ const char* DepthQualityName(DepthQuality quality) {
 }
 
 void DepthCheckOptions::Check() const {
+  if (!(min_parallax_px >= 0.0))
+    throw std::invalid_argument("min_parallax_px must be >= 0, got " +
+                                std::to_string(min_parallax_px));
   if (!(max_camera_relief_disagreement > 0.0))
     throw std::invalid_argument("max_camera_relief_disagreement must be > 0, got " +
                                 std::to_string(max_camera_relief_disagreement));

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "core/dense/dense_depth.h"
+#include "core/pipeline/burst_length.h"
 #include "core/sparse/sparse_reconstruction.h"
 
 namespace dfsm {
@@ -64,13 +65,18 @@ struct DepthCheckOptions {
   // range toward the camera once (DenseOptions::range_extension_share); this
   // warns of what is left at either end after it.
   double max_range_end_fraction = 0.03;
+  // The inlier tracks' parallax (Parallax::median_px: their motion with the
+  // frames' rotation taken out) below which the burst moved too little to
+  // separate depths: the map is unreliable, and the warning says to move the
+  // camera a little.
+  double min_parallax_px = kTooStillParallaxPx;
 
   // The map is likely wrong as a whole (DepthQuality::kUnreliable) where the
   // relief's sigma, its shift with the lens model, its disagreement with the
   // burst's own camera or the map's median disagreement with the tracks
   // reaches unreliable_relief, where
   // unreliable_range_end_fraction of its pixels sit at one end of the swept
-  // range, and wherever a known calibration does not fit the burst.
+  // range, and where the parallax is below min_parallax_px.
   // docs/experiments/142-depth-verdict.md: on TUM fr1/rpy every window worse
   // than a constant depth but one (20.0 against 19.0 %) reaches one of these;
   // on the generator's phone depth sweep the two maps off by more than 15 %
@@ -101,6 +107,8 @@ struct DepthCheck {
   double lens_relief_shift = -1.0;   // SparseReconstruction::lens_relief_shift
   // SparseReconstruction::camera_relief_disagreement
   double camera_relief_disagreement = -1.0;
+  // Parallax::median_px of the inlier tracks (result.json's parallax).
+  double parallax_px = 0.0;
   // Shares of the measured pixels within one plane of the swept range's
   // nearest and farthest ends.
   double at_nearest_plane = 0.0, at_farthest_plane = 0.0;

@@ -8,17 +8,22 @@ namespace dfsm {
 namespace {
 
 // Four inlier tracks on a dense map that agrees with them everywhere: only
-// what the test changes can warn.
+// what the test changes can warn. The second frame did not turn, and every
+// track moved `parallax_px` in it.
 struct AgreeingBurst {
   SparseReconstruction sparse;
   DenseDepth dense;
 
-  AgreeingBurst() {
+  explicit AgreeingBurst(double parallax_px = 1.0) {
     sparse.tracks.reference = 0;
     Eigen::Matrix2Xd pixels(2, 4);
     pixels << 2, 10, 17, 5, 3, 12, 8, 16;
-    sparse.tracks.pixels = {pixels, pixels};
+    Eigen::Matrix2Xd moved = pixels;
+    moved.row(0).array() += parallax_px;
+    sparse.tracks.pixels = {pixels, moved};
     sparse.inliers = {true, true, true, true};
+    sparse.state.camera = CameraModel::Initial(20, 20);
+    sparse.state.poses = {Pose{}, Pose{}};
     sparse.state.inverse_depths = {0.5, 0.5, 0.5, 0.5};
     dense.depth = cv::Mat(20, 20, CV_32FC1, cv::Scalar(2.0f));
     dense.valid_fraction = 1.0;
@@ -243,6 +248,34 @@ TEST(DepthCheck, AMapLikelyWrongAsAWholeIsUnreliableWithItsReasons) {
   DepthCheckOptions bad;
   bad.unreliable_range_end_fraction = 0.0;
   EXPECT_THROW(CheckDepthAgainstTracks(burst.sparse, burst.dense, bad), std::invalid_argument);
+}
+
+// A burst that barely moved beyond its rotation cannot separate depths,
+// however well its map agrees with its tracks: the map is unreliable and the
+// warning says what to do. From the bound up nothing is said.
+TEST(DepthCheck, ABurstTooStillForDepthIsUnreliableAndSaysToMoveTheCamera) {
+  DepthCheckOptions options;
+  ASSERT_DOUBLE_EQ(options.min_parallax_px, kTooStillParallaxPx);
+  DepthCheck check = CheckDepthAgainstTracks(AgreeingBurst(0.3).sparse, AgreeingBurst().dense);
+  EXPECT_NEAR(check.parallax_px, 0.3, 1e-9);
+  EXPECT_EQ(check.quality, DepthQuality::kUnreliable);
+  ASSERT_EQ(check.unreliable_reasons.size(), 1u);
+  EXPECT_NE(check.unreliable_reasons[0].find("moved 0.30 px beyond the camera's rotation"),
+            std::string::npos)
+      << check.unreliable_reasons[0];
+  ASSERT_EQ(check.warnings.size(), 1u);
+  EXPECT_EQ(check.warnings[0].rfind("move the camera a little", 0), 0u) << check.warnings[0];
+  EXPECT_NE(check.warnings[0].find("depth needs 0.50 px"), std::string::npos) << check.warnings[0];
+
+  check = CheckDepthAgainstTracks(AgreeingBurst(0.5).sparse, AgreeingBurst().dense);
+  EXPECT_EQ(check.quality, DepthQuality::kConfirmed);
+  EXPECT_TRUE(check.warnings.empty()) << check.warnings.front();
+
+  options.min_parallax_px = 0.2;  // dfsmd's pipeline.still_parallax_px
+  check = CheckDepthAgainstTracks(AgreeingBurst(0.3).sparse, AgreeingBurst().dense, options);
+  EXPECT_EQ(check.quality, DepthQuality::kConfirmed);
+  options.min_parallax_px = -1.0;
+  EXPECT_THROW(options.Check(), std::invalid_argument);
 }
 
 }  // namespace

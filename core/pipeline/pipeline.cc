@@ -367,8 +367,9 @@ void RecordSparseDetail(const Burst& burst, const SparseReconstruction& sparse,
 // depth, its timings (the frames made beside the sparse stage apart) and
 // its check against the tracks.
 void RunDenseStage(const Burst& compensated, const SparseReconstruction& sparse,
-                   const DenseOptions& dense, DenseFramesMaker* frames_maker,
-                   SharedWork* frames_work, PipelineOutput* output) {
+                   const DenseOptions& dense, const DepthCheckOptions& depth_check,
+                   DenseFramesMaker* frames_maker, SharedWork* frames_work,
+                   PipelineOutput* output) {
   Result& result = output->result;
   const auto dense_start = std::chrono::steady_clock::now();
   // The frames made beside the sparse stage were made in the order of
@@ -406,7 +407,7 @@ void RunDenseStage(const Burst& compensated, const SparseReconstruction& sparse,
   dense_timings["frames"] = frames_ms;
   for (const auto& [stage, ms] : output->dense->timings_ms) dense_timings[stage] = ms;
   result.extra["dense_timings_ms"] = dense_timings;
-  const DepthCheck check = CheckDepthAgainstTracks(sparse, *output->dense);
+  const DepthCheck check = CheckDepthAgainstTracks(sparse, *output->dense, depth_check);
   result.extra["depth_check"] = ToJson(check);
   result.extra["depth_verdict"] = DepthVerdictJson(check);
   // First of the depth's warnings: the one a client acts on.
@@ -438,7 +439,10 @@ SparseReconstruction ReconstructSparseStage(const Burst& burst, PipelineOptions 
 
 void PipelineOptions::Check() const {
   sparse.Check();
-  if (run_dense) dense.Check();
+  if (run_dense) {
+    dense.Check();
+    depth_check.Check();
+  }
   if (!(exif_focal_sigma_percent >= 0.0))
     throw std::invalid_argument("exif_focal_sigma_percent must be >= 0 (0: EXIF ignored)");
   photometric.Check();
@@ -486,7 +490,8 @@ PipelineOutput RunPipeline(const Burst& burst, const PipelineOptions& given,
     RecordSparseWarnings(burst, sparse, sparse_options, &result);
     RecordSparseDetail(burst, sparse, distinct, &result);
     if (options.run_dense) {
-      RunDenseStage(compensated, sparse, options.dense, &*frames_maker, &*frames_work, &output);
+      RunDenseStage(compensated, sparse, options.dense, options.depth_check, &*frames_maker,
+                    &*frames_work, &output);
     }
     result.ok = true;
   } catch (const ReconstructionError& e) {

@@ -11,6 +11,7 @@
 #include "core/io/burst.h"
 #include "core/io/progress.h"
 #include "core/io/result.h"
+#include "core/pipeline/depth_check.h"
 #include "core/pipeline/photometric_compensation.h"
 #include "core/pipeline/repeated_frames.h"
 #include "core/sparse/sparse_reconstruction.h"
@@ -21,6 +22,7 @@ struct PipelineOptions {
   SparseOptions sparse;
   DenseOptions dense;
   bool run_dense = true;
+  DepthCheckOptions depth_check;  // the dense map's check and verdict
   // Without a known calibration, a JPEG burst's EXIF 35 mm equivalent focal
   // length is a prior on f of this width (0: ignored). Nominal focal lengths,
   // digital crops and video modes make it approximate, hence wide.

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "core/camera/rolling_shutter_options.h"
+#include "core/pipeline/burst_length.h"
 #include "core/sparse/init_mode.h"
 #include "daemon/service/burst_when.h"
 
@@ -89,10 +90,11 @@ struct PipelineSection {
   int burst_timeout_ms = 5000;  // "next" bursts wait at most this long
   // A capture of "frames": "auto" (core/pipeline/burst_length.h) takes
   // max_frames; its job keeps as few as reach auto_parallax_px of parallax,
-  // and fails as too still where all stay below still_parallax_px.
+  // and fails as too still where all stay below still_parallax_px. Any job's
+  // depth map made from less parallax than that is unreliable.
   int max_frames = 30;
   double auto_parallax_px = 2.0;
-  double still_parallax_px = 0.5;
+  double still_parallax_px = kTooStillParallaxPx;
 };
 
 // Known and fused calibration (daemon/service/calibration_keeper.h).

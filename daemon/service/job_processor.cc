@@ -99,6 +99,9 @@ void JobProcessor::Process(const std::string& id, std::shared_ptr<const Burst> p
     const double loading_ms = MillisecondsBetween(loading_start);
     report("loading", 1.0);
     PipelineOptions pipeline = ToPipelineOptions(job.options);
+    // One bound for too still: a capture of "frames": "auto" fails below it,
+    // a map made from less parallax is unreliable.
+    pipeline.depth_check.min_parallax_px = burst_length_.min_parallax_px;
     KnownCalibration known;
     if (calibration_ && calibration_->ForJob(job.options, burst->width(), burst->height(), &known))
       pipeline.sparse.known = known;
