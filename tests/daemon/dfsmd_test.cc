@@ -4,6 +4,7 @@
 #include <sys/socket.h>
 #include <sys/un.h>
 
+#include <algorithm>
 #include <iostream>
 #include <opencv2/imgcodecs.hpp>
 
@@ -233,39 +234,41 @@ TEST_F(DfsmdTest, CaptureThenFetchEveryOutput) {
 
 // "frames": "auto": the job keeps the frames nearest the trigger that its
 // parallax needs and says what it took and why; a camera that only turns
-// gets "move the camera a little" instead of a depth map.
+// gets "move the camera a little" instead of a depth map. A capture of a
+// fixed length that turned without moving keeps its result, and its depth
+// map is unreliable with the same advice, at the same configured bound.
 TEST_F(DfsmdTest, AutoFramesTakeWhatTheParallaxNeedsOrAskForMotion) {
-  // One "auto" capture of 12 frames from a dfsmd replaying a burst that
-  // moved `baseline` metres while it turned 1 deg: the finished job, and its
-  // result.json where it succeeded. Each length tried is one sparse stage
-  // more than a fixed capture's job, so the wait is longer (the thread
-  // sanitizer's build runs this test too).
-  const auto capture = [&](const std::string& name, double baseline,
-                           const std::vector<std::string>& extra) {
-    SynthOptions options;
-    options.width = 320;
-    options.height = 240;
-    options.frames = 12;
-    options.seed = 5;
-    options.supersampling = 1;
-    options.baseline = baseline;
-    options.rotation_deg = 1.0;
-    WriteSynthBurst(dir_ / name, SynthesizeBurst(options));
-    std::vector<std::string> args = {"--capture.source",  "replay:" + (dir_ / name).string(),
-                                     "--jobs.state_dir",  (dir_ / ("state-" + name)).string(),
-                                     "--pipeline.planes", "32"};
-    args.insert(args.end(), extra.begin(), extra.end());
-    DfsmdProcess daemon(DFSMD_BINARY, args, dir_ / (name + ".log"));
-    EXPECT_TRUE(daemon.ok()) << daemon.Log();
-    httplib::Client client = daemon.Client();
-    const std::string location = Accepted(
-        client.Post("/api/v1/captures", R"({"frames":"auto","max_frames":12,"when":"next"})",
-                    "application/json"));
-    const json job = AwaitFinished(client, location, 3 * kJobTimeout);
-    const auto result = client.Get((location + "/result.json").c_str());
-    return std::make_pair(job,
-                          result && result->status == 200 ? json::parse(result->body) : json());
-  };
+  // One capture (an "auto" one of 12 frames unless `request` says otherwise)
+  // from a dfsmd replaying a burst that moved `baseline` metres while it
+  // turned 1 deg: the finished job, and its result.json where it succeeded.
+  // Each length tried is one sparse stage more than a fixed capture's job, so
+  // the wait is longer (the thread sanitizer's build runs this test too).
+  const auto capture =
+      [&](const std::string& name, double baseline, const std::vector<std::string>& extra,
+          const std::string& request = R"({"frames":"auto","max_frames":12,"when":"next"})") {
+        SynthOptions options;
+        options.width = 320;
+        options.height = 240;
+        options.frames = 12;
+        options.seed = 5;
+        options.supersampling = 1;
+        options.baseline = baseline;
+        options.rotation_deg = 1.0;
+        WriteSynthBurst(dir_ / name, SynthesizeBurst(options));
+        std::vector<std::string> args = {"--capture.source",  "replay:" + (dir_ / name).string(),
+                                         "--jobs.state_dir",  (dir_ / ("state-" + name)).string(),
+                                         "--pipeline.planes", "32"};
+        args.insert(args.end(), extra.begin(), extra.end());
+        DfsmdProcess daemon(DFSMD_BINARY, args, dir_ / (name + ".log"));
+        EXPECT_TRUE(daemon.ok()) << daemon.Log();
+        httplib::Client client = daemon.Client();
+        const std::string location =
+            Accepted(client.Post("/api/v1/captures", request, "application/json"));
+        const json job = AwaitFinished(client, location, 3 * kJobTimeout);
+        const auto result = client.Get((location + "/result.json").c_str());
+        return std::make_pair(job,
+                              result && result->status == 200 ? json::parse(result->body) : json());
+      };
   const auto [moving, result] =
       capture("moving", 0.02,
               {"--pipeline.auto_parallax_px", "0.3", "--pipeline.still_parallax_px", "0.1"});
@@ -284,6 +287,19 @@ TEST_F(DfsmdTest, AutoFramesTakeWhatTheParallaxNeedsOrAskForMotion) {
   EXPECT_NE(turning["error"].get<std::string>().find("move the camera a little"), std::string::npos)
       << turning.dump(2);
   EXPECT_EQ(turning["input"]["auto_frames"]["reason"], "too still");
+
+  const auto [fixed, fixed_result] =
+      capture("turning-fixed", 0.0, {"--pipeline.still_parallax_px", "0.2"},
+              R"({"frames":10,"when":"next"})");
+  ASSERT_EQ(fixed["status"], "succeeded") << fixed.dump(2);
+  EXPECT_EQ(fixed_result["depth_verdict"]["quality"], "unreliable") << fixed_result.dump(2);
+  EXPECT_LT(fixed_result["parallax"]["median_px"].get<double>(), 0.2);
+  const json& warnings = fixed_result.at("warnings");
+  EXPECT_TRUE(std::any_of(warnings.begin(), warnings.end(), [](const json& warning) {
+    const std::string text = warning.get<std::string>();
+    return text.rfind("move the camera a little", 0) == 0 &&
+           text.find("depth needs 0.20 px") != std::string::npos;
+  })) << warnings.dump(2);
 }
 
 TEST_F(DfsmdTest, UploadedBurstIsProcessedTheSameWay) {
