@@ -19,9 +19,8 @@ namespace dfsm {
 
 // The parallax (median, pixels) below which a burst is too still for depth:
 // dfsmd's "frames": "auto" fails a capture that stays below it, and a map
-// made from less is unreliable (DepthCheckOptions::min_parallax_px). Every
-// generated map below it was 16-145 % off; between it and 1 px half were
-// off by more than 15 % (docs/experiments/036-too-still-for-depth.md).
+// made from less is unreliable (DepthCheckOptions::min_parallax_px;
+// docs/experiments/036-too-still-for-depth.md).
 inline constexpr double kTooStillParallaxPx = 0.5;
 
 // Declared only: dfsmd's job processor holds the options without the

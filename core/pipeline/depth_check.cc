@@ -47,6 +47,8 @@ void JudgeAsAWhole(const DepthCheckOptions& options, DepthCheck* check) {
     reasons.push_back("the tracks moved " + FixedText(check->parallax_px) +
                       " px beyond the camera's rotation, less than the " +
                       FixedText(options.min_parallax_px) + " px depth needs");
+  for (const std::string& why : check->implausible_camera)
+    reasons.push_back("the depth's camera is no camera's: " + why);
   if (check->relief_sigma >= options.unreliable_relief)
     reasons.push_back("the camera's uncertainty leaves the relief uncertain by " +
                       Percent(check->relief_sigma));
@@ -142,6 +144,7 @@ DepthCheck CheckDepthAgainstTracks(const SparseReconstruction& sparse, const Den
         Percent(check.camera_relief_disagreement) +
         " (median); a camera slightly off bends this depth, which may be wrong as a whole");
   check.range_extended = dense.range_extended;
+  check.implausible_camera = sparse.implausible_camera;
   check.known_calibration_fits = !sparse.known_fit || sparse.known_fit->fits;
   check.estimated_camera_used = !sparse.DroppedLensTerms();
   SharesAtRangeEnds(dense, &check.at_nearest_plane, &check.at_farthest_plane);

@@ -76,7 +76,11 @@ struct DepthCheckOptions {
   // burst's own camera or the map's median disagreement with the tracks
   // reaches unreliable_relief, where
   // unreliable_range_end_fraction of its pixels sit at one end of the swept
-  // range, and where the parallax is below min_parallax_px.
+  // range, where the parallax is below min_parallax_px, and where the camera
+  // the depth was made with is no camera's (SparseReconstruction::
+  // implausible_camera: its relief sigma and the map's agreement with the
+  // tracks mean nothing; a map 102 % off was `confirmed`,
+  // docs/experiments/037-depth-from-an-implausible-camera.md).
   // docs/experiments/142-depth-verdict.md: on TUM fr1/rpy every window worse
   // than a constant depth but one (20.0 against 19.0 %) reaches one of these;
   // on the generator's phone depth sweep the two maps off by more than 15 %
@@ -109,6 +113,8 @@ struct DepthCheck {
   double camera_relief_disagreement = -1.0;
   // Parallax::median_px of the inlier tracks (result.json's parallax).
   double parallax_px = 0.0;
+  // SparseReconstruction::implausible_camera.
+  std::vector<std::string> implausible_camera;
   // Shares of the measured pixels within one plane of the swept range's
   // nearest and farthest ends.
   double at_nearest_plane = 0.0, at_farthest_plane = 0.0;

@@ -252,7 +252,7 @@ TEST(DepthCheck, AMapLikelyWrongAsAWholeIsUnreliableWithItsReasons) {
 
 // A burst that barely moved beyond its rotation cannot separate depths,
 // however well its map agrees with its tracks: the map is unreliable and the
-// warning says what to do. From the bound up nothing is said.
+// warning says what to do. Above the bound nothing is said.
 TEST(DepthCheck, ABurstTooStillForDepthIsUnreliableAndSaysToMoveTheCamera) {
   DepthCheckOptions options;
   ASSERT_DOUBLE_EQ(options.min_parallax_px, kTooStillParallaxPx);
@@ -267,7 +267,7 @@ TEST(DepthCheck, ABurstTooStillForDepthIsUnreliableAndSaysToMoveTheCamera) {
   EXPECT_EQ(check.warnings[0].rfind("move the camera a little", 0), 0u) << check.warnings[0];
   EXPECT_NE(check.warnings[0].find("depth needs 0.50 px"), std::string::npos) << check.warnings[0];
 
-  check = CheckDepthAgainstTracks(AgreeingBurst(0.5).sparse, AgreeingBurst().dense);
+  check = CheckDepthAgainstTracks(AgreeingBurst(0.6).sparse, AgreeingBurst().dense);
   EXPECT_EQ(check.quality, DepthQuality::kConfirmed);
   EXPECT_TRUE(check.warnings.empty()) << check.warnings.front();
 
@@ -276,6 +276,19 @@ TEST(DepthCheck, ABurstTooStillForDepthIsUnreliableAndSaysToMoveTheCamera) {
   EXPECT_EQ(check.quality, DepthQuality::kConfirmed);
   options.min_parallax_px = -1.0;
   EXPECT_THROW(options.Check(), std::invalid_argument);
+}
+
+// A map made with a camera that is no camera's (f a dozen times the image
+// size) agrees with its tracks and has a tiny relief sigma: both are measured
+// in that camera. It is unreliable, never confirmed.
+TEST(DepthCheck, AMapFromAnImplausibleCameraIsUnreliable) {
+  AgreeingBurst burst;
+  burst.sparse.implausible_camera = {"implausible focal length: f 24785.8 px is 12.91 x"};
+  const DepthCheck check = CheckDepthAgainstTracks(burst.sparse, burst.dense);
+  EXPECT_EQ(check.quality, DepthQuality::kUnreliable);
+  ASSERT_EQ(check.unreliable_reasons.size(), 1u);
+  EXPECT_EQ(check.unreliable_reasons[0],
+            "the depth's camera is no camera's: implausible focal length: f 24785.8 px is 12.91 x");
 }
 
 }  // namespace

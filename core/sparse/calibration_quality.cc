@@ -54,28 +54,34 @@ bool RadialModelIsMonotone(const CameraModel& camera, double* fold_radius_px) {
   return true;
 }
 
+std::vector<std::string> ImplausibleCamera(const CameraModel& camera,
+                                           const CalibrationQualityOptions& options) {
+  std::vector<std::string> reasons;
+  double fold_px = 0.0;
+  if (!RadialModelIsMonotone(camera, &fold_px))
+    reasons.push_back("lens model folds: the distortion (k1 " + FixedText(camera.k1, 4) + ", k2 " +
+                      FixedText(camera.k2, 4) + ") maps the image over itself " +
+                      FixedText(fold_px, 0) + " px from the centre");
+  const double f_ratio = camera.f / std::max(camera.width, camera.height);
+  if (!(f_ratio >= options.min_f_ratio && f_ratio <= options.max_f_ratio))
+    reasons.push_back("implausible focal length: f " + FixedText(camera.f, 1) + " px is " +
+                      FixedText(f_ratio) + " x the image size (expected " +
+                      FixedText(options.min_f_ratio) + "-" + FixedText(options.max_f_ratio) + ")");
+  return reasons;
+}
+
 CalibrationVerdict JudgeCalibration(const CameraModel& camera,
                                     const CalibrationUncertainty& uncertainty,
                                     const CalibrationEvidence& evidence,
                                     const CalibrationQualityOptions& options) {
   CalibrationVerdict verdict;
-  std::vector<std::string> degenerate, uncertain;
+  std::vector<std::string> uncertain;
   if (!evidence.intrinsics_estimated) {
     verdict.quality = CalibrationQuality::kReliable;
     verdict.reasons.push_back("known calibration held fixed: not estimated from this burst");
     return verdict;
   }
-  double fold_px = 0.0;
-  if (!RadialModelIsMonotone(camera, &fold_px))
-    degenerate.push_back("lens model folds: the distortion (k1 " + FixedText(camera.k1, 4) +
-                         ", k2 " + FixedText(camera.k2, 4) + ") maps the image over itself " +
-                         FixedText(fold_px, 0) + " px from the centre");
-  const double f_ratio = camera.f / std::max(camera.width, camera.height);
-  if (!(f_ratio >= options.min_f_ratio && f_ratio <= options.max_f_ratio))
-    degenerate.push_back("implausible focal length: f " + FixedText(camera.f, 1) + " px is " +
-                         FixedText(f_ratio) + " x the image size (expected " +
-                         FixedText(options.min_f_ratio) + "-" + FixedText(options.max_f_ratio) +
-                         ")");
+  std::vector<std::string> degenerate = ImplausibleCamera(camera, options);
   if (!uncertainty.available) {
     degenerate.push_back("no uncertainty: " + uncertainty.unavailable_reason);
   } else {

@@ -55,6 +55,12 @@ struct CalibrationVerdict {
 // first radius, from the principal point, where it folds.
 bool RadialModelIsMonotone(const CameraModel& camera, double* fold_radius_px = nullptr);
 
+// Why `camera` is no camera's at all, whatever the evidence for it: the lens
+// folds within the image, or f is outside [min_f_ratio, max_f_ratio] of the
+// image size. One sentence per reason; empty where the camera is plausible.
+std::vector<std::string> ImplausibleCamera(const CameraModel& camera,
+                                           const CalibrationQualityOptions& options = {});
+
 CalibrationVerdict JudgeCalibration(const CameraModel& camera,
                                     const CalibrationUncertainty& uncertainty,
                                     const CalibrationEvidence& evidence,

@@ -237,6 +237,18 @@ TEST(CalibrationUncertainty, AnEstimatedReadoutHasASigmaUnderHeldIntrinsics) {
   EXPECT_LT(std::abs(state.readout - 0.6), 4.0 * uncertainty.sigma_readout + 0.005);
 }
 
+// The verdict of `camera` where the burst measured it as tightly as it can
+// be and with plenty of tracks and motion: only the camera itself can fail.
+CalibrationVerdict JudgeAsIfTight(const CameraModel& camera) {
+  CalibrationUncertainty tight;
+  tight.available = true;
+  tight.covariance = Eigen::Matrix3d::Identity() * 1e-12;
+  CalibrationEvidence evidence;
+  evidence.tracks = 300;
+  evidence.median_track_motion_px = 3.0;
+  return JudgeCalibration(camera, tight, evidence);
+}
+
 TEST(CalibrationQuality, AFoldingLensIsDegenerateWhateverItsSigma) {
   CameraModel camera = CameraModel::Initial(640, 480);
   camera.k1 = -1.0;  // 1 + 3 k1 r^2 < 0 beyond r = 0.58, inside the corner (0.63)
@@ -244,16 +256,28 @@ TEST(CalibrationQuality, AFoldingLensIsDegenerateWhateverItsSigma) {
   double fold_px = 0.0;
   EXPECT_FALSE(RadialModelIsMonotone(camera, &fold_px));
   EXPECT_GT(fold_px, 0.0);
-  CalibrationUncertainty tight;
-  tight.available = true;
-  tight.covariance = Eigen::Matrix3d::Identity() * 1e-12;
-  CalibrationEvidence evidence;
-  evidence.tracks = 300;
-  evidence.median_track_motion_px = 3.0;
-  const CalibrationVerdict verdict = JudgeCalibration(camera, tight, evidence);
+  const CalibrationVerdict verdict = JudgeAsIfTight(camera);
   EXPECT_EQ(verdict.quality, CalibrationQuality::kDegenerate);
   ASSERT_FALSE(verdict.reasons.empty());
   EXPECT_NE(verdict.reasons[0].find("lens model folds"), std::string::npos) << verdict.reasons[0];
+  EXPECT_EQ(ImplausibleCamera(camera), std::vector<std::string>{verdict.reasons[0]});
+}
+
+// A focal length outside the plausible range is no camera's however tight its
+// sigma: the verdict is degenerate for it, and ImplausibleCamera names it
+// apart from the reasons a real camera can have.
+TEST(CalibrationQuality, AnImplausibleFocalLengthIsNoCamerasWhateverItsSigma) {
+  CameraModel camera = CameraModel::Initial(640, 480);
+  EXPECT_TRUE(ImplausibleCamera(camera).empty());
+  camera.f = 12.9 * 640;
+  const std::vector<std::string> reasons = ImplausibleCamera(camera);
+  ASSERT_EQ(reasons.size(), 1u);
+  EXPECT_EQ(reasons[0],
+            "implausible focal length: f 8256.0 px is 12.90 x the image size (expected "
+            "0.20-10.00)");
+  const CalibrationVerdict verdict = JudgeAsIfTight(camera);
+  EXPECT_EQ(verdict.quality, CalibrationQuality::kDegenerate);
+  EXPECT_EQ(verdict.reasons, reasons);
 }
 
 TEST(CalibrationQuality, NamesEveryReasonAndTellsUncertainFromReliable) {

@@ -797,11 +797,13 @@ SparseReconstruction AdjustTracked(SparseReconstruction tracked, int width, int 
     throw ReconstructionError("insufficient parallax: median track motion " + FixedText(parallax) +
                               " px (need >= " + FixedText(options.min_parallax_px) +
                               " px): move the camera a little during the burst");
-  if (!options.known)
-    return AdjustSelfCalibrated(std::move(tracked), width, height, options, beside);
-  if (options.known->check_fit && options.max_known_fit_ratio > 0.0)
-    return AdjustCheckedKnown(std::move(tracked), width, height, options, beside);
-  return AdjustUncheckedKnown(std::move(tracked), width, height, options, beside);
+  SparseReconstruction sparse =
+      !options.known ? AdjustSelfCalibrated(std::move(tracked), width, height, options, beside)
+      : options.known->check_fit && options.max_known_fit_ratio > 0.0
+          ? AdjustCheckedKnown(std::move(tracked), width, height, options, beside)
+          : AdjustUncheckedKnown(std::move(tracked), width, height, options, beside);
+  sparse.implausible_camera = ImplausibleCamera(sparse.state.camera, options.quality);
+  return sparse;
 }
 
 }  // namespace

@@ -298,6 +298,11 @@ struct SparseReconstruction {
   // any camera error, the known camera's or the lens model's
   // (docs/experiments/016-camera-relief-disagreement.md). -1: not measured.
   double camera_relief_disagreement = -1.0;
+  // ImplausibleCamera of state.camera, the camera the later stages use (a
+  // fallback's where one replaced the estimate, or a known one): where it is
+  // no camera's, the tracks' agreement and the relief's sigma are measured in
+  // it and vouch for nothing. Empty: plausible.
+  std::vector<std::string> implausible_camera;
   // The adjustment from the mirrored relief (SparseOptions::mirrored_relief):
   // its cost over the solution's, both with the intrinsics held (1: it came
   // back to the solution; -1: not run), and whether it replaced the solution.

@@ -125,7 +125,9 @@ std::vector<ConfigKey> MakeKeys() {
       Key("pipeline.auto_parallax_px", KeyType::kDouble, DFSM_MEMBER(pipeline.auto_parallax_px), 0,
           100, "an \"auto\" capture stops once its parallax reaches this, pixels (> 0)"),
       Key("pipeline.still_parallax_px", KeyType::kDouble, DFSM_MEMBER(pipeline.still_parallax_px),
-          0, 100, "an \"auto\" capture below this at max_frames is refused: move the camera"),
+          0, 100,
+          "an \"auto\" capture below this at max_frames is refused, and any job's depth from "
+          "less is unreliable: move the camera"),
       Choice("pipeline.when", DFSM_MEMBER(pipeline.when),
              {BurstWhenName(BurstWhen::kLast), BurstWhenName(BurstWhen::kNext)},
              "last: frames already in the ring | next: frames still to come"),
