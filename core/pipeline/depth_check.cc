@@ -48,7 +48,7 @@ void JudgeAsAWhole(const DepthCheckOptions& options, DepthCheck* check) {
                       " px beyond the camera's rotation, less than the " +
                       FixedText(options.min_parallax_px) + " px depth needs");
   for (const std::string& why : check->implausible_camera)
-    reasons.push_back("the depth's camera is no camera's: " + why);
+    reasons.push_back("the camera the burst estimated for it is implausible: " + why);
   if (check->relief_sigma >= options.unreliable_relief)
     reasons.push_back("the camera's uncertainty leaves the relief uncertain by " +
                       Percent(check->relief_sigma));

@@ -77,10 +77,8 @@ struct DepthCheckOptions {
   // reaches unreliable_relief, where
   // unreliable_range_end_fraction of its pixels sit at one end of the swept
   // range, where the parallax is below min_parallax_px, and where the camera
-  // the depth was made with is no camera's (SparseReconstruction::
-  // implausible_camera: its relief sigma and the map's agreement with the
-  // tracks mean nothing; a map 102 % off was `confirmed`,
-  // docs/experiments/037-depth-from-an-implausible-camera.md).
+  // the burst estimated for the depth is implausible (SparseReconstruction::
+  // implausible_camera; docs/experiments/037-depth-from-an-implausible-camera.md).
   // docs/experiments/142-depth-verdict.md: on TUM fr1/rpy every window worse
   // than a constant depth but one (20.0 against 19.0 %) reaches one of these;
   // on the generator's phone depth sweep the two maps off by more than 15 %

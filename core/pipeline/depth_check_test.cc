@@ -278,7 +278,7 @@ TEST(DepthCheck, ABurstTooStillForDepthIsUnreliableAndSaysToMoveTheCamera) {
   EXPECT_THROW(options.Check(), std::invalid_argument);
 }
 
-// A map made with a camera that is no camera's (f a dozen times the image
+// A map made with an implausible estimated camera (f a dozen times the image
 // size) agrees with its tracks and has a tiny relief sigma: both are measured
 // in that camera. It is unreliable, never confirmed.
 TEST(DepthCheck, AMapFromAnImplausibleCameraIsUnreliable) {
@@ -288,7 +288,8 @@ TEST(DepthCheck, AMapFromAnImplausibleCameraIsUnreliable) {
   EXPECT_EQ(check.quality, DepthQuality::kUnreliable);
   ASSERT_EQ(check.unreliable_reasons.size(), 1u);
   EXPECT_EQ(check.unreliable_reasons[0],
-            "the depth's camera is no camera's: implausible focal length: f 24785.8 px is 12.91 x");
+            "the camera the burst estimated for it is implausible: implausible focal length: f "
+            "24785.8 px is 12.91 x");
 }
 
 }  // namespace

@@ -802,7 +802,12 @@ SparseReconstruction AdjustTracked(SparseReconstruction tracked, int width, int 
       : options.known->check_fit && options.max_known_fit_ratio > 0.0
           ? AdjustCheckedKnown(std::move(tracked), width, height, options, beside)
           : AdjustUncheckedKnown(std::move(tracked), width, height, options, beside);
-  sparse.implausible_camera = ImplausibleCamera(sparse.state.camera, options.quality);
+  // A known camera the stage held is the user's word, which a long telephoto
+  // or a fisheye keeps outside the plausible range; the burst's own
+  // estimates (a prior's included) are judged.
+  const bool held = sparse.calibration_used == CalibrationSource::kKnownFixed ||
+                    sparse.calibration_used == CalibrationSource::kFallbackKnown;
+  if (!held) sparse.implausible_camera = ImplausibleCamera(sparse.state.camera, options.quality);
   return sparse;
 }
 

@@ -298,10 +298,11 @@ struct SparseReconstruction {
   // any camera error, the known camera's or the lens model's
   // (docs/experiments/016-camera-relief-disagreement.md). -1: not measured.
   double camera_relief_disagreement = -1.0;
-  // ImplausibleCamera of state.camera, the camera the later stages use (a
-  // fallback's where one replaced the estimate, or a known one): where it is
-  // no camera's, the tracks' agreement and the relief's sigma are measured in
-  // it and vouch for nothing. Empty: plausible.
+  // ImplausibleCamera of state.camera where the burst estimated it (a
+  // fallback's refit where one replaced the estimate; not a known camera
+  // held): where the estimate is no plausible camera, the tracks' agreement
+  // and the relief's sigma are measured in it and vouch for nothing. Empty:
+  // plausible, or held.
   std::vector<std::string> implausible_camera;
   // The adjustment from the mirrored relief (SparseOptions::mirrored_relief):
   // its cost over the solution's, both with the intrinsics held (1: it came

@@ -112,6 +112,29 @@ TEST(ReconstructFromTracks, TheMirroredReliefOfARightSolutionIsNotKept) {
     EXPECT_NEAR(without.state.inverse_depths[j], sparse.state.inverse_depths[j], 1e-6) << j;
 }
 
+// A camera beyond the plausible range (f 12x the image size, a long
+// telephoto's) is the user's word where it is given and held: nothing says
+// otherwise. The burst's own estimate there, within a prior, is judged
+// implausible, which makes its depth unreliable (core/pipeline/depth_check).
+TEST(ReconstructFromTracks, OnlyAnEstimatedCameraIsJudgedImplausible) {
+  const TrackSimulation sim = SimulateTracks(RollingShutterPhone(12.0 * 640, 3));
+  SparseOptions options = EstimatingTheReadout();
+  EXPECT_EQ(ImplausibleCamera(sim.camera).size(), 1u);
+  options.known.emplace();
+  options.known->camera = sim.camera;
+  options.known->mode = KnownCalibrationMode::kFixed;
+  const SparseReconstruction held = ReconstructFromTracks(sim.tracks, 640, 480, options);
+  EXPECT_EQ(held.calibration_used, CalibrationSource::kKnownFixed);
+  EXPECT_TRUE(held.implausible_camera.empty()) << held.implausible_camera.front();
+
+  options.known->mode = KnownCalibrationMode::kPrior;
+  const SparseReconstruction estimated = ReconstructFromTracks(sim.tracks, 640, 480, options);
+  EXPECT_EQ(estimated.calibration_used, CalibrationSource::kKnownPrior);
+  ASSERT_EQ(estimated.implausible_camera.size(), 1u);
+  EXPECT_EQ(estimated.implausible_camera[0].rfind("implausible focal length", 0), 0u)
+      << estimated.implausible_camera[0];
+}
+
 // A known camera 15 % off fits the tracks worse than the burst's own: the
 // check says so in the verdict and a warning, and never calls it reliable;
 // the relief it gives is not the burst's own.
