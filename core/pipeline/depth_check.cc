@@ -7,7 +7,6 @@
 
 #include "core/dense/inverse_depth_lattice.h"
 #include "core/sparse/fixed_text.h"
-#include "core/sparse/parallax.h"
 
 namespace dfsm {
 namespace {
@@ -76,9 +75,7 @@ DepthCheck CheckDepthAgainstTracks(const SparseReconstruction& sparse, const Den
   options.Check();
   DepthCheck check;
   const FeatureTracks& tracks = sparse.tracks;
-  check.parallax_px = MeasureParallax(tracks, sparse.inliers, sparse.state,
-                                      sparse.bundle_adjustment.rms_reprojection_px)
-                          .median_px;
+  check.parallax_px = sparse.parallax.median_px;
   if (check.parallax_px < options.min_parallax_px)
     check.warnings.push_back(
         "move the camera a little: the tracks moved " + FixedText(check.parallax_px) +

@@ -109,7 +109,7 @@ struct DepthCheck {
   double lens_relief_shift = -1.0;   // SparseReconstruction::lens_relief_shift
   // SparseReconstruction::camera_relief_disagreement
   double camera_relief_disagreement = -1.0;
-  // Parallax::median_px of the inlier tracks (result.json's parallax).
+  // SparseReconstruction::parallax.median_px (result.json's parallax).
   double parallax_px = 0.0;
   // SparseReconstruction::implausible_camera.
   std::vector<std::string> implausible_camera;

@@ -355,8 +355,7 @@ void RecordSparseDetail(const Burst& burst, const SparseReconstruction& sparse,
       {"starts", StartsJson(sparse.starts)},
       {"mirrored_relief",
        {{"cost_ratio", sparse.mirrored_relief_cost_ratio}, {"kept", sparse.mirrored_relief_kept}}}};
-  const Parallax parallax = MeasureParallax(sparse.tracks, sparse.inliers, sparse.state,
-                                            sparse.bundle_adjustment.rms_reprojection_px);
+  const Parallax& parallax = sparse.parallax;
   result->extra["parallax"] = {{"median_px", parallax.median_px},
                                {"p90_px", parallax.p90_px},
                                {"baseline_over_depth", parallax.baseline_over_depth},

@@ -808,6 +808,8 @@ SparseReconstruction AdjustTracked(SparseReconstruction tracked, int width, int 
   const bool held = sparse.calibration_used == CalibrationSource::kKnownFixed ||
                     sparse.calibration_used == CalibrationSource::kFallbackKnown;
   if (!held) sparse.implausible_camera = ImplausibleCamera(sparse.state.camera, options.quality);
+  sparse.parallax = MeasureParallax(sparse.tracks, sparse.inliers, sparse.state,
+                                    sparse.bundle_adjustment.rms_reprojection_px);
   return sparse;
 }
 

@@ -20,6 +20,7 @@
 #include "core/sparse/calibration_quality.h"
 #include "core/sparse/grided_features.h"
 #include "core/sparse/init_mode.h"
+#include "core/sparse/parallax.h"
 #include "core/sparse/rank_one_init.h"
 #include "core/sparse/rotation_init.h"
 
@@ -304,6 +305,10 @@ struct SparseReconstruction {
   // and the relief's sigma are measured in it and vouch for nothing. Empty:
   // plausible, or held.
   std::vector<std::string> implausible_camera;
+  // MeasureParallax of the inlier tracks under the final state, noise the
+  // adjustment's RMS error: what result.json's parallax reports and what
+  // the depth check asks of a burst.
+  Parallax parallax;
   // The adjustment from the mirrored relief (SparseOptions::mirrored_relief):
   // its cost over the solution's, both with the intrinsics held (1: it came
   // back to the solution; -1: not run), and whether it replaced the solution.

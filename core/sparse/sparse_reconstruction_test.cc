@@ -112,6 +112,20 @@ TEST(ReconstructFromTracks, TheMirroredReliefOfARightSolutionIsNotKept) {
     EXPECT_NEAR(without.state.inverse_depths[j], sparse.state.inverse_depths[j], 1e-6) << j;
 }
 
+// The parallax the stage hands on (result.json's, the depth check's) is that
+// of its final solution, its noise the solution's RMS error.
+TEST(ReconstructFromTracks, TheParallaxIsTheSolutions) {
+  const TrackSimulation sim = SimulateTracks(RollingShutterCamera());
+  const SparseReconstruction sparse =
+      ReconstructFromTracks(sim.tracks, 640, 480, EstimatingTheReadout());
+  const Parallax parallax = MeasureParallax(sparse.tracks, sparse.inliers, sparse.state,
+                                            sparse.bundle_adjustment.rms_reprojection_px);
+  EXPECT_GT(sparse.parallax.median_px, 0.5);
+  EXPECT_EQ(sparse.parallax.median_px, parallax.median_px);
+  EXPECT_EQ(sparse.parallax.p90_px, parallax.p90_px);
+  EXPECT_EQ(sparse.parallax.relative_depth_sigma, parallax.relative_depth_sigma);
+}
+
 // A camera beyond the plausible range (f 12x the image size, a long
 // telephoto's) is the user's word where it is given and held: nothing says
 // otherwise. The burst's own estimate there, within a prior, is judged
