@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <chrono>
-#include <cstdlib>
 #include <cmath>
 #include <opencv2/imgproc.hpp>
 #include <optional>
@@ -441,67 +440,6 @@ void ClearConfidenceOffTheWindow(const PlaneSelection& fine_selection,
   });
 }
 
-// SCRATCH: how much of each pixel's texture lies along the frames' parallax.
-cv::Mat ParallaxTextureShare(const cv::Mat& reference, const CameraModel& camera,
-                             const std::vector<Pose>& poses, int reference_index, int radius) {
-  const Pose& ref = poses[reference_index];
-  double sxx = 0, syy = 0, szz = 0, sxy = 0, sxz = 0, syz = 0;
-  for (int i = 0; i < static_cast<int>(poses.size()); ++i) {
-    if (i == reference_index) continue;
-    const Eigen::Matrix3d R = poses[i].R * ref.R.transpose();
-    const Eigen::Vector3d T = poses[i].T - R * ref.T;
-    sxx += T.x() * T.x(); syy += T.y() * T.y(); szz += T.z() * T.z();
-    sxy += T.x() * T.y(); sxz += T.x() * T.z(); syz += T.y() * T.z();
-  }
-  cv::Mat gray, gx, gy;
-  reference.convertTo(gray, CV_32F);
-  cv::Sobel(gray, gx, CV_32F, 1, 0, 3);
-  cv::Sobel(gray, gy, CV_32F, 0, 1, 3);
-  cv::Mat jxx = gx.mul(gx), jxy = gx.mul(gy), jyy = gy.mul(gy);
-  const cv::Size window(2 * radius + 1, 2 * radius + 1);
-  cv::boxFilter(jxx, jxx, -1, window);
-  cv::boxFilter(jxy, jxy, -1, window);
-  cv::boxFilter(jyy, jyy, -1, window);
-  const bool blur = std::getenv("DFSM_EXP_BLUR") != nullptr;
-  std::vector<Eigen::Matrix3d> steps;  // rotation between each frame's neighbours
-  for (int i = 0; i < static_cast<int>(poses.size()); ++i) {
-    const int a = std::max(0, i - 1), b = std::min(static_cast<int>(poses.size()) - 1, i + 1);
-    steps.push_back(poses[b].R * poses[a].R.transpose());
-  }
-  cv::Mat share(reference.size(), CV_32FC1);
-  if (blur) {
-    for (int y = 0; y < share.rows; ++y)
-      for (int x = 0; x < share.cols; ++x) {
-        const Eigen::Vector3d ray((x - camera.cx) / camera.f, (y - camera.cy) / camera.f, 1.0);
-        double dxx = 0, dyy = 0, dxy = 0;
-        for (const Eigen::Matrix3d& R : steps) {
-          const Eigen::Vector3d m = R * ray;
-          const double fx = m.x() / m.z() - ray.x(), fy = m.y() / m.z() - ray.y();
-          dxx += fx * fx; dyy += fy * fy; dxy += fx * fy;
-        }
-        const double a = jxx.at<float>(y, x), b = jxy.at<float>(y, x), c = jyy.at<float>(y, x);
-        const double along = a * dxx + 2 * b * dxy + c * dyy;
-        const double whole = (dxx + dyy) * (a + c) / 2;
-        share.at<float>(y, x) = whole > 0 ? static_cast<float>(along / whole) : 0.0f;
-      }
-    return share;
-  }
-  for (int y = 0; y < share.rows; ++y) {
-    const double v = (y - camera.cy) / camera.f;
-    for (int x = 0; x < share.cols; ++x) {
-      const double u = (x - camera.cx) / camera.f;
-      const double dxx = sxx - 2 * u * sxz + u * u * szz;
-      const double dyy = syy - 2 * v * syz + v * v * szz;
-      const double dxy = sxy - u * syz - v * sxz + u * v * szz;
-      const double a = jxx.at<float>(y, x), b = jxy.at<float>(y, x), c = jyy.at<float>(y, x);
-      const double along = a * dxx + 2 * b * dxy + c * dyy;
-      const double whole = (dxx + dyy) * (a + c) / 2;
-      share.at<float>(y, x) = whole > 0 ? static_cast<float>(along / whole) : 0.0f;
-    }
-  }
-  return share;
-}
-
 // Each pixel's weight in the refinement: its confidence where its winner
 // counts as measured (options.min_confidence), 0 elsewhere.
 cv::Mat MeasuredWeight(const cv::Mat& plane, const cv::Mat& confidence,
@@ -733,13 +671,6 @@ DenseDepth ComputeDenseDepth(const Burst& burst, const CameraModel& camera,
   swept.reference.release();
   cost = PhotoCostOptions();  // the seed and the weak-texture mask
 
-  if (const char* env = std::getenv("DFSM_EXP_SHARE")) {
-    const double min_share = std::atof(env);
-    const int radius = std::getenv("DFSM_EXP_SHARE_R") ? std::atoi(std::getenv("DFSM_EXP_SHARE_R")) : options.fine_window_radius;
-    const cv::Mat share = ParallaxTextureShare(swept.high_passed_reference, camera, poses, burst.reference(), radius);
-    if (min_share >= 0) confidence.setTo(0.0f, share < min_share);
-    else confidence.setTo(0.0f, share > -min_share);
-  }
   cv::Mat weight = MeasuredWeight(plane, confidence, options);
   RefinePlanes(swept.high_passed_reference, lattice, geometry.plane_parallax, options, &plane,
                &weight);

@@ -2,7 +2,6 @@
 
 #include <Eigen/Core>
 #include <Eigen/LU>
-#include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
 #include <opencv2/imgproc.hpp>
@@ -89,38 +88,6 @@ void FitInverseDepthOffset(const std::vector<cv::Vec2f>& scored, DepthEvaluation
   evaluation->abs_rel_after_offset = after / scored.size();
 }
 
-// SCRATCH: w* ~ w (a + c u + d v) + b + e u + g v, L1 relative.
-double AbsRelAfterTilt(const std::vector<cv::Vec4f>& scored, double scale, int params) {
-  using Vec = Eigen::Matrix<double, 6, 1>;
-  using Mat = Eigen::Matrix<double, 6, 6>;
-  Vec x = Vec::Zero();
-  x[0] = 1.0 / scale;
-  auto row_of = [&](const cv::Vec4f& s) {
-    const double w = 1.0 / s[0], wt = 1.0 / s[1], u = s[2], v = s[3];
-    Vec r;
-    r << w / wt, 1.0 / wt, w * u / wt, w * v / wt, u / wt, v / wt;
-    for (int k = params; k < 6; ++k) r[k] = 0.0;
-    return r;
-  };
-  for (int round = 0; round < 30; ++round) {
-    Mat normal = Mat::Identity() * 1e-9;
-    Vec rhs = Vec::Zero();
-    for (const cv::Vec4f& s : scored) {
-      const Vec r = row_of(s);
-      const double weight = 1.0 / std::max(1e-4, std::abs(r.dot(x) - 1.0));
-      normal += weight * r * r.transpose();
-      rhs += weight * r;
-    }
-    x = normal.ldlt().solve(rhs);
-  }
-  double after = 0.0;
-  for (const cv::Vec4f& s : scored) {
-    const double ratio = row_of(s).dot(x);  // fitted / w*
-    after += ratio > 0.0 ? std::abs(1.0 / ratio - 1.0) : 1.0;
-  }
-  return after / scored.size();
-}
-
 }  // namespace
 
 DepthEvaluation EvaluateDepth(const cv::Mat& depth, const cv::Mat& truth_depth,
@@ -130,7 +97,6 @@ DepthEvaluation EvaluateDepth(const cv::Mat& depth, const cv::Mat& truth_depth,
   DepthEvaluation evaluation;
   std::vector<float> ratios;
   std::vector<cv::Vec2f> scored;  // (estimate, truth) of each ratio's pixel
-  std::vector<cv::Vec4f> scored4;
   int textured = 0, covered = 0;
   for (int v = 0; v < depth.rows; ++v) {
     for (int u = 0; u < depth.cols; ++u) {
@@ -142,8 +108,6 @@ DepthEvaluation EvaluateDepth(const cv::Mat& depth, const cv::Mat& truth_depth,
         ++covered;
         ratios.push_back(truth / estimate);
         scored.emplace_back(estimate, truth);
-        scored4.emplace_back(estimate, truth, (u - depth.cols / 2.0f) / depth.cols,
-                             (v - depth.rows / 2.0f) / depth.cols);
       }
     }
   }
@@ -170,26 +134,6 @@ DepthEvaluation EvaluateDepth(const cv::Mat& depth, const cv::Mat& truth_depth,
   evaluation.within_25_percent = static_cast<double>(within_25) / ratios.size();
   evaluation.evaluated_pixels = static_cast<int>(ratios.size());
   FitInverseDepthOffset(scored, &evaluation);
-  {
-    cv::Mat lo, hi, t0 = truth_depth.clone();
-    cv::Mat zero = truth_depth <= 0.0f;
-    t0.setTo(1e6f, zero);
-    cv::erode(t0, lo, cv::Mat::ones(9, 9, CV_8U));
-    t0.setTo(0.0f, zero);
-    cv::dilate(t0, hi, cv::Mat::ones(9, 9, CV_8U));
-    double sum = 0.0; int n = 0;
-    for (int v = 0; v < depth.rows; ++v)
-      for (int u = 0; u < depth.cols; ++u) {
-        const float truth = truth_depth.at<float>(v, u), estimate = depth.at<float>(v, u);
-        if (truth <= 0.0f || (!textured_mask.empty() && !textured_mask.at<uchar>(v, u))) continue;
-        if (!(estimate > 0.0f) || hi.at<float>(v, u) > 1.05f * lo.at<float>(v, u)) continue;
-        sum += std::abs(evaluation.scale * estimate / truth - 1.0); ++n;
-      }
-    evaluation.abs_rel_flat = n ? sum / n : 0.0;
-    evaluation.flat_pixels = n;
-  }
-  evaluation.abs_rel_after_tilt = AbsRelAfterTilt(scored4, evaluation.scale, 6);
-  evaluation.abs_rel_after_add_tilt = AbsRelAfterTilt(scored4, evaluation.scale, 2) ;
   return evaluation;
 }
 
@@ -204,9 +148,6 @@ nlohmann::json ToJson(const SparseEvaluation& e) {
 nlohmann::json ToJson(const DepthEvaluation& e) {
   return {{"scale", e.scale},
           {"abs_rel", e.abs_rel},
-          {"after_tilt", e.abs_rel_after_tilt},
-          {"flat", e.abs_rel_flat}, {"flat_pixels", e.flat_pixels},
-          {"after_2", e.abs_rel_after_add_tilt},
           {"within_5_percent", e.within_5_percent},
           {"within_25_percent", e.within_25_percent},
           {"coverage", e.coverage},

@@ -42,10 +42,6 @@ struct DepthEvaluation {
   // where a w + b <= 0). 0 and abs_rel where the fit is singular.
   double inverse_depth_offset = 0.0;
   double abs_rel_after_offset = 0.0;
-  double abs_rel_after_tilt = 0.0;
-  double abs_rel_flat = 0.0;
-  int flat_pixels = 0;
-  double abs_rel_after_add_tilt = 0.0;
 };
 
 // Textured pixels: local (7x7) standard deviation of the reference above

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <cstdlib>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
@@ -49,8 +48,6 @@ int MinGridCellSize(int width, int height) {
 }
 
 int GridCellSize(const GridedFeatureOptions& options, int width, int height) {
-  if (const char* env = std::getenv("DFSM_EXP_CELL_SCALE"))
-    return std::max(8, static_cast<int>(std::lround(std::atof(env) * 80.0 * std::min(width, height) / 1080.0)));
   const int cell =
       options.cell_px > 0
           ? options.cell_px
