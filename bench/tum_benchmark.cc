@@ -52,6 +52,7 @@
 #include "bench/tum_sequence.h"
 #include "core/dense/dense_depth.h"
 #include "core/pipeline/evaluation.h"
+#include "core/pipeline/lens_resampling.h"
 #include "core/pipeline/pipeline.h"
 #include "core/sparse/sparse_layers.h"
 
@@ -219,6 +220,7 @@ int main(int argc, char** argv) {
       if (mode == "known") {
         KnownCalibration fixed;
         fixed.camera = known.camera;
+        fixed.lens = known.lens;
         fixed.mode = KnownCalibrationMode::kFixed;
         fixed.source = calibration_file;
         options.sparse.known = fixed;
@@ -262,8 +264,17 @@ int main(int argc, char** argv) {
           if (line["pose_error"].is_object())
             row.translation_residual = line["pose_error"]["translation_residual"];
           if (pinned_depth) {
-            const std::optional<PinnedDepth> pinned =
-                PinDepthToTruth(burst, truth, cv::Mat(), *output.sparse, options.sparse, dense);
+            // The sparse stage's tracks are on the known camera's grid
+            // where its lens was resampled (lens_resampling.h).
+            const std::optional<LensResampling> resampling =
+                options.sparse.known && options.sparse.known->lens
+                    ? std::optional(
+                          LensResampling(*options.sparse.known->lens, options.sparse.known->camera))
+                    : std::nullopt;
+            const std::optional<PinnedDepth> pinned = PinDepthToTruth(
+                resampling ? resampling->IntoModel(burst) : burst,
+                resampling ? resampling->IntoModel(truth, cv::INTER_NEAREST) : truth, cv::Mat(),
+                *output.sparse, options.sparse, dense);
             if (pinned) {
               line["pinned"] = ToJson(*pinned);
               line["pinned"]["free_pose_error"] = PoseError(pinned->free.poses, kept_truth);

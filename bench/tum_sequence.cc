@@ -181,6 +181,13 @@ CameraModel TumSequence::Scaled(CameraModel camera) const {
 ImportedCalibration TumSequence::ReadCalibration(const std::string& file) const {
   ImportedCalibration imported = ReadCalibrationFile(file, kWidth, kHeight);
   imported.camera = Scaled(imported.camera);
+  if (imported.lens) {
+    OpenCvLens& lens = *imported.lens;
+    lens.fx /= downscale_;
+    lens.fy /= downscale_;
+    lens.cx = ReducedPixel(lens.cx, downscale_);
+    lens.cy = ReducedPixel(lens.cy, downscale_);
+  }
   return imported;
 }
 

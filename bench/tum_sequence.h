@@ -86,8 +86,8 @@ class TumSequence {
   CameraModel Scaled(CameraModel camera) const;
 
   // A calibration file of the 640x480 camera (ReadCalibrationFile) for the
-  // frames this sequence serves: its camera Scaled; the fit's RMS stays in
-  // 640x480 pixels.
+  // frames this sequence serves: its camera Scaled, and its lens as the camera;
+  // the fit's RMS stays in 640x480 pixels.
   ImportedCalibration ReadCalibration(const std::string& file) const;
 
  private:

@@ -36,8 +36,10 @@ PipelineOptions TumOptions(const TumSequence& sequence, bool known) {
   PipelineOptions options;
   if (!known) return options;
   const std::string calibration_file = TumFreiburg1CalibrationFile();
+  const ImportedCalibration imported = sequence.ReadCalibration(calibration_file);
   KnownCalibration fixed;
-  fixed.camera = sequence.ReadCalibration(calibration_file).camera;
+  fixed.camera = imported.camera;
+  fixed.lens = imported.lens;  // the frames resampled from the published lens
   fixed.mode = KnownCalibrationMode::kFixed;
   fixed.source = calibration_file;
   options.sparse.known = fixed;

@@ -373,6 +373,12 @@ ImportedCalibration FitOpenCvCalibration(int width, int height, double fx, doubl
                            "; it moves pixels by up to " + Str(tangential_px) +
                            " px and is part of the fit error");
   }
+  if (result.fit_max_error_px >= kMinResampledFitErrorPx) {
+    result.lens = OpenCvLens{fx, fy, cx, cy, distortion};
+    result.notes.push_back("the frames are resampled from the file's model onto the " +
+                           std::string(kDistortionModelName) +
+                           " fit, so that the fit error does not misplace them");
+  }
   return result;
 }
 

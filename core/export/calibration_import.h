@@ -6,11 +6,13 @@
 #pragma once
 
 #include <filesystem>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "core/camera/camera_model.h"
+#include "core/camera/opencv_lens.h"
 
 namespace dfsm {
 
@@ -31,7 +33,15 @@ struct ImportedCalibration {
   double fit_max_error_px = 0.0;
   double fit_rms_error_px = 0.0;
   std::vector<std::string> notes;  // facts a user should see (fx != fy, tangential terms)
+  // The file's own lens where the fit misses it by kMinResampledFitErrorPx or
+  // more: the pipeline resamples the frames from it onto `camera`
+  // (KnownCalibration::lens).
+  std::optional<OpenCvLens> lens;
 };
+
+// Below this largest fit error a pixel's misplacement is under the tracker's
+// own noise, and resampling would only blur the frames.
+inline constexpr double kMinResampledFitErrorPx = 0.1;
 
 // Reads a calibration file; the syntax is recognised from the content, not the
 // name. dfsm's own files give their native coefficients unchanged. Files that

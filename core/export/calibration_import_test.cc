@@ -51,6 +51,7 @@ TEST(CalibrationImport, RoundTripsDfsmFilesThroughTheNativeCoefficients) {
     ExpectRelative(imported.camera.k2, camera.k2, 1e-9);
     EXPECT_EQ(imported.fit_max_error_px, 0.0);
     EXPECT_TRUE(imported.notes.empty());
+    EXPECT_FALSE(imported.lens.has_value());  // the frames follow the camera as they are
   }
 }
 
@@ -133,6 +134,15 @@ TEST(CalibrationImport, FitsTheTumFreiburg1Calibration) {
   EXPECT_EQ(fit.camera.cy, kCy);
   EXPECT_TRUE(Mentions(ros.notes, "fx 517.3 and fy 516.5 differ by 0.15 %"));
   EXPECT_TRUE(Mentions(ros.notes, "tangential distortion p1 -0.0054, p2 0.0026"));
+  // The fit misses by pixels: the file's own lens comes with it, for the
+  // frames to be resampled from.
+  ASSERT_TRUE(fit.lens.has_value());
+  EXPECT_EQ(fit.lens->fx, kFx);
+  EXPECT_EQ(fit.lens->fy, kFy);
+  EXPECT_EQ(fit.lens->cx, kCx);
+  EXPECT_EQ(fit.lens->cy, kCy);
+  EXPECT_EQ(fit.lens->distortion, kTumDistortion);
+  EXPECT_TRUE(Mentions(ros.notes, "the frames are resampled from the file's model"));
   std::cout << "TUM freiburg1 -> ha2016-d2u: f " << fit.camera.f << " k1 " << fit.camera.k1
             << " k2 " << fit.camera.k2 << ", fit error max " << fit.fit_max_error_px << " px, rms "
             << fit.fit_rms_error_px << " px\n";
@@ -190,6 +200,7 @@ TEST(CalibrationImport, RecoversAHa2016CameraFromItsOpenCvFit) {
   EXPECT_NEAR(back.camera.k2, camera.k2, 1e-4);
   EXPECT_LT(back.fit_max_error_px, 0.05);
   EXPECT_TRUE(back.notes.empty());
+  EXPECT_FALSE(back.lens.has_value());  // the fit holds it: nothing to resample
 }
 
 TEST(CalibrationImport, ReadsRosRationalPolynomialAndNoDistortion) {
@@ -206,6 +217,7 @@ TEST(CalibrationImport, ReadsRosRationalPolynomialAndNoDistortion) {
   EXPECT_NEAR(plain.camera.k2, 0.0, 1e-12);
   EXPECT_LT(plain.fit_max_error_px, 1e-9);
   EXPECT_TRUE(plain.notes.empty());
+  EXPECT_FALSE(plain.lens.has_value());
 }
 
 TEST(CalibrationImport, UsesTheBurstSizeWhenTheFileNamesNone) {

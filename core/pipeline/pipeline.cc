@@ -20,6 +20,7 @@
 #include "core/pipeline/depth_check.h"
 #include "core/pipeline/frame_selection.h"
 #include "core/pipeline/frame_sharpness.h"
+#include "core/pipeline/lens_resampling.h"
 #include "core/pipeline/repeated_frames.h"
 #include "core/sparse/parallax.h"
 
@@ -343,7 +344,8 @@ void RecordSparseDetail(const Burst& burst, const SparseReconstruction& sparse,
   result->features =
       static_cast<int>(std::count(sparse.inliers.begin(), sparse.inliers.end(), true));
   result->features_detected = sparse.feature_stats.corners;
-  result->timings_ms = sparse.timings_ms;
+  result->timings_ms.insert(result->timings_ms.end(), sparse.timings_ms.begin(),
+                            sparse.timings_ms.end());
   result->extra["sparse_detail"] = {
       {"cells", sparse.feature_stats.cells},
       {"tracked", sparse.feature_stats.tracks},
@@ -419,6 +421,37 @@ void RunDenseStage(const Burst& compensated, const SparseReconstruction& sparse,
   result.warnings.insert(result.warnings.end(), check.warnings.begin(), check.warnings.end());
 }
 
+// The burst the stages see: the captured one, or, where a known camera was
+// fitted to another lens (KnownCalibration::lens) of the burst's size, its
+// frames resampled onto the camera's grid (lens_resampling.h), recorded in
+// the result; the sparse stage refuses a camera of another size itself.
+Burst BurstOnCameraGrid(const Burst& captured, const SparseOptions& sparse,
+                        std::optional<LensResampling>* resampling, Result* result) {
+  if (!sparse.known || !sparse.known->lens || sparse.known->camera.width != captured.width() ||
+      sparse.known->camera.height != captured.height())
+    return captured;
+  const auto start = std::chrono::steady_clock::now();
+  resampling->emplace(*sparse.known->lens, sparse.known->camera);
+  Burst resampled = (*resampling)->IntoModel(captured);
+  result->extra["lens_resampling"] = {{"rms_shift_px", (*resampling)->rms_shift_px()},
+                                      {"max_shift_px", (*resampling)->max_shift_px()}};
+  result->timings_ms.emplace_back("lens_resampling", MillisecondsBetween(start));
+  return resampled;
+}
+
+// The dense stage's maps, made on the known camera's grid, on the captured
+// one (CONTRACT.md's depth.tiff), after the checks that compare them with the
+// tracks on that grid.
+void BackToCaptured(const LensResampling& resampling, PipelineOutput* output) {
+  DenseDepth& dense = *output->dense;
+  dense.depth = resampling.BackToCaptured(dense.depth);
+  dense.confidence = resampling.BackToCaptured(dense.confidence);
+  dense.depth_filled = resampling.BackToCaptured(dense.depth_filled);
+  dense.valid_fraction = cv::countNonZero(dense.depth > 0.0f) /
+                         static_cast<double>(std::max(1, dense.depth.rows * dense.depth.cols));
+  if (output->result.depth) output->result.depth->valid_fraction = dense.valid_fraction;
+}
+
 }  // namespace
 
 PipelineOptions SparseStageOf(PipelineOptions options) {
@@ -448,7 +481,7 @@ void PipelineOptions::Check() const {
   repeated_frames.Check();
 }
 
-PipelineOutput RunPipeline(const Burst& burst, const PipelineOptions& given,
+PipelineOutput RunPipeline(const Burst& captured, const PipelineOptions& given,
                            const ProgressCallback& progress) {
   const PipelineOptions options = ReportingTo(given, progress);
   PipelineOutput output;
@@ -461,6 +494,8 @@ PipelineOutput RunPipeline(const Burst& burst, const PipelineOptions& given,
     } catch (const std::invalid_argument& e) {
       throw InvalidOptions(std::string("invalid options: ") + e.what());
     }
+    std::optional<LensResampling> resampling;
+    const Burst burst = BurstOnCameraGrid(captured, options.sparse, &resampling, &result);
     SparseOptions sparse_options = SparseOptionsForBurst(burst, options);
     // The stages see the frames that are not repeats (repeated_frames.h);
     // each frame left out reports what the frame it repeats got.
@@ -491,6 +526,7 @@ PipelineOutput RunPipeline(const Burst& burst, const PipelineOptions& given,
     if (options.run_dense) {
       RunDenseStage(compensated, sparse, options.dense, options.depth_check, &*frames_maker,
                     &*frames_work, &output);
+      if (resampling) BackToCaptured(*resampling, &output);
     }
     result.ok = true;
   } catch (const ReconstructionError& e) {
@@ -504,11 +540,11 @@ PipelineOutput RunPipeline(const Burst& burst, const PipelineOptions& given,
     result.error = std::string("internal error: ") + e.what();
   }
   result.timings_ms.emplace_back("total", MillisecondsBetween(start));
-  result.extra["input"] = {{"frames", burst.size()},
-                           {"width", burst.width()},
-                           {"height", burst.height()},
-                           {"reference", burst.reference()},
-                           {"frame_indices", burst.frame_indices()}};
+  result.extra["input"] = {{"frames", captured.size()},
+                           {"width", captured.width()},
+                           {"height", captured.height()},
+                           {"reference", captured.reference()},
+                           {"frame_indices", captured.frame_indices()}};
   return output;
 }
 

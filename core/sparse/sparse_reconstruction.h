@@ -10,6 +10,7 @@
 #include <utility>
 #include <vector>
 
+#include "core/camera/opencv_lens.h"
 #include "core/camera/rolling_shutter.h"
 #include "core/io/burst.h"
 #include "core/io/progress.h"
@@ -54,6 +55,10 @@ const char* CalibrationSourceName(CalibrationSource source);
 
 struct KnownCalibration {
   CameraModel camera;  // principal point included: it replaces the image centre
+  // The lens `camera` was fitted to, where the fit misses it: the pipeline
+  // then resamples the frames from it onto `camera`'s grid
+  // (core/pipeline/lens_resampling.h). Empty: the frames follow `camera`.
+  std::optional<OpenCvLens> lens;
   KnownCalibrationMode mode = KnownCalibrationMode::kPrior;
   // Widths of the prior mode: f within this percentage, the distortion's shift
   // of image points within this many pixels.

@@ -33,6 +33,7 @@ CalibrationKeeper::CalibrationKeeper(const CalibrationSection& config, std::stri
       // The size comes from the file: jobs of another size calibrate alone.
       const ImportedCalibration imported = ReadCalibrationFile(config_.file, 0, 0);
       file_camera_ = std::make_unique<CameraModel>(imported.camera);
+      if (imported.lens) file_lens_ = std::make_unique<OpenCvLens>(*imported.lens);
       file_source_ = "file:" + config_.file.string() + " (" + imported.format + ")";
       notes_ = imported.notes;
     } catch (const CalibrationFileError& e) {
@@ -78,6 +79,7 @@ bool CalibrationKeeper::ForJob(const JobOptions& options, int width, int height,
   if (options.calibration == "self" || !FromCaptureCamera(options)) return false;
   if (file_camera_ && file_camera_->width == width && file_camera_->height == height) {
     known->camera = *file_camera_;
+    if (file_lens_) known->lens = *file_lens_;
     known->mode = ParseKnownCalibrationMode(config_.mode);
     known->source = file_source_;
     known->also_self_calibrate = config_.fuse && known->mode == KnownCalibrationMode::kPrior;

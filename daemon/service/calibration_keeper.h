@@ -34,6 +34,7 @@
 
 namespace dfsm {
 struct CameraModel;
+struct OpenCvLens;
 class CalibrationFusion;
 struct KnownCalibration;
 struct SparseReconstruction;
@@ -98,6 +99,7 @@ class CalibrationKeeper {
   const std::string camera_;
   const std::filesystem::path path_;
   std::unique_ptr<CameraModel> file_camera_;  // null: no calibration.file
+  std::unique_ptr<OpenCvLens> file_lens_;     // the file's own lens (ImportedCalibration::lens)
   std::string file_source_;
   mutable std::mutex mutex_;
   std::map<std::string, std::unique_ptr<CalibrationFusion>> fusions_;  // by Key()

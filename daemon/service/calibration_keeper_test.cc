@@ -72,6 +72,34 @@ TEST_F(CalibrationKeeperTest, AnUploadOfAnotherCameraNeitherFeedsNorUsesTheCalib
   EXPECT_TRUE(keeper.ForJob(Upload("capture"), 640, 480, &known));
 }
 
+// calibration.file in OpenCV's model: a job of its size gets the fitted
+// camera and the file's lens, for the pipeline to resample the frames from.
+TEST_F(CalibrationKeeperTest, AFilesOpenCvLensReachesTheJobs) {
+  const fs::path file = dir_ / "camera.yaml";
+  WriteFileAtomically(file, std::string("%YAML:1.0\n"
+                                        "image_width: 640\n"
+                                        "image_height: 480\n"
+                                        "camera_matrix: !!opencv-matrix\n"
+                                        "  rows: 3\n  cols: 3\n  dt: d\n"
+                                        "  data: [517.3, 0, 318.6, 0, 516.5, 255.3, 0, 0, 1]\n"
+                                        "distortion_coefficients: !!opencv-matrix\n"
+                                        "  rows: 1\n  cols: 5\n  dt: d\n"
+                                        "  data: [0.2624, -0.9531, -0.0054, 0.0026, 1.1633]\n"));
+  CalibrationSection config;
+  config.file = file;
+  const CalibrationKeeper keeper(config, "v4l2:/dev/video0", dir_);
+  KnownCalibration known;
+  ASSERT_TRUE(keeper.ForJob(JobOptions{}, 640, 480, &known));
+  EXPECT_NEAR(known.camera.f, 516.9, 1e-9);
+  ASSERT_TRUE(known.lens.has_value());
+  EXPECT_EQ(known.lens->fx, 517.3);
+  EXPECT_EQ(known.lens->distortion.size(), 5u);
+  // Another size calibrates alone: neither the camera nor its lens.
+  KnownCalibration other;
+  EXPECT_FALSE(keeper.ForJob(JobOptions{}, 1280, 720, &other));
+  EXPECT_FALSE(other.lens.has_value());
+}
+
 // kill -9 between fusing and committing re-runs the job: it counts once.
 TEST_F(CalibrationKeeperTest, AJobRunAgainIsCountedOnce) {
   {

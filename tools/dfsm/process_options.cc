@@ -42,7 +42,8 @@ void AddProcessOptions(CLI::App& app, ProcessSettings* settings) {
       "--calibration", settings->calibration_file,
       "a known calibration: dfsm's calibration.json/.yaml, an OpenCV FileStorage "
       "(camera_matrix, distortion_coefficients) or a ROS CameraInfo YAML; its principal point "
-      "replaces the image centre");
+      "replaces the image centre, and an OpenCV lens that ha2016-d2u misses by 0.1 px or more "
+      "has the frames resampled from it");
   app.add_option("--calibration-mode", settings->calibration_mode,
                  "hold it fixed, or use it as a prior (f 1 %, distortion 0.5 px)")
       ->check(CLI::IsMember({KnownCalibrationModeName(KnownCalibrationMode::kFixed),
@@ -77,6 +78,7 @@ PipelineOptions WithKnownCalibration(PipelineOptions options, const ProcessSetti
   known.mode = ParseKnownCalibrationMode(settings.calibration_mode);
   const ImportedCalibration imported = ReadCalibrationFile(file, burst.width(), burst.height());
   known.camera = imported.camera;
+  known.lens = imported.lens;
   known.source = "file:" + file + " (" + imported.format + ")";
   if (imported.fit_max_error_px > 0.0)
     std::fprintf(stderr, "%s: %s: fitted to ha2016-d2u, max error %.3f px, RMS %.3f px\n", command,
