@@ -187,6 +187,11 @@ int main(int argc, char** argv) {
       calibration_file.c_str(), known.camera.f, known.camera.k1, known.camera.k2,
       known.fit_rms_error_px, TumSequence::kWidth, TumSequence::kHeight, sequence.width(),
       sequence.height());
+  // The pipeline's resampling of the frames under the known camera, for the
+  // pinned geometry's frames and truth: one camera, one set of maps.
+  const std::optional<LensResampling> known_resampling =
+      pinned_depth && known.lens ? std::optional(LensResampling(*known.lens, known.camera))
+                                 : std::nullopt;
   struct Row {
     int first = 0;
     std::string mode;
@@ -266,11 +271,8 @@ int main(int argc, char** argv) {
           if (pinned_depth) {
             // The sparse stage's tracks are on the known camera's grid
             // where its lens was resampled (lens_resampling.h).
-            const std::optional<LensResampling> resampling =
-                options.sparse.known && options.sparse.known->lens
-                    ? std::optional(
-                          LensResampling(*options.sparse.known->lens, options.sparse.known->camera))
-                    : std::nullopt;
+            const LensResampling* resampling =
+                mode == std::string("known") && known_resampling ? &*known_resampling : nullptr;
             const std::optional<PinnedDepth> pinned = PinDepthToTruth(
                 resampling ? resampling->IntoModel(burst) : burst,
                 resampling ? resampling->IntoModel(truth, cv::INTER_NEAREST) : truth, cv::Mat(),

@@ -89,6 +89,7 @@ LensResampling::LensResampling(const OpenCvLens& lens, const CameraModel& model)
   cv::Mat into_x(nodes, CV_32FC1), into_y(nodes, CV_32FC1);
   cv::Mat back_x(nodes, CV_32FC1), back_y(nodes, CV_32FC1);
   double sum_sq = 0.0;
+  int inside = 0;  // nodes on the image
   for (int j = 0; j < nodes.height; ++j)
     for (int i = 0; i < nodes.width; ++i) {
       const Eigen::Vector2d p(i * kNodeStep, j * kNodeStep);
@@ -99,10 +100,9 @@ LensResampling::LensResampling(const OpenCvLens& lens, const CameraModel& model)
         const double shift = (q - p).norm();
         sum_sq += shift * shift;
         max_shift_px_ = std::max(max_shift_px_, shift);
+        ++inside;
       }
     }
-  const int inside =
-      ((size_.width + kNodeStep - 1) / kNodeStep) * ((size_.height + kNodeStep - 1) / kNodeStep);
   rms_shift_px_ = inside > 0 ? std::sqrt(sum_sq / inside) : 0.0;
   for (int j = 0; j < nodes.height; ++j)
     for (int i = 0; i < nodes.width; ++i) {
