@@ -4,10 +4,11 @@
 // A known calibration in this model is fitted to ha2016-d2u for the pipeline
 // (core/export/calibration_import.h); the frames are then resampled from this
 // lens onto the fit's pixel grid (core/pipeline/lens_resampling.h), so that
-// what the fit misses does not misplace every pixel of every frame.
+// what the fit misses does not misplace every pixel of every frame. The
+// model's one definition is OpenCV's (cv::projectPoints, cv::undistortPoints),
+// where these values are used.
 #pragma once
 
-#include <Eigen/Core>
 #include <vector>
 
 namespace dfsm {
@@ -18,10 +19,6 @@ struct OpenCvLens {
   double cx = 0.0;
   double cy = 0.0;
   std::vector<double> distortion;  // empty, or 4, 5 or 8 coefficients
-
-  // The captured pixel of the undistorted normalized coordinate x_u, as
-  // cv::projectPoints computes it.
-  Eigen::Vector2d Project(const Eigen::Vector2d& x_u) const;
 };
 
 }  // namespace dfsm

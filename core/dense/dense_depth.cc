@@ -520,7 +520,7 @@ void SetMeasuredDepth(const cv::Mat& plane, const cv::Mat& weight, const cv::Mat
   });
   result->confidence.setTo(0.0f, result->depth <= 0.0f);
   result->min_confidence = options.min_confidence;
-  result->valid_fraction = static_cast<double>(cv::countNonZero(result->depth)) / plane.total();
+  result->valid_fraction = DepthFraction(result->depth);
 }
 
 // result->depth_filled: the depth with its holes filled from the measured
@@ -583,6 +583,11 @@ void DenseOptions::Check() const {
   Require(max_cost_ratio >= 0.0, "max_cost_ratio must be >= 0");
   Require(fine_high_pass_ratio > 0.0, "fine_high_pass_ratio must be > 0");
   if (fill_holes) completion.Check();
+}
+
+double DepthFraction(const cv::Mat& depth) {
+  if (depth.empty()) return 0.0;
+  return static_cast<double>(cv::countNonZero(depth > 0.0f)) / depth.total();
 }
 
 int CoarseScale(int width, const DenseOptions& options) {

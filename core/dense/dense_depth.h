@@ -201,6 +201,10 @@ struct DenseDepth {
   std::vector<std::pair<std::string, double>> timings_ms;  // sub-stages, in order
 };
 
+// The share of the pixels of a depth map (CV_32FC1) with a depth > 0
+// (DenseDepth::valid_fraction); 0 for an empty map.
+double DepthFraction(const cv::Mat& depth);
+
 // The coarse level's scale for a burst `width` pixels wide: options.coarse_scale
 // where positive, the default rule (DenseOptions::coarse_scale) otherwise.
 int CoarseScale(int width, const DenseOptions& options);

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <opencv2/calib3d.hpp>
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
 #include <vector>
@@ -21,6 +22,19 @@ constexpr int kNodeStep = 8;
 // that the lens sees at q: `into` is the identity but for a smooth shift
 // whose slope is far below 1, so each one cuts the error by that slope.
 constexpr int kBackIterations = 6;
+
+// The captured pixels where `lens` sees the undistorted normalized
+// coordinates `rays`.
+std::vector<cv::Point2d> Project(const OpenCvLens& lens, const std::vector<Eigen::Vector2d>& rays) {
+  std::vector<cv::Point3d> points;
+  points.reserve(rays.size());
+  for (const Eigen::Vector2d& x : rays) points.emplace_back(x.x(), x.y(), 1.0);
+  std::vector<cv::Point2d> pixels;
+  cv::projectPoints(points, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0),
+                    cv::Matx33d(lens.fx, 0, lens.cx, 0, lens.fy, lens.cy, 0, 0, 1), lens.distortion,
+                    pixels);
+  return pixels;
+}
 
 // The value of a CV_32FC1 map of nodes at a pixel position, bilinear,
 // clamped to the last node.
@@ -88,12 +102,18 @@ LensResampling::LensResampling(const OpenCvLens& lens, const CameraModel& model)
   const cv::Size nodes(size_.width / kNodeStep + 2, size_.height / kNodeStep + 2);
   cv::Mat into_x(nodes, CV_32FC1), into_y(nodes, CV_32FC1);
   cv::Mat back_x(nodes, CV_32FC1), back_y(nodes, CV_32FC1);
+  std::vector<Eigen::Vector2d> rays;
+  rays.reserve(nodes.area());
+  for (int j = 0; j < nodes.height; ++j)
+    for (int i = 0; i < nodes.width; ++i)
+      rays.push_back(model.PixelToUndistorted(Eigen::Vector2d(i * kNodeStep, j * kNodeStep)));
+  const std::vector<cv::Point2d> seen = Project(lens, rays);
   double sum_sq = 0.0;
   int inside = 0;  // nodes on the image
   for (int j = 0; j < nodes.height; ++j)
     for (int i = 0; i < nodes.width; ++i) {
       const Eigen::Vector2d p(i * kNodeStep, j * kNodeStep);
-      const Eigen::Vector2d q = lens.Project(model.PixelToUndistorted(p));
+      const Eigen::Vector2d q(seen[j * nodes.width + i].x, seen[j * nodes.width + i].y);
       into_x.at<float>(j, i) = static_cast<float>(q.x());
       into_y.at<float>(j, i) = static_cast<float>(q.y());
       if (p.x() < size_.width && p.y() < size_.height) {

@@ -447,8 +447,7 @@ void BackToCaptured(const LensResampling& resampling, PipelineOutput* output) {
   dense.depth = resampling.BackToCaptured(dense.depth);
   dense.confidence = resampling.BackToCaptured(dense.confidence);
   dense.depth_filled = resampling.BackToCaptured(dense.depth_filled);
-  dense.valid_fraction = cv::countNonZero(dense.depth > 0.0f) /
-                         static_cast<double>(std::max(1, dense.depth.rows * dense.depth.cols));
+  dense.valid_fraction = DepthFraction(dense.depth);
   if (output->result.depth) output->result.depth->valid_fraction = dense.valid_fraction;
 }
 
@@ -595,8 +594,7 @@ void WritePipelineOutputs(const std::filesystem::path& out_dir, const Burst& bur
           {"measured_fraction", filled->valid_fraction},
           // depth.tiff's pixels: confidence.png >= this x 255 (the rest are filled).
           {"measured_min_confidence", filled->min_confidence},
-          {"valid_fraction", static_cast<double>(cv::countNonZero(filled->depth_filled > 0.0f)) /
-                                 static_cast<double>(filled->depth_filled.total())}};
+          {"valid_fraction", DepthFraction(filled->depth_filled)}};
     SyncFileSystem(out_dir);
     extra["write_ms"] = MillisecondsBetween(start);
   }
