@@ -29,6 +29,18 @@ class DfsmdCalibrationTest : public ::testing::Test {
   static void SetUpTestSuite() {
     root_ = fs::temp_directory_path() / ("dfsmd-calibration-test-" + std::to_string(::getpid()));
     fs::remove_all(root_);
+    WriteTestBurst(root_ / "replay");
+  }
+  static void TearDownTestSuite() { fs::remove_all(root_); }
+
+  // Writes kBursts bursts of one 640x480 camera (other scenes, other hand
+  // motions) as burst0..., and the same camera at another capture size (a
+  // config change, a 320x240 upload of the same device), which must not claim
+  // the camera's fusion, as small; returns the camera's focal length. Only
+  // the test that uploads them renders them: each test runs in a process of
+  // its own.
+  static double WriteBursts() {
+    double truth_f = 0.0;
     for (int i = 0; i < kBursts; ++i) {
       SynthOptions options;
       options.width = 640;
@@ -38,12 +50,9 @@ class DfsmdCalibrationTest : public ::testing::Test {
       options.supersampling = 2;
       options.seed = 11 + i;
       const SynthBurst burst = SynthesizeBurst(options);
-      truth_f_ = burst.truth.camera.f;
-      truth_ = burst.truth.camera;
+      truth_f = burst.truth.camera.f;
       WriteSynthBurst(root_ / ("burst" + std::to_string(i)), burst);
     }
-    // The same camera at another capture size (a config change, a 320x240
-    // upload of the same device): it must not claim the camera's fusion.
     SynthOptions small;
     small.width = 320;
     small.height = 240;
@@ -51,9 +60,8 @@ class DfsmdCalibrationTest : public ::testing::Test {
     small.rotation_deg = 2.0;
     small.seed = 31;
     WriteSynthBurst(root_ / "small", SynthesizeBurst(small));
-    WriteTestBurst(root_ / "replay");
+    return truth_f;
   }
-  static void TearDownTestSuite() { fs::remove_all(root_); }
 
   std::unique_ptr<DfsmdProcess> Start(const fs::path& state) {
     auto daemon = std::make_unique<DfsmdProcess>(
@@ -66,15 +74,12 @@ class DfsmdCalibrationTest : public ::testing::Test {
   }
 
   static fs::path root_;
-  static double truth_f_;
-  static CameraModel truth_;
 };
 
 fs::path DfsmdCalibrationTest::root_;
-double DfsmdCalibrationTest::truth_f_ = 0.0;
-CameraModel DfsmdCalibrationTest::truth_;
 
 TEST_F(DfsmdCalibrationTest, FusesTheBurstsOfOneCameraAndKeepsItAcrossARestart) {
+  const double truth_f = WriteBursts();
   const fs::path dir = root_ / "run";
   fs::create_directories(dir);
   auto daemon = Start(dir / "state");
@@ -116,12 +121,12 @@ TEST_F(DfsmdCalibrationTest, FusesTheBurstsOfOneCameraAndKeepsItAcrossARestart) 
   const json calibration = json::parse(client.Get("/api/v1/calibration")->body);
   const json fused = calibration["fused"];
   std::cout << "fused: bursts " << fused["bursts"] << ", f " << fused["camera"]["fx"] << " (truth "
-            << truth_f_ << "), sigma_f " << fused["sigma_f_percent"] << " %, distortion sigma "
+            << truth_f << "), sigma_f " << fused["sigma_f_percent"] << " %, distortion sigma "
             << fused["distortion_sigma_px"] << " px\n";
   EXPECT_GE(fused["bursts"].get<int>(), kBursts - 1);  // at most one outlier
   EXPECT_LT(sigmas.back(), 0.7 * sigmas.front());      // sigma falls as bursts are added
   const double f = fused["camera"]["fx"].get<double>();
-  const double error_percent = 100.0 * std::abs(f - truth_f_) / truth_f_;
+  const double error_percent = 100.0 * std::abs(f - truth_f) / truth_f;
   EXPECT_LE(error_percent, 2.0 * fused["sigma_f_percent"].get<double>());
   EXPECT_LE(error_percent, 1.0);
   EXPECT_EQ(fused["history"].size(), static_cast<size_t>(kBursts));
@@ -145,12 +150,14 @@ TEST_F(DfsmdCalibrationTest, FusesTheBurstsOfOneCameraAndKeepsItAcrossARestart) 
   EXPECT_EQ(joint["jobs"].size(), static_cast<size_t>(kBursts)) << joint.dump(2);
   const json& result = joint["result"];
   std::cout << "joint: " << result["bursts_joined"] << " of " << result["bursts"].size()
-            << " bursts, f " << result["camera"]["fx"] << " (truth " << truth_f_ << "), sigma_f "
-            << result["uncertainty"]["sigma_f_percent"] << " %, " << result["verdict"]["quality"] << "\n";
+            << " bursts, f " << result["camera"]["fx"] << " (truth " << truth_f << "), sigma_f "
+            << result["uncertainty"]["sigma_f_percent"] << " %, " << result["verdict"]["quality"]
+            << "\n";
   EXPECT_GE(result["bursts_joined"].get<int>(), kBursts - 1) << result.dump(2);
   const double joint_error =
-      100.0 * std::abs(result["camera"]["fx"].get<double>() - truth_f_) / truth_f_;
-  EXPECT_LE(joint_error, 2.0 * result["uncertainty"]["sigma_f_percent"].get<double>()) << result.dump(2);
+      100.0 * std::abs(result["camera"]["fx"].get<double>() - truth_f) / truth_f;
+  EXPECT_LE(joint_error, 2.0 * result["uncertainty"]["sigma_f_percent"].get<double>())
+      << result.dump(2);
 
   // The fusion is stored: a restart keeps it.
   EXPECT_EQ(daemon->Stop(SIGTERM), 0) << daemon->Log();
