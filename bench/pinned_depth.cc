@@ -60,6 +60,29 @@ DepthEvaluation DenseOver(const Burst& kept, const cv::Mat& truth, const cv::Mat
   return EvaluateDepth(depth.depth, truth, mask);
 }
 
+// PinnedDepth::parallax_range_px of `state`, whose inverse depths are
+// `scale` x the truth's.
+double ParallaxRangePx(const cv::Mat& truth, const cv::Mat& mask, const SparseState& state,
+                       double scale) {
+  std::vector<double> inverse;
+  for (int y = 0; y < truth.rows; ++y)
+    for (int x = 0; x < truth.cols; ++x) {
+      const float z = truth.at<float>(y, x);
+      if (z > 0.0f && (mask.empty() || mask.at<uchar>(y, x))) inverse.push_back(scale / z);
+    }
+  if (inverse.size() < 2) return 0.0;
+  const auto at = [&inverse](double share) {
+    auto nth = inverse.begin() + static_cast<std::ptrdiff_t>(share * (inverse.size() - 1));
+    std::nth_element(inverse.begin(), nth, inverse.end());
+    return *nth;
+  };
+  const double spread = at(0.98) - at(0.02);
+  double baseline = 0.0;
+  for (const Pose& pose : state.poses)
+    baseline = std::max(baseline, pose.Centre().head<2>().norm());
+  return state.camera.f * baseline * spread;
+}
+
 }  // namespace
 
 std::optional<PinnedDepth> PinDepthToTruth(const Burst& burst, const cv::Mat& truth,
@@ -104,6 +127,7 @@ std::optional<PinnedDepth> PinDepthToTruth(const Burst& burst, const cv::Mat& tr
   const Burst kept = SelectFrames(burst, sparse.feature_stats.kept_frames);
   out.free_depth = DenseOver(kept, truth, mask, tracks, use, out.free, dense);
   out.pinned_depth = DenseOver(kept, truth, mask, tracks, use, out.pinned, dense);
+  out.parallax_range_px = ParallaxRangePx(truth, mask, out.pinned, scale);
   return out;
 }
 
@@ -125,7 +149,8 @@ nlohmann::json ToJson(const PinnedDepth& pinned) {
           {"free_readout", pinned.free.readout},
           {"pinned_readout", pinned.pinned.readout},
           {"free_depth", ToJson(pinned.free_depth)},
-          {"pinned_depth", ToJson(pinned.pinned_depth)}};
+          {"pinned_depth", ToJson(pinned.pinned_depth)},
+          {"parallax_range_px", pinned.parallax_range_px}};
 }
 
 }  // namespace dfsm

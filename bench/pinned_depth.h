@@ -51,6 +51,13 @@ struct PinnedDepth {
   // The dense stage over the kept frames (not exposure-compensated) with
   // each geometry, scored against the truth under `mask`.
   DepthEvaluation free_depth, pinned_depth;
+  // How far the near and the far pixels move against each other under the
+  // pinned geometry: f x the farthest camera centre off the reference's axis
+  // x the spread of the truth's inverse depth (2nd to 98th percentile over
+  // the scored pixels, at the pinned scale), pixels. A depth map's error
+  // times this range is the matching error it stands for
+  // (docs/experiments/234-relief-is-the-parallaxs.md).
+  double parallax_range_px = 0.0;
 
   int tracks() const;  // how many were pinned
 };

@@ -2,8 +2,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
+#include <vector>
 
 #include "core/pipeline/pipeline.h"
 #include "core/synth/burst_synthesizer.h"
@@ -72,6 +74,31 @@ TEST(PinnedDepth, TheTruthFitsAGeneratedBurst) {
                    pinned->camera_at_truth.camera.f);
   EXPECT_DOUBLE_EQ(json.at("pinned_depth").at("abs_rel").get<double>(),
                    pinned->pinned_depth.abs_rel);
+  EXPECT_DOUBLE_EQ(json.at("parallax_range_px").get<double>(), pinned->parallax_range_px);
+}
+
+// The parallax range of the pinned geometry is the truth's: f x the farthest
+// camera centre off the reference's axis x the truth's inverse-depth spread,
+// each in the truth's own metres, which the pinned scale cancels.
+TEST(PinnedDepth, ParallaxRangeIsTheTruths) {
+  const Reconstructed r = Reconstruct();
+  const std::optional<PinnedDepth> pinned = PinDepthToTruth(
+      r.burst, r.synth.truth.depth, cv::Mat(), r.sparse, r.options.sparse, r.options.dense);
+  ASSERT_TRUE(pinned);
+  std::vector<double> inverse;
+  for (int y = 0; y < r.synth.truth.depth.rows; ++y)
+    for (int x = 0; x < r.synth.truth.depth.cols; ++x)
+      if (const float z = r.synth.truth.depth.at<float>(y, x); z > 0.0f) inverse.push_back(1.0 / z);
+  std::sort(inverse.begin(), inverse.end());
+  const auto at = [&inverse](double share) {
+    return inverse[static_cast<std::size_t>(share * (inverse.size() - 1))];
+  };
+  double baseline = 0.0;
+  for (const Pose& pose : r.synth.truth.poses)
+    baseline = std::max(baseline, pose.Centre().head<2>().norm());
+  const double truth = r.synth.truth.camera.f * baseline * (at(0.98) - at(0.02));
+  ASSERT_GT(truth, 1.0);  // a burst that shows depth
+  EXPECT_NEAR(pinned->parallax_range_px / truth, 1.0, 0.1);
 }
 
 // No truth at the tracks (a depth sensor that saw nothing): no answer.
