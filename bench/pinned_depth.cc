@@ -83,7 +83,40 @@ double ParallaxRangePx(const cv::Mat& truth, const cv::Mat& mask, const SparseSt
   return state.camera.f * baseline * spread;
 }
 
+nlohmann::json ToJson(const ParallaxSplit& split) {
+  return {{"along_px", split.along_px}, {"across_px", split.across_px}};
+}
+
 }  // namespace
+
+ParallaxSplit SplitByParallax(const FeatureTracks& tracks, const std::vector<bool>& use,
+                              const SparseState& state) {
+  // Each observation's parallax direction: its residual's derivative by its
+  // track's inverse depth, by central differences (relative step).
+  constexpr double kStep = 1e-4;
+  SparseState nearer = state, farther = state;
+  for (double& w : nearer.inverse_depths) w *= 1.0 + kStep;
+  for (double& w : farther.inverse_depths) w *= 1.0 - kStep;
+  const std::vector<Eigen::Matrix2Xd> residuals = ObservationResiduals(tracks, state),
+                                      to_nearer = ObservationResiduals(tracks, nearer),
+                                      to_farther = ObservationResiduals(tracks, farther);
+  double along = 0.0, across = 0.0;
+  int count = 0;
+  for (int i = 0; i < tracks.num_frames(); ++i) {
+    if (i == tracks.reference) continue;
+    for (int j = 0; j < tracks.num_tracks(); ++j) {
+      const Eigen::Vector2d parallax = to_nearer[i].col(j) - to_farther[i].col(j);
+      if (!use[j] || !(parallax.norm() > 0.0)) continue;
+      const Eigen::Vector2d direction = parallax.normalized();
+      const Eigen::Vector2d residual = residuals[i].col(j);
+      along += std::pow(residual.dot(direction), 2);
+      across += std::pow(residual.x() * direction.y() - residual.y() * direction.x(), 2);
+      ++count;
+    }
+  }
+  if (count == 0) return {};
+  return {std::sqrt(along / count), std::sqrt(across / count)};
+}
 
 std::optional<PinnedDepth> PinDepthToTruth(const Burst& burst, const cv::Mat& truth,
                                            const cv::Mat& mask, const SparseReconstruction& sparse,
@@ -124,6 +157,8 @@ std::optional<PinnedDepth> PinDepthToTruth(const Burst& burst, const cv::Mat& tr
   RunBundleAdjustment(tracks, use, &out.camera_at_truth, adjust);
   out.free_median_px = MedianTrackError(tracks, use, out.free);
   out.pinned_median_px = MedianTrackError(tracks, use, out.pinned);
+  out.free_split = SplitByParallax(tracks, use, out.free);
+  out.pinned_split = SplitByParallax(tracks, use, out.pinned);
   const Burst kept = SelectFrames(burst, sparse.feature_stats.kept_frames);
   out.free_depth = DenseOver(kept, truth, mask, tracks, use, out.free, dense);
   out.pinned_depth = DenseOver(kept, truth, mask, tracks, use, out.pinned, dense);
@@ -141,6 +176,8 @@ nlohmann::json ToJson(const PinnedDepth& pinned) {
           {"pinned_rms_px", pinned.pinned_rms_px},
           {"free_median_px", pinned.free_median_px},
           {"pinned_median_px", pinned.pinned_median_px},
+          {"free_split", ToJson(pinned.free_split)},
+          {"pinned_split", ToJson(pinned.pinned_split)},
           {"camera_at_truth",
            {{"f", pinned.camera_at_truth.camera.f},
             {"k1", pinned.camera_at_truth.camera.k1},

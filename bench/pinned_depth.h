@@ -15,6 +15,8 @@
 #include "core/dense/dense_depth.h"
 #include "core/io/burst.h"
 #include "core/pipeline/evaluation.h"
+#include "core/sparse/bundle_adjustment.h"
+#include "core/sparse/feature_tracks.h"
 #include "core/sparse/sparse_reconstruction.h"
 
 namespace dfsm {
@@ -34,6 +36,19 @@ struct PinnedDepthOptions {
   void Check() const;
 };
 
+// A geometry's reprojection residuals split by direction, over the tracks
+// `use` marks: RMS along each observation's parallax (the direction the
+// observation moves as its track's inverse depth changes) and across it,
+// pixels. A track's wrong depth moves its observations along their
+// parallax only; what lies across is a misfit no depth removes
+// (docs/experiments/041-parallax-range-on-real-tremor.md).
+struct ParallaxSplit {
+  double along_px = 0.0;
+  double across_px = 0.0;
+};
+ParallaxSplit SplitByParallax(const FeatureTracks& tracks, const std::vector<bool>& use,
+                              const SparseState& state);
+
 struct PinnedDepth {
   // Per track of the stage: an inlier pinned to the truth. Both adjustments
   // below run over these tracks only.
@@ -48,6 +63,7 @@ struct PinnedDepth {
   double free_rms_px = 0.0, pinned_rms_px = 0.0;
   // Medians over the pinned tracks of each track's RMS error.
   double free_median_px = 0.0, pinned_median_px = 0.0;
+  ParallaxSplit free_split, pinned_split;
   // The dense stage over the kept frames (not exposure-compensated) with
   // each geometry, scored against the truth under `mask`.
   DepthEvaluation free_depth, pinned_depth;

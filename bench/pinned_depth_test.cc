@@ -75,6 +75,27 @@ TEST(PinnedDepth, TheTruthFitsAGeneratedBurst) {
   EXPECT_DOUBLE_EQ(json.at("pinned_depth").at("abs_rel").get<double>(),
                    pinned->pinned_depth.abs_rel);
   EXPECT_DOUBLE_EQ(json.at("parallax_range_px").get<double>(), pinned->parallax_range_px);
+  // The true depths leave no misfit across the parallax beyond the tracks'
+  // own (the generator's model is the adjustment's).
+  EXPECT_LT(pinned->pinned_split.across_px, pinned->free_split.across_px + 0.02);
+  EXPECT_DOUBLE_EQ(json.at("pinned_split").at("across_px").get<double>(),
+                   pinned->pinned_split.across_px);
+}
+
+// A wrong depth moves a track's observations along their parallax only: the
+// split gives the error it adds to `along` and leaves `across` as it was.
+TEST(PinnedDepth, SplitByParallaxPutsADepthErrorAlong) {
+  const Reconstructed r = Reconstruct();
+  const FeatureTracks& tracks = r.sparse.tracks;
+  const ParallaxSplit own = SplitByParallax(tracks, r.sparse.inliers, r.sparse.state);
+  ASSERT_GT(own.along_px, 0.0);
+  ASSERT_GT(own.across_px, 0.0);
+  SparseState wrong = r.sparse.state;
+  for (size_t j = 0; j < wrong.inverse_depths.size(); ++j)
+    wrong.inverse_depths[j] *= j % 2 ? 1.1 : 0.9;
+  const ParallaxSplit split = SplitByParallax(tracks, r.sparse.inliers, wrong);
+  EXPECT_GT(split.along_px, 3.0 * own.along_px);
+  EXPECT_NEAR(split.across_px, own.across_px, 0.1 * own.across_px);
 }
 
 // The parallax range of the pinned geometry is the truth's: f x the farthest
