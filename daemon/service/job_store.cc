@@ -3,8 +3,8 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <iostream>
-#include <random>
 
 #include "core/io/file_util.h"
 #include "daemon/log/log.h"
@@ -49,6 +49,7 @@ JobStore::JobStore(fs::path state_dir) : state_dir_(std::move(state_dir)) {
           fs::remove(file.path(), error);
       }
       jobs_.emplace(job.id, job);
+      newest_id_ = std::max(newest_id_, job.id);
     } catch (const std::exception& e) {
       const fs::path aside = state_dir_ / "damaged" / name;
       log::Error("job directory '" + entry.path().string() + "' is damaged (" + e.what() +
@@ -71,14 +72,24 @@ fs::path JobStore::NewStagingDir() {
 }
 
 std::string JobStore::NewIdLocked() {
-  static thread_local std::mt19937 random(std::random_device{}());
-  for (;;) {
-    char id[32];
-    const int64_t now = NowUnixMs();
-    const uint32_t suffix = (++id_counter_ + random()) & 0xffff;
-    std::snprintf(id, sizeof(id), "j%013lld-%04x", static_cast<long long>(now), suffix);
-    if (!jobs_.count(id)) return id;
+  int64_t ms = NowUnixMs();
+  unsigned sequence = 0;
+  long long newest_ms = 0;
+  unsigned newest_sequence = 0;
+  if (!newest_id_.empty() &&
+      std::sscanf(newest_id_.c_str(), "j%13lld-%4x", &newest_ms, &newest_sequence) == 2 &&
+      ms <= newest_ms) {
+    ms = newest_ms;
+    sequence = newest_sequence + 1;
+    if (sequence > 0xffff) {
+      ++ms;
+      sequence = 0;
+    }
   }
+  char id[32];
+  std::snprintf(id, sizeof(id), "j%013lld-%04x", static_cast<long long>(ms), sequence);
+  newest_id_ = id;
+  return newest_id_;
 }
 
 Job JobStore::Create(const std::string& origin, const JobOptions& options,

@@ -112,6 +112,7 @@ class JobStore {
   void WriteRecord(const std::filesystem::path& job_dir, const Job& job) const;
   // fsync of jobs/: a job directory renamed in survives a power cut.
   void SyncJobs() const;
+  // j<Unix ms>-<sequence within the ms, hex>, after newest_id_; mutex_ held.
   std::string NewIdLocked();
   // Moves a directory into tmp/ (atomic, instant) and deletes it from there.
   void Discard(const std::filesystem::path& dir);
@@ -124,7 +125,10 @@ class JobStore {
   uint64_t changes_ = 0;
   mutable std::condition_variable changed_;
   uint64_t staging_counter_ = 0;
-  uint32_t id_counter_ = 0;
+  // The greatest id issued or found: a new id sorts after it, so that ids
+  // sort by creation even within one millisecond or after the clock is set
+  // back.
+  std::string newest_id_;
 };
 
 }  // namespace dfsm::service

@@ -56,6 +56,29 @@ TEST_F(JobStoreTest, AFinishedJobCountsABurstAttachedWhileItFinished) {
   EXPECT_EQ(store.Get(other.id)->bytes, before + 102);
 }
 
+// Ids sort by creation also for jobs created within one millisecond (a
+// random suffix once ordered those by chance), and a reopened store goes on
+// after the newest id it finds.
+TEST_F(JobStoreTest, IdsSortByCreationWithinAMillisecond) {
+  std::vector<std::string> ids;
+  {
+    JobStore store(dir_);
+    for (int i = 0; i < 50; ++i)
+      ids.push_back(store.Create("capture", JobOptions{}, fs::path(), {}).id);
+    const std::vector<Job> jobs = store.List();
+    ASSERT_EQ(jobs.size(), ids.size());
+    for (size_t i = 0; i < ids.size(); ++i) {
+      EXPECT_TRUE(IsValidJobId(ids[i])) << ids[i];
+      if (i > 0) {
+        EXPECT_LT(ids[i - 1], ids[i]);
+      }
+      EXPECT_EQ(jobs[ids.size() - 1 - i].id, ids[i]);
+    }
+  }
+  JobStore reopened(dir_);
+  EXPECT_LT(ids.back(), reopened.Create("capture", JobOptions{}, fs::path(), {}).id);
+}
+
 TEST_F(JobStoreTest, CreatesListsNewestFirstAndSurvivesReopening) {
   std::string first, second;
   {
