@@ -56,9 +56,8 @@ TEST_F(JobStoreTest, AFinishedJobCountsABurstAttachedWhileItFinished) {
   EXPECT_EQ(store.Get(other.id)->bytes, before + 102);
 }
 
-// Ids sort by creation also for jobs created within one millisecond (a
-// random suffix once ordered those by chance), and a reopened store goes on
-// after the newest id it finds.
+// Ids sort by creation also for jobs created within one millisecond, and a
+// reopened store goes on after the newest id it finds.
 TEST_F(JobStoreTest, IdsSortByCreationWithinAMillisecond) {
   std::vector<std::string> ids;
   {
