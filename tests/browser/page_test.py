@@ -22,11 +22,11 @@ a replay source:
   6. uploads a burst tar twice: dropped on the page (a synthetic drop event
      carrying a real File: the drop zone must appear on dragenter and go on
      drop) and through the file input; both jobs must succeed and open;
-  7. a 503 shows its message: dfsmd runs with pipeline.burst_timeout_ms=300,
-     and the page asks for the *next* 64 frames, which at the replay's 30 fps
-     need 2.1 s: dfsmd answers 503 "timed out after 300 ms waiting for 64
-     consecutive frames", deterministically, and the page must show that
-     detail with the status;
+  7. a 503 shows its message: the page asks for the *next* 64 frames, and
+     the replay restarts its 10 frames with a sequence gap each time, so 64
+     consecutive frames never come: dfsmd answers 503 "timed out after 1500 ms
+     waiting for 64 consecutive frames", deterministically, and the page must
+     show that detail with the status;
   8. the page reconnects its event stream (dfsmd ends each after
      server.event_stream_s, 4 s here) and stays live;
   9. no CSP violation or uncaught script error in the browser's console
@@ -105,7 +105,10 @@ def find_browser():
 class Dfsmd:
     """A dfsmd on a free loopback port (server.port 0; the port from its log line)."""
 
-    def __init__(self, binary, burst, state_dir, extra=('--server.event_stream_s', '4'), burst_timeout_ms=300):
+    # A trigger for the "last" 10 frames of a 10-frame replay waits for the
+    # loop to complete (up to 9 frames, 300 ms at 30 fps): 1.5 s leaves room
+    # for a busy machine.
+    def __init__(self, binary, burst, state_dir, extra=('--server.event_stream_s', '4'), burst_timeout_ms=1500):
         self.lines = []
         args = [binary, '--capture.source', f'replay:{burst}', '--jobs.state_dir', state_dir,
                 '--server.port', '0', '--pipeline.burst_timeout_ms', str(burst_timeout_ms), *extra]
@@ -393,7 +396,7 @@ def page_tests(driver, dfsmd, out, burst, work):
     find('#trigger-button').click()
     text = wait('the 503 message', lambda: next((m.text for m in driver.find_elements(
         By.CSS_SELECTOR, '#messages .message.error span') if '503' in m.text), None), 15)
-    if 'timed out after 300 ms waiting for 64 consecutive frames' not in text:
+    if 'timed out after 1500 ms waiting for 64 consecutive frames' not in text:
         raise Failure(f'the 503 message does not carry the detail: {text!r}')
     log(f'503 shown: {text!r}')
     driver.save_screenshot(os.path.join(out, 'error.png'))
@@ -838,8 +841,7 @@ def phone_part(driver, args, work, console, daemons):
     burst_1080 = os.path.join(work, 'burst-1080')
     subprocess.run([args.dfsm, 'synth', '--out', burst_1080, '--frames', '10', '--supersampling', '2'],
                    check=True, stdout=subprocess.DEVNULL)
-    # 1080p frames take longer to copy out of the ring than the others'
-    # 300 ms allow for ten on a busy machine.
+    # 1080p frames take longer to copy out of the ring than 320x240 ones.
     dfsmd = Dfsmd(args.dfsmd, burst_1080, os.path.join(work, 'state-phone'), extra=(), burst_timeout_ms=10000)
     daemons.append(dfsmd)
     phone_tests(driver, dfsmd, args.out)
