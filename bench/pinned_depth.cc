@@ -1,6 +1,5 @@
 #include "bench/pinned_depth.h"
 
-#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 #include <nlohmann/json.hpp>
@@ -59,160 +58,6 @@ DepthEvaluation DenseOver(const Burst& kept, const cv::Mat& truth, const cv::Mat
     if (use[j] && state.inverse_depths[j] > 0.0) inliers.push_back(state.inverse_depths[j]);
   const DenseDepth depth = ComputeDenseDepth(kept, state.camera, state.poses, inliers, dense);
   return EvaluateDepth(depth.depth, truth, mask);
-}
-
-
-
-// SCRATCH: AbsRel of `depth` after removing the best polynomial field of
-// degree n in the inverse depth (fitted to the truth's by least squares).
-void SmoothFieldFit(const char* name, const cv::Mat& depth, const cv::Mat& truth, const cv::Mat& mask) {
-  std::vector<double> us, vs, we, wt;
-  std::vector<double> ratio;
-  for (int y = 0; y < truth.rows; ++y)
-    for (int x = 0; x < truth.cols; ++x) {
-      const float t = truth.at<float>(y, x), d = depth.at<float>(y, x);
-      if (!(t > 0.0f && d > 0.0f) || (!mask.empty() && !mask.at<uchar>(y, x))) continue;
-      us.push_back((x - 0.5 * truth.cols) / truth.cols);
-      vs.push_back((y - 0.5 * truth.rows) / truth.cols);
-      we.push_back(std::log(d));
-      wt.push_back(std::log(t));
-      ratio.push_back(t / d);
-    }
-  if (ratio.size() < 100) return;
-  std::vector<double> c = ratio;
-  std::nth_element(c.begin(), c.begin() + c.size() / 2, c.end());
-  const double scale = c[c.size() / 2];  // depth x scale ~ truth
-  for (double& w : we) w += std::log(scale);
-  std::printf("{\"smooth\":{\"map\":\"%s\",\"pixels\":%zu", name, we.size());
-  for (int degree = -1; degree <= 3; ++degree) {
-    std::vector<std::pair<int, int>> terms;
-    for (int i = 0; i <= degree; ++i)
-      for (int j = 0; i + j <= degree; ++j) terms.push_back({i, j});
-    Eigen::MatrixXd normal = Eigen::MatrixXd::Zero(terms.size(), terms.size());
-    Eigen::VectorXd rhs = Eigen::VectorXd::Zero(terms.size());
-    std::vector<double> phi(terms.size());
-    for (size_t k = 0; k < we.size(); ++k) {
-      for (size_t m = 0; m < terms.size(); ++m)
-        phi[m] = std::pow(us[k], terms[m].first) * std::pow(vs[k], terms[m].second);
-      const double r = std::getenv("DFSM_SCRATCH_SELF_FIT") ? we[k] : we[k] - wt[k];
-      for (size_t m = 0; m < terms.size(); ++m) {
-        rhs[m] += phi[m] * r;
-        for (size_t q = 0; q < terms.size(); ++q) normal(m, q) += phi[m] * phi[q];
-      }
-    }
-    Eigen::VectorXd coef = terms.empty() ? Eigen::VectorXd() : Eigen::VectorXd(normal.ldlt().solve(rhs));
-    double sum = 0.0;
-    std::vector<double> fits;
-    for (size_t k = 0; k < we.size(); ++k) {
-      double field = 0.0;
-      for (size_t m = 0; m < terms.size(); ++m)
-        field += coef[m] * std::pow(us[k], terms[m].first) * std::pow(vs[k], terms[m].second);
-      if (std::getenv("DFSM_SCRATCH_SELF_FIT")) {
-        fits.push_back(field - wt[k]);
-        continue;
-      }
-      sum += std::abs(std::exp(we[k] - field - wt[k]) - 1.0);
-    }
-    if (!fits.empty()) {  // the map's own smooth surface, scaled to the truth by its median
-      std::vector<double> c2 = fits;
-      std::nth_element(c2.begin(), c2.begin() + c2.size() / 2, c2.end());
-      const double m = c2[c2.size() / 2];
-      for (double x : fits) sum += std::abs(std::exp(x - m) - 1.0);
-    }
-    std::printf(",\"deg%d\":%.4f", degree + 1, sum / we.size());
-  }
-  std::printf("}}\n");
-  std::fflush(stdout);
-}
-
-// SCRATCH: the dense map from the reference and the frames `side` (indices
-// into the kept frames) alone, over `state`.
-cv::Mat HalfDepth(const Burst& kept, const FeatureTracks& tracks, const std::vector<bool>& use,
-                  const SparseState& state, DenseOptions dense, const std::vector<int>& side) {
-  std::vector<int> frames = side;
-  frames.push_back(tracks.reference);
-  std::sort(frames.begin(), frames.end());
-  SparseState sub = state;
-  sub.poses.clear();
-  sub.frame_times.clear();
-  sub.angular_velocities.clear();
-  for (int i : frames) {
-    sub.poses.push_back(state.poses[i]);
-    if (!state.frame_times.empty()) sub.frame_times.push_back(state.frame_times[i]);
-    if (!state.angular_velocities.empty()) sub.angular_velocities.push_back(state.angular_velocities[i]);
-  }
-  dense.readout = sub.readout;
-  dense.frame_times = sub.frame_times;
-  dense.angular_velocities = sub.angular_velocities;
-  std::vector<double> inliers;
-  for (int j = 0; j < tracks.num_tracks(); ++j)
-    if (use[j] && state.inverse_depths[j] > 0.0) inliers.push_back(state.inverse_depths[j]);
-  return ComputeDenseDepth(SelectFrames(kept, frames), sub.camera, sub.poses, inliers, dense).depth;
-}
-
-void CompareHalves(const Burst& kept, const cv::Mat& truth, const cv::Mat& mask,
-                   const FeatureTracks& tracks, const std::vector<bool>& use,
-                   const SparseState& state, const DenseOptions& dense) {
-  std::vector<int> before, after;
-  for (int i = 0; i < tracks.num_frames(); ++i)
-    if (i < tracks.reference) before.push_back(i);
-    else if (i > tracks.reference) after.push_back(i);
-  const cv::Mat all = [&] {
-    std::vector<int> v = before;
-    v.insert(v.end(), after.begin(), after.end());
-    return HalfDepth(kept, tracks, use, state, dense, v);
-  }();
-  SmoothFieldFit("pinned", all, truth, mask);
-  {
-    cv::Mat constant(truth.size(), CV_32F, cv::Scalar(0.0f));
-    constant.setTo(1.0f, all > 0.0f);
-    SmoothFieldFit("constant", constant, truth, mask);
-  }
-  if (std::getenv("DFSM_SCRATCH_SMOOTH_ONLY")) return;
-  const cv::Mat b = HalfDepth(kept, tracks, use, state, dense, before);
-  const cv::Mat a = HalfDepth(kept, tracks, use, state, dense, after);
-  // log-ratios to the truth where all three measured, each map scaled by its median ratio
-  std::vector<double> lb, la, ll;
-  std::vector<cv::Point> at;
-  for (int y = 0; y < truth.rows; ++y)
-    for (int x = 0; x < truth.cols; ++x) {
-      const float t = truth.at<float>(y, x);
-      if (!(t > 0.0f) || (!mask.empty() && !mask.at<uchar>(y, x))) continue;
-      const float db = b.at<float>(y, x), da = a.at<float>(y, x), dl = all.at<float>(y, x);
-      if (!(db > 0.0f && da > 0.0f && dl > 0.0f)) continue;
-      lb.push_back(std::log(db / t));
-      la.push_back(std::log(da / t));
-      ll.push_back(std::log(dl / t));
-    }
-  if (lb.size() < 100) { std::fprintf(stderr, "halves: %zu pixels\n", lb.size()); return; }
-  const auto centre = [](std::vector<double>& v) {
-    std::vector<double> c = v;
-    std::nth_element(c.begin(), c.begin() + c.size() / 2, c.end());
-    const double m = c[c.size() / 2];
-    for (double& x : v) x -= m;
-  };
-  centre(lb); centre(la); centre(ll);
-  const auto absrel = [](const std::vector<double>& v) {
-    double s = 0; for (double x : v) s += std::abs(std::exp(x) - 1.0); return s / v.size(); };
-  double sbb = 0, saa = 0, sab = 0, dis = 0;
-  std::vector<double> avg(lb.size());
-  for (size_t k = 0; k < lb.size(); ++k) {
-    sbb += lb[k] * lb[k]; saa += la[k] * la[k]; sab += lb[k] * la[k];
-    dis += std::abs(la[k] - lb[k]);
-    avg[k] = 0.5 * (la[k] + lb[k]);
-  }
-  // the share of the error common to both sides vs. the one that flips
-  double common = 0, flip = 0;
-  for (size_t k = 0; k < lb.size(); ++k) {
-    const double c = 0.5 * (la[k] + lb[k]), d = 0.5 * (la[k] - lb[k]);
-    common += c * c; flip += d * d;
-  }
-  std::printf("{\"halves\":{\"pixels\":%zu,\"absrel_before\":%.4f,\"absrel_after\":%.4f,\"absrel_all\":%.4f,"
-              "\"absrel_mean_of_halves\":%.4f,\"corr\":%.3f,\"rms_common\":%.4f,\"rms_flip\":%.4f,"
-              "\"mean_abs_halves_log_diff\":%.4f,\"frames_before\":%zu,\"frames_after\":%zu}}\n",
-              lb.size(), absrel(lb), absrel(la), absrel(ll), absrel(avg), sab / std::sqrt(sbb * saa),
-              std::sqrt(common / lb.size()), std::sqrt(flip / lb.size()), dis / lb.size(), before.size(), after.size());
-  std::fflush(stdout);
 }
 
 // PinnedDepth::parallax_range_px of `state`, whose inverse depths are
@@ -317,7 +162,6 @@ std::optional<PinnedDepth> PinDepthToTruth(const Burst& burst, const cv::Mat& tr
   const Burst kept = SelectFrames(burst, sparse.feature_stats.kept_frames);
   out.free_depth = DenseOver(kept, truth, mask, tracks, use, out.free, dense);
   out.pinned_depth = DenseOver(kept, truth, mask, tracks, use, out.pinned, dense);
-  if (std::getenv("DFSM_SCRATCH_HALVES")) CompareHalves(kept, truth, mask, tracks, use, out.pinned, dense);
   out.parallax_range_px = ParallaxRangePx(truth, mask, out.pinned, scale);
   return out;
 }
