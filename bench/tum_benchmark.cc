@@ -34,7 +34,6 @@
 // 12-frame pieces: --start 0 --step 12 --shifts 3 (windows 0-9, 1-10 and 2-11
 // of each piece); their medians are what other windows of the sequence give
 // (docs/experiments/022-windows-one-frame-apart.md).
-#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -58,55 +57,6 @@
 #include "core/sparse/sparse_layers.h"
 
 namespace dfsm {
-
-namespace scratch {
-// AbsRel of `depth` after removing the best polynomial field of log depth of
-// each degree (-1: none), fitted to the truth by least squares.
-std::vector<double> FieldFits(const cv::Mat& depth, const cv::Mat& truth) {
-  std::vector<double> us, vs, r;
-  for (int y = 0; y < truth.rows; ++y)
-    for (int x = 0; x < truth.cols; ++x) {
-      const float t = truth.at<float>(y, x), d = depth.at<float>(y, x);
-      if (!(t > 0.0f && d > 0.0f)) continue;
-      us.push_back((x - 0.5 * truth.cols) / truth.cols);
-      vs.push_back((y - 0.5 * truth.rows) / truth.cols);
-      r.push_back(std::log(d / t));
-    }
-  std::vector<double> out;
-  if (r.size() < 100) return out;
-  std::vector<double> c = r;
-  std::nth_element(c.begin(), c.begin() + c.size() / 2, c.end());
-  const double m = c[c.size() / 2];
-  for (double& x : r) x -= m;
-  for (int degree = -1; degree <= 3; ++degree) {
-    std::vector<std::pair<int, int>> terms;
-    for (int i = 0; i <= degree; ++i)
-      for (int j = 0; i + j <= degree; ++j) terms.push_back({i, j});
-    Eigen::MatrixXd normal = Eigen::MatrixXd::Zero(terms.size(), terms.size());
-    Eigen::VectorXd rhs = Eigen::VectorXd::Zero(terms.size());
-    std::vector<double> phi(terms.size());
-    for (size_t k = 0; k < r.size(); ++k) {
-      for (size_t a = 0; a < terms.size(); ++a)
-        phi[a] = std::pow(us[k], terms[a].first) * std::pow(vs[k], terms[a].second);
-      for (size_t a = 0; a < terms.size(); ++a) {
-        rhs[a] += phi[a] * r[k];
-        for (size_t b = 0; b < terms.size(); ++b) normal(a, b) += phi[a] * phi[b];
-      }
-    }
-    Eigen::VectorXd coef = terms.empty() ? Eigen::VectorXd() : Eigen::VectorXd(normal.ldlt().solve(rhs));
-    double sum = 0.0;
-    for (size_t k = 0; k < r.size(); ++k) {
-      double field = 0.0;
-      for (size_t a = 0; a < terms.size(); ++a)
-        field += coef[a] * std::pow(us[k], terms[a].first) * std::pow(vs[k], terms[a].second);
-      sum += std::abs(std::exp(r[k] - field) - 1.0);
-    }
-    out.push_back(sum / r.size());
-  }
-  return out;
-}
-}  // namespace scratch
-
 namespace {
 
 // --semi-global off (winner-take-all coarse seeds) or P1:P2 (the penalties).
@@ -293,12 +243,6 @@ int main(int argc, char** argv) {
         row.score = EvaluateDepth(output.dense->depth, truth, cv::Mat());
         if (!output.dense->depth_filled.empty())
           row.filled = EvaluateDepth(output.dense->depth_filled, truth, cv::Mat());
-        line["scratch_fit"] = scratch::FieldFits(output.dense->depth, truth);
-        {
-          cv::Mat flat(truth.size(), CV_32F, cv::Scalar(0.0f));
-          flat.setTo(1.0f, output.dense->depth > 0.0f);
-          line["scratch_constant_fit"] = scratch::FieldFits(flat, truth);
-        }
         row.f = output.result.calibration.f;
         row.quality = output.result.calibration_detail.value("quality", "");
         const nlohmann::json check = output.result.extra.value("depth_check", nlohmann::json());
