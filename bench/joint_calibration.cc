@@ -6,7 +6,7 @@
 // method, each scored against the true camera.
 //   joint_calibration --dataset DIR [--start K] [--step S] [--frames N]
 //                     [--windows W] [--downscale D] [--calibration FILE]
-//                     [--consistency P]
+//                     [--consistency P] [--pinned-depth on|off]
 //       windows of a TUM sequence (as tum_benchmark reads them), scored
 //       against the published calibration;
 //   joint_calibration --sequence DIR [--start K] [--step S] [--frames N]
@@ -20,9 +20,15 @@
 // --windows W: at most the first W windows (issue 54's split of one clip into
 // halves: --windows 4, then --start at the fifth window's first frame).
 // --consistency P: JointAdjustmentOptions::consistency_probability.
+// --pinned-depth on: each window's (or burst's) tracks also pinned to the
+// Kinect's depth or the generator's (bench/pinned_depth.h), and those bursts adjusted jointly
+// with their inverse depths held: the shared camera the tracks choose once
+// every burst's depths are right, the joint problem's oracle
+// (docs/experiments/045-the-joint-camera-at-true-depths.md).
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <functional>
 #include <limits>
 #include <nlohmann/json.hpp>
@@ -30,6 +36,7 @@
 #include <string>
 #include <vector>
 
+#include "bench/pinned_depth.h"
 #include "bench/report_options.h"
 #include "bench/tum_sequence.h"
 #include "core/io/ground_truth.h"
@@ -55,7 +62,8 @@ double FocalErrorPercent(const CameraModel& camera, const CameraModel& truth) {
 struct Input {
   std::string name;
   std::function<Burst()> read;
-  std::optional<CameraModel> truth;  // none: not scored
+  std::optional<CameraModel> truth;      // none: not scored
+  std::function<cv::Mat()> truth_depth;  // the reference's, in metres; none: not pinned
 };
 
 // The scores of `camera` against `truth`, where there is one.
@@ -66,10 +74,80 @@ void Score(const CameraModel& camera, const std::optional<CameraModel>& truth,
   (*line)["distortion_error_px"] = MeanDistortionError(camera, *truth);
 }
 
+// Burst `input`, whose sparse stage is `sparse`, with its tracks pinned to its
+// true depth: the tracks that could be, under the camera they choose there
+// (its own minimum at those depths). nullopt where too few could be pinned.
+std::optional<JointBurst> PinnedJointBurst(const Input& input, const Burst& burst,
+                                           const SparseReconstruction& sparse,
+                                           const PipelineOptions& options, nlohmann::json* line) {
+  const std::optional<PinnedDepth> pinned =
+      PinDepthToTruth(burst, input.truth_depth(), cv::Mat(), sparse, options.sparse, options.dense);
+  if (!pinned) return std::nullopt;
+  JointBurst joint = JointBurstOf(input.name, sparse);
+  joint.state = pinned->camera_at_truth;
+  joint.use = pinned->pinned_tracks;
+  (*line)["at_truth_f"] = joint.state.camera.f;
+  (*line)["pinned_tracks"] = pinned->tracks();
+  if (input.truth)
+    (*line)["at_truth_f_error_percent"] = FocalErrorPercent(joint.state.camera, *input.truth);
+  return joint;
+}
+
+// The joint adjustment of `pinned` with every inverse depth held: the shared
+// camera the tracks choose at their true depths. No noise bias is taken off
+// (the depths, through which the noise biases f, are not estimated).
+void PrintJointAtTruth(const std::vector<JointBurst>& pinned, const PipelineOptions& options,
+                       const std::optional<CameraModel>& truth) {
+  nlohmann::json line = {{"method", "joint at the true depths"}, {"bursts", pinned.size()}};
+  try {
+    JointAdjustmentOptions held = JointOptionsFor(options.sparse);
+    held.bundle_adjustment.hold_inverse_depths = true;
+    if (const char* v = std::getenv("DFSM_SCRATCH_VEL"))
+      held.bundle_adjustment.angular_velocity_sigma_px = std::atof(v);
+    held.bootstrap.replicas = 0;
+    const JointCalibration joint = AdjustJointly(pinned, held);
+    line["f"] = joint.fitted_camera.f;
+    line["k1"] = joint.fitted_camera.k1;
+    line["k2"] = joint.fitted_camera.k2;
+    Score(joint.fitted_camera, truth, &line);
+    line["joined"] = joint.Joined();
+    line["readout"] = joint.readout;
+    if (const char* v = std::getenv("DFSM_SCRATCH_REPL")) {
+      const int replicas = std::atoi(v);
+      double sum = 0.0;
+      int count = 0;
+      for (int r = 0; r < replicas; ++r) {
+        std::vector<JointBurst> copies;
+        for (size_t k = 0; k < pinned.size(); ++k) {
+          if (joint.bursts[k].outcome != JointOutcome::kJoined) continue;
+          JointBurst copy = pinned[k];
+          copy.state.camera = joint.fitted_camera;
+          copy.state.poses = joint.bursts[k].poses;
+          copy.state.readout = joint.readout;
+          copy.state.angular_velocities.clear();
+          const FeatureTracks explained = ExplainedTracks(copy.tracks, copy.use, copy.state);
+          const double noise =
+              ResidualNoisePx(copy.tracks, copy.use, copy.state, held.bundle_adjustment);
+          copy.tracks = ReplicaTracks(explained, copy.use, noise, 17 + 1000 * k, r);
+          copies.push_back(std::move(copy));
+        }
+        const JointCalibration replica = AdjustJointly(copies, held);
+        sum += replica.fitted_camera.f;
+        ++count;
+      }
+      line["replica_shift_percent"] =
+          100.0 * (sum / count - joint.fitted_camera.f) / joint.fitted_camera.f;
+    }
+  } catch (const std::exception& e) {
+    line["failed"] = e.what();
+  }
+  std::printf("%s\n", line.dump().c_str());
+}
+
 int Run(const std::vector<Input>& inputs, double consistency_probability) {
   const PipelineOptions options;  // each burst's sparse stage as `dfsm process` runs it
   CalibrationFusion fusion;
-  std::vector<JointBurst> bursts;
+  std::vector<JointBurst> bursts, pinned;
   double alone_ms = 0.0;
   for (const Input& input : inputs) {
     nlohmann::json line = {{"burst", input.name}};
@@ -99,6 +177,10 @@ int Run(const std::vector<Input>& inputs, double consistency_probability) {
         line["fusion"] = "not fused: " + why;
       }
       bursts.push_back(JointBurstOf(input.name, sparse));
+      if (input.truth_depth)
+        if (std::optional<JointBurst> at_truth =
+                PinnedJointBurst(input, burst, sparse, options, &line))
+          pinned.push_back(std::move(*at_truth));
     } catch (const std::exception& e) {
       line["failed"] = e.what();
     }
@@ -122,6 +204,8 @@ int Run(const std::vector<Input>& inputs, double consistency_probability) {
   nlohmann::json answer_line = {{"method", "answer"}};
   try {
     JointAdjustmentOptions joint_options = JointOptionsFor(options.sparse);
+    if (const char* v = std::getenv("DFSM_SCRATCH_VEL_FREE"))
+      joint_options.bundle_adjustment.angular_velocity_sigma_px = std::atof(v);
     if (consistency_probability > 0.0)
       joint_options.consistency_probability = consistency_probability;
     const JointCalibration joint = AdjustJointly(bursts, joint_options);
@@ -156,6 +240,7 @@ int Run(const std::vector<Input>& inputs, double consistency_probability) {
   joint_line["alone_ms"] = alone_ms;
   std::printf("%s\n", joint_line.dump().c_str());
   std::printf("%s\n", answer_line.dump().c_str());
+  if (!pinned.empty()) PrintJointAtTruth(pinned, options, truth);
   return 0;
 }
 
@@ -168,6 +253,7 @@ int main(int argc, char** argv) {
   int frames = 10, step = 12, start = 1, downscale = 1;
   int windows = std::numeric_limits<int>::max();
   double consistency_probability = 0.0;  // the option's default
+  bool pinned_depth = false;
   std::vector<std::string> burst_dirs;
   try {
     for (int i = 1; i < argc; ++i) {
@@ -196,6 +282,8 @@ int main(int argc, char** argv) {
         calibration_file = value;
       else if (option == "--consistency")
         consistency_probability = PositiveNumber("--consistency", value);
+      else if (option == "--pinned-depth")
+        pinned_depth = OnOff("--pinned-depth", value);
       else
         throw std::invalid_argument("unknown option " + option +
                                     " (see the comment at the top of bench/joint_calibration.cc)");
@@ -220,7 +308,11 @@ int main(int argc, char** argv) {
          first += step)
       inputs.push_back({"window " + std::to_string(first),
                         [&sequence, first, frames] { return sequence->Window(first, frames); },
-                        truth});
+                        truth,
+                        pinned_depth ? std::function<cv::Mat()>([&sequence, first, frames] {
+                          return sequence->ReferenceDepth(first, frames);
+                        })
+                                     : nullptr});
   } else if (!images.empty()) {
     const int count = static_cast<int>(ListImageSequence(images).size());
     for (int first = start; first + frames <= count && static_cast<int>(inputs.size()) < windows;
@@ -233,10 +325,13 @@ int main(int argc, char** argv) {
              window.frames = frames;
              return ReadImageSequence(images, window);
            },
-           std::nullopt});
+           std::nullopt, nullptr});
   } else {
     for (const std::string& dir : burst_dirs)
-      inputs.push_back({dir, [dir] { return ReadBurst(dir); }, ReadGroundTruth(dir).camera});
+      inputs.push_back({dir, [dir] { return ReadBurst(dir); }, ReadGroundTruth(dir).camera,
+                        pinned_depth
+                            ? std::function<cv::Mat()>([dir] { return ReadGroundTruth(dir).depth; })
+                            : nullptr});
   }
   return Run(inputs, consistency_probability);
 }
