@@ -21,14 +21,14 @@
 // halves: --windows 4, then --start at the fifth window's first frame).
 // --consistency P: JointAdjustmentOptions::consistency_probability.
 // --pinned-depth on: each window's (or burst's) tracks also pinned to the
-// Kinect's depth or the generator's (bench/pinned_depth.h), and those bursts adjusted jointly
-// with their inverse depths held: the shared camera the tracks choose once
-// every burst's depths are right, the joint problem's oracle
-// (docs/experiments/045-the-joint-camera-at-true-depths.md).
+// Kinect's depth or the generator's (bench/pinned_depth.h), and those bursts
+// adjusted jointly with their inverse depths held: the shared camera the
+// tracks choose once every burst's depths are right, the joint problem's
+// oracle, with its noise bias (which the poses still give) and the camera
+// less it (docs/experiments/045-the-joint-camera-at-true-depths.md).
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <functional>
 #include <limits>
 #include <nlohmann/json.hpp>
@@ -75,14 +75,25 @@ void Score(const CameraModel& camera, const std::optional<CameraModel>& truth,
 }
 
 // Burst `input`, whose sparse stage is `sparse`, with its tracks pinned to its
-// true depth: the tracks that could be, under the camera they choose there
-// (its own minimum at those depths). nullopt where too few could be pinned.
+// true depth: the tracks that could be pinned, under the camera they choose
+// there (its own minimum at those depths). nullopt, with why in `line`, where
+// too few could be pinned or the pinning failed (the dense stage cannot
+// invert the burst's own camera).
 std::optional<JointBurst> PinnedJointBurst(const Input& input, const Burst& burst,
                                            const SparseReconstruction& sparse,
                                            const PipelineOptions& options, nlohmann::json* line) {
-  const std::optional<PinnedDepth> pinned =
-      PinDepthToTruth(burst, input.truth_depth(), cv::Mat(), sparse, options.sparse, options.dense);
-  if (!pinned) return std::nullopt;
+  std::optional<PinnedDepth> pinned;
+  try {
+    pinned = PinDepthToTruth(burst, input.truth_depth(), cv::Mat(), sparse, options.sparse,
+                             options.dense);
+  } catch (const std::exception& e) {
+    (*line)["not_pinned"] = e.what();
+    return std::nullopt;
+  }
+  if (!pinned) {
+    (*line)["not_pinned"] = "too few tracks on flat truth";
+    return std::nullopt;
+  }
   JointBurst joint = JointBurstOf(input.name, sparse);
   joint.state = pinned->camera_at_truth;
   joint.use = pinned->pinned_tracks;
@@ -93,18 +104,49 @@ std::optional<JointBurst> PinnedJointBurst(const Input& input, const Burst& burs
   return joint;
 }
 
+// Replicas of the noise bias at the true depths: as many as the measurements
+// of docs/experiments/045 used (antithetic pairs, bootstrap_bias.h).
+constexpr int kReplicasAtTruth = 8;
+
+// The noise bias of `joint`, adjusted from `pinned` under `held`, in percent
+// of its f: the joined bursts' tracks replaced by ones its solution explains
+// plus noise as large as their residuals, each replica adjusted jointly again
+// with the depths held; the replicas' mean f less the solution's. The joint
+// adjustment does not measure it itself where the depths are held: its
+// bootstrap is gated by the covariance, which held depths do not give.
+double NoiseBiasAtTruthPercent(const std::vector<JointBurst>& pinned,
+                               const JointAdjustmentOptions& held, const JointCalibration& joint) {
+  double sum = 0.0;
+  for (int r = 0; r < kReplicasAtTruth; ++r) {
+    std::vector<JointBurst> replica;
+    for (size_t k = 0; k < pinned.size(); ++k) {
+      if (joint.bursts[k].outcome != JointOutcome::kJoined) continue;
+      JointBurst copy = pinned[k];
+      copy.state.camera = joint.fitted_camera;
+      copy.state.poses = joint.bursts[k].poses;
+      copy.state.readout = joint.readout;
+      copy.state.angular_velocities.clear();  // the joint problem's line
+      const double noise =
+          ResidualNoisePx(copy.tracks, copy.use, copy.state, held.bundle_adjustment);
+      copy.tracks = ReplicaTracks(ExplainedTracks(copy.tracks, copy.use, copy.state), copy.use,
+                                  noise, held.bootstrap.seed + 104729 * k, r);
+      replica.push_back(std::move(copy));
+    }
+    sum += AdjustJointly(replica, held).fitted_camera.f;
+  }
+  const double f = joint.fitted_camera.f;
+  return 100.0 * (sum / kReplicasAtTruth - f) / f;
+}
+
 // The joint adjustment of `pinned` with every inverse depth held: the shared
-// camera the tracks choose at their true depths. No noise bias is taken off
-// (the depths, through which the noise biases f, are not estimated).
+// camera the tracks choose at their true depths, and its noise bias (which
+// the poses, still estimated per burst, give f even there).
 void PrintJointAtTruth(const std::vector<JointBurst>& pinned, const PipelineOptions& options,
                        const std::optional<CameraModel>& truth) {
   nlohmann::json line = {{"method", "joint at the true depths"}, {"bursts", pinned.size()}};
   try {
     JointAdjustmentOptions held = JointOptionsFor(options.sparse);
     held.bundle_adjustment.hold_inverse_depths = true;
-    if (const char* v = std::getenv("DFSM_SCRATCH_VEL"))
-      held.bundle_adjustment.angular_velocity_sigma_px = std::atof(v);
-    held.bootstrap.replicas = 0;
     const JointCalibration joint = AdjustJointly(pinned, held);
     line["f"] = joint.fitted_camera.f;
     line["k1"] = joint.fitted_camera.k1;
@@ -112,31 +154,12 @@ void PrintJointAtTruth(const std::vector<JointBurst>& pinned, const PipelineOpti
     Score(joint.fitted_camera, truth, &line);
     line["joined"] = joint.Joined();
     line["readout"] = joint.readout;
-    if (const char* v = std::getenv("DFSM_SCRATCH_REPL")) {
-      const int replicas = std::atoi(v);
-      double sum = 0.0;
-      int count = 0;
-      for (int r = 0; r < replicas; ++r) {
-        std::vector<JointBurst> copies;
-        for (size_t k = 0; k < pinned.size(); ++k) {
-          if (joint.bursts[k].outcome != JointOutcome::kJoined) continue;
-          JointBurst copy = pinned[k];
-          copy.state.camera = joint.fitted_camera;
-          copy.state.poses = joint.bursts[k].poses;
-          copy.state.readout = joint.readout;
-          copy.state.angular_velocities.clear();
-          const FeatureTracks explained = ExplainedTracks(copy.tracks, copy.use, copy.state);
-          const double noise =
-              ResidualNoisePx(copy.tracks, copy.use, copy.state, held.bundle_adjustment);
-          copy.tracks = ReplicaTracks(explained, copy.use, noise, 17 + 1000 * k, r);
-          copies.push_back(std::move(copy));
-        }
-        const JointCalibration replica = AdjustJointly(copies, held);
-        sum += replica.fitted_camera.f;
-        ++count;
-      }
-      line["replica_shift_percent"] =
-          100.0 * (sum / count - joint.fitted_camera.f) / joint.fitted_camera.f;
+    const double bias_percent = NoiseBiasAtTruthPercent(pinned, held, joint);
+    line["bias_f_percent"] = bias_percent;
+    if (truth) {
+      CameraModel debiased = joint.fitted_camera;
+      debiased.f *= 1.0 - bias_percent / 100.0;
+      line["debiased_f_error_percent"] = FocalErrorPercent(debiased, *truth);
     }
   } catch (const std::exception& e) {
     line["failed"] = e.what();
@@ -204,8 +227,6 @@ int Run(const std::vector<Input>& inputs, double consistency_probability) {
   nlohmann::json answer_line = {{"method", "answer"}};
   try {
     JointAdjustmentOptions joint_options = JointOptionsFor(options.sparse);
-    if (const char* v = std::getenv("DFSM_SCRATCH_VEL_FREE"))
-      joint_options.bundle_adjustment.angular_velocity_sigma_px = std::atof(v);
     if (consistency_probability > 0.0)
       joint_options.consistency_probability = consistency_probability;
     const JointCalibration joint = AdjustJointly(bursts, joint_options);
@@ -225,6 +246,11 @@ int Run(const std::vector<Input>& inputs, double consistency_probability) {
     joint_line["focal_dispersion"] = joint.focal_dispersion;
     joint_line["fitted_f"] = joint.fitted_camera.f;
     joint_line["bias_f"] = joint.bias ? joint.bias->f : 0.0;
+    // The shared f's sigma from the tracks' noise alone, before the
+    // inflation and the dispersions: what the bursts' information allows.
+    if (joint.bias)
+      joint_line["sigma_f_noise_percent"] =
+          100.0 * joint.bias->sigma_f_noise_px / joint.fitted_camera.f;
     joint_line["iterations"] = joint.iterations;
     const Answer answer = ChooseAnswer(joint, fusion);
     answer_line["answered_by"] = CalibrationAnswerName(answer.choice.answer);

@@ -121,10 +121,6 @@ struct StepAcross {
 };
 StepAcross StepAcrossFrame(int frame, int frames, const std::vector<double>& times);
 
-// The state's angular velocities as parameter blocks, started from the
-// neighbours' rotation step where the state has none for its frames.
-std::vector<std::array<double, 3>> AngularVelocityBlocks(const SparseState& state);
-
 // Ties each frame's angular velocity to its neighbours' rotation step
 // (AngularVelocityPrior, `sigma_px` at the camera's f per frame interval,
 // whitened; its residual blocks appended to `prior`); the velocities join

@@ -13,7 +13,10 @@
 #include "core/sparse/adjustment_problem.h"
 
 namespace dfsm {
+namespace {
 
+// The state's angular velocities as parameter blocks, started from the
+// neighbours' rotation step where the state has none for its frames.
 std::vector<std::array<double, 3>> AngularVelocityBlocks(const SparseState& state) {
   const int n = static_cast<int>(state.poses.size());
   std::vector<std::array<double, 3>> blocks(n);
@@ -30,8 +33,6 @@ std::vector<std::array<double, 3>> AngularVelocityBlocks(const SparseState& stat
   }
   return blocks;
 }
-
-namespace {
 
 // The marginal covariance of the intrinsics at the solution
 // (calibration_uncertainty.h), `camera` the refined one.

@@ -66,6 +66,10 @@ void JointAdjustmentOptions::Check() const {
     throw std::invalid_argument(
         "bundle_adjustment.fix_intrinsics: a joint calibration estimates "
         "the camera");
+  if (bundle_adjustment.angular_velocity_sigma_px > 0.0)
+    throw std::invalid_argument(
+        "bundle_adjustment.angular_velocity_sigma_px: the joint problem follows the line between "
+        "frame poses (docs/experiments/045-the-joint-camera-at-true-depths.md)");
   if (!(consistency_probability > 0.0 && consistency_probability < 1.0))
     throw std::invalid_argument("consistency_probability must be in (0, 1)");
   if (max_starts < 1) throw std::invalid_argument("max_starts must be >= 1");
@@ -180,17 +184,12 @@ class JointProblem {
     const size_t count = round->active.size();
     poses_.resize(count);
     blocks_.resize(count);
-    velocities_.resize(count);
     for (size_t b = 0; b < count; ++b) {
       const JointBurst& burst = bursts_[round->active[b]];
       SparseState& state = round->states[b];
       for (const Pose& pose : state.poses) poses_[b].push_back(ToParameters(pose));
       reprojections_.push_back(std::make_unique<Reprojection>(burst.tracks, burst.state.camera,
                                                               rolling, burst.state.frame_times));
-      if (options_.angular_velocity_sigma_px > 0.0 && rolling) {
-        velocities_[b] = AngularVelocityBlocks(state);
-        reprojections_[b]->UseAngularVelocities(&velocities_[b]);
-      }
       const AdjustmentParameters parameters = Parameters(b);
       AddReprojectionResiduals(burst.tracks, burst.use, *reprojections_[b], parameters, &huber_,
                                &weighted_losses_, &problem_, ordering_, &blocks_[b]);
@@ -201,13 +200,6 @@ class JointProblem {
     }
     AddIntrinsicsPriors(round->camera, options_, intrinsics_, &problem_, &prior_);
     ConstrainCamera(options_, rolling, intrinsics_, &readout_, &problem_, ordering_);
-    for (size_t b = 0; b < count; ++b) {
-      const JointBurst& burst = bursts_[round->active[b]];
-      if (reprojections_[b]->HasAngularVelocities())
-        AddAngularVelocityPriors(burst.tracks, burst.state.camera, burst.state.frame_times,
-                                 options_.angular_velocity_sigma_px, Parameters(b), &velocities_[b],
-                                 &problem_, ordering_, &prior_);
-    }
   }
 
   ceres::Solver::Summary Solve() {
@@ -237,9 +229,6 @@ class JointProblem {
       const int reference = bursts_[round_->active[b]].tracks.reference;
       for (size_t i = 0; i < state.poses.size(); ++i)
         state.poses[i] = static_cast<int>(i) == reference ? Pose{} : FromParameters(poses_[b][i]);
-      state.angular_velocities.clear();
-      for (const std::array<double, 3>& velocity : velocities_[b])
-        state.angular_velocities.emplace_back(velocity[0], velocity[1], velocity[2]);
     }
     return summary;
   }
@@ -297,8 +286,6 @@ class JointProblem {
   double intrinsics_[3];
   double readout_ = 0.0;
   std::vector<std::vector<std::array<double, 6>>> poses_;  // per burst, per frame
-  // Per burst, per frame, where each frame's angular velocity is estimated.
-  std::vector<std::vector<std::array<double, 3>>> velocities_;
   std::vector<std::unique_ptr<Reprojection>> reprojections_;
   std::vector<AdjustmentResidualBlocks> blocks_;
   std::vector<ceres::ResidualBlockId> prior_;
@@ -420,7 +407,10 @@ SolvedRound SolveRound(const std::vector<JointBurst>& bursts, const JointAdjustm
   JointProblem problem(bursts, options, &solved.round);
   solved.summary = problem.Solve();
   // As for one burst: no covariance where the inverse depths are held.
-  if (!options.bundle_adjustment.hold_inverse_depths) solved.uncertainty = problem.Uncertainty();
+  if (options.bundle_adjustment.hold_inverse_depths)
+    solved.uncertainty.unavailable_reason = "the inverse depths are held";
+  else
+    solved.uncertainty = problem.Uncertainty();
   for (const int k : solved.round.active)
     solved.disagreements.push_back(Disagreement(bursts, k, options, solved.round.camera,
                                                 solved.round.readout,

@@ -206,6 +206,43 @@ TEST(JointBurstOf, TakesTheBurstsOwnCameraNotAPriorsPullNorAFallbacks) {
   EXPECT_THROW(JointBurstOf("held", held), std::invalid_argument);
 }
 
+// Every burst's inverse depths held at the truth's (at its solution's scale),
+// noise-free tracks: the camera then comes from the poses alone and is the
+// truth's, and neither a covariance nor a noise bias is claimed for it.
+TEST(JointAdjustment, HoldsTheInverseDepthsWhereTheOptionsSay) {
+  std::vector<JointBurst> bursts;
+  for (int b = 0; b < 4; ++b) {
+    TrackSimulatorOptions simulate;
+    simulate.width = 640;
+    simulate.height = 480;
+    simulate.tracks = 150;
+    simulate.f = 704.0;
+    simulate.rotation_deg = 1.0;
+    simulate.noise_px = 0.0;
+    simulate.seed = 31 + b;
+    const TrackSimulation sim = SimulateTracks(simulate);
+    const SparseReconstruction sparse =
+        ReconstructFromTracks(sim.tracks, 640, 480, GlobalShutterSparse());
+    JointBurst burst = JointBurstOf("burst " + std::to_string(b), sparse);
+    std::vector<double> ratios;
+    for (size_t j = 0; j < sim.inverse_depths.size(); ++j)
+      if (burst.use[j]) ratios.push_back(burst.state.inverse_depths[j] / sim.inverse_depths[j]);
+    std::nth_element(ratios.begin(), ratios.begin() + ratios.size() / 2, ratios.end());
+    const double scale = ratios[ratios.size() / 2];
+    for (size_t j = 0; j < sim.inverse_depths.size(); ++j)
+      burst.state.inverse_depths[j] = scale * sim.inverse_depths[j];
+    bursts.push_back(std::move(burst));
+  }
+  JointAdjustmentOptions held = GlobalShutter();
+  held.bundle_adjustment.hold_inverse_depths = true;
+  const JointCalibration joint = AdjustJointly(bursts, held);
+  EXPECT_EQ(joint.Joined(), 4);
+  EXPECT_NEAR(joint.fitted_camera.f, 704.0, 0.001 * 704.0);
+  EXPECT_FALSE(joint.uncertainty.available);
+  EXPECT_EQ(joint.uncertainty.unavailable_reason, "the inverse depths are held");
+  EXPECT_FALSE(joint.bias.has_value());
+}
+
 TEST(JointAdjustment, RefusesBurstsOfDifferentSizes) {
   std::vector<JointBurst> bursts = BurstsOfOneCamera(704.0, -0.06, 2, 11, 1.0, 0.05);
   bursts[1].state.camera.width = 320;
@@ -230,6 +267,8 @@ TEST(JointAdjustmentOptions, AnOptionOutOfItsRangeIsRefusedByName) {
       {"distortion_terms",
        [](JointAdjustmentOptions* o) { o->bundle_adjustment.distortion_terms = 3; }},
       {"replicas", [](JointAdjustmentOptions* o) { o->bootstrap.replicas = -1; }},
+      {"angular_velocity_sigma_px",
+       [](JointAdjustmentOptions* o) { o->bundle_adjustment.angular_velocity_sigma_px = 2.0; }},
   };
   for (const auto& [name, spoil] : cases) {
     JointAdjustmentOptions options;
