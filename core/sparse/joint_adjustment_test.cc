@@ -21,11 +21,12 @@ SparseOptions GlobalShutterSparse() {
 }
 
 // Bursts of one 640x480 camera (f `f`), seeds from `first_seed`, each through
-// the whole sparse stage alone under `options`.
+// the whole sparse stage alone under `options`; their simulations in `sims`.
 std::vector<JointBurst> BurstsOfOneCamera(double f, double k1, int count, uint64_t first_seed,
                                           double rotation_deg, double noise_px,
                                           std::vector<SparseReconstruction>* alone = nullptr,
-                                          const SparseOptions& options = GlobalShutterSparse()) {
+                                          const SparseOptions& options = GlobalShutterSparse(),
+                                          std::vector<TrackSimulation>* sims = nullptr) {
   std::vector<JointBurst> bursts;
   for (int b = 0; b < count; ++b) {
     TrackSimulatorOptions simulate;
@@ -40,6 +41,7 @@ std::vector<JointBurst> BurstsOfOneCamera(double f, double k1, int count, uint64
     const TrackSimulation sim = SimulateTracks(simulate);
     const SparseReconstruction sparse = ReconstructFromTracks(sim.tracks, 640, 480, options);
     if (alone) alone->push_back(sparse);
+    if (sims) sims->push_back(sim);
     bursts.push_back(JointBurstOf("burst " + std::to_string(first_seed + b), sparse));
   }
   return bursts;
@@ -210,28 +212,18 @@ TEST(JointBurstOf, TakesTheBurstsOwnCameraNotAPriorsPullNorAFallbacks) {
 // noise-free tracks: the camera then comes from the poses alone and is the
 // truth's, and neither a covariance nor a noise bias is claimed for it.
 TEST(JointAdjustment, HoldsTheInverseDepthsWhereTheOptionsSay) {
-  std::vector<JointBurst> bursts;
-  for (int b = 0; b < 4; ++b) {
-    TrackSimulatorOptions simulate;
-    simulate.width = 640;
-    simulate.height = 480;
-    simulate.tracks = 150;
-    simulate.f = 704.0;
-    simulate.rotation_deg = 1.0;
-    simulate.noise_px = 0.0;
-    simulate.seed = 31 + b;
-    const TrackSimulation sim = SimulateTracks(simulate);
-    const SparseReconstruction sparse =
-        ReconstructFromTracks(sim.tracks, 640, 480, GlobalShutterSparse());
-    JointBurst burst = JointBurstOf("burst " + std::to_string(b), sparse);
+  std::vector<TrackSimulation> sims;
+  std::vector<JointBurst> bursts =
+      BurstsOfOneCamera(704.0, -0.06, 4, 31, 1.0, 0.0, nullptr, GlobalShutterSparse(), &sims);
+  for (size_t b = 0; b < bursts.size(); ++b) {
+    std::vector<double>& inverse_depths = bursts[b].state.inverse_depths;
+    const std::vector<double>& truth = sims[b].inverse_depths;
     std::vector<double> ratios;
-    for (size_t j = 0; j < sim.inverse_depths.size(); ++j)
-      if (burst.use[j]) ratios.push_back(burst.state.inverse_depths[j] / sim.inverse_depths[j]);
+    for (size_t j = 0; j < truth.size(); ++j)
+      if (bursts[b].use[j]) ratios.push_back(inverse_depths[j] / truth[j]);
     std::nth_element(ratios.begin(), ratios.begin() + ratios.size() / 2, ratios.end());
     const double scale = ratios[ratios.size() / 2];
-    for (size_t j = 0; j < sim.inverse_depths.size(); ++j)
-      burst.state.inverse_depths[j] = scale * sim.inverse_depths[j];
-    bursts.push_back(std::move(burst));
+    for (size_t j = 0; j < truth.size(); ++j) inverse_depths[j] = scale * truth[j];
   }
   JointAdjustmentOptions held = GlobalShutter();
   held.bundle_adjustment.hold_inverse_depths = true;
