@@ -153,6 +153,11 @@ void PrintJointAtTruth(const std::vector<JointBurst>& pinned, const PipelineOpti
     line["k2"] = joint.fitted_camera.k2;
     Score(joint.fitted_camera, truth, &line);
     line["joined"] = joint.Joined();
+    nlohmann::json left_out = nlohmann::json::array();
+    for (size_t k = 0; k < pinned.size(); ++k)
+      if (joint.bursts[k].outcome != JointOutcome::kJoined)
+        left_out.push_back({{"burst", pinned[k].name}, {"tracks", CountUsed(pinned[k].use)}});
+    line["left_out"] = left_out;
     line["readout"] = joint.readout;
     const double bias_percent = NoiseBiasAtTruthPercent(pinned, held, joint);
     line["bias_f_percent"] = bias_percent;
