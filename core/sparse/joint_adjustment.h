@@ -56,9 +56,10 @@ JointBurst JointBurstOf(const std::string& name, const SparseReconstruction& spa
 struct JointAdjustmentOptions {
   // The adjustment's settings (loss, priors, budget, readout, covariance
   // inflation) as for one burst; the priors count once for the camera. With
-  // hold_inverse_depths every burst's are held (an oracle at depths from
-  // elsewhere, bench/joint_calibration.cc): then no covariance and no noise
-  // bias. Each frame's angular velocity is refused (Check).
+  // hold_inverse_depths, every burst's inverse depths are held (an oracle at
+  // depths from elsewhere, bench/joint_calibration.cc): then there is no
+  // covariance and no noise bias. Each frame's angular velocity is refused
+  // (Check).
   BundleAdjustmentOptions bundle_adjustment;
   CalibrationQualityOptions quality;
   // A burst disagrees where twice the rise of its cost, in units of its
