@@ -116,22 +116,28 @@ constexpr int kReplicasAtTruth = 8;
 // bootstrap is gated by the covariance, which held depths do not give.
 double NoiseBiasAtTruthPercent(const std::vector<JointBurst>& pinned,
                                const JointAdjustmentOptions& held, const JointCalibration& joint) {
+  // The joined bursts at the solution, each with the tracks it explains and
+  // its noise: every replica draws from these.
+  std::vector<JointBurst> solved;
+  std::vector<FeatureTracks> explained;
+  std::vector<double> noise;
+  for (size_t k = 0; k < pinned.size(); ++k) {
+    if (joint.bursts[k].outcome != JointOutcome::kJoined) continue;
+    JointBurst burst = pinned[k];
+    burst.state.camera = joint.fitted_camera;
+    burst.state.poses = joint.bursts[k].poses;
+    burst.state.readout = joint.readout;
+    burst.state.angular_velocities.clear();  // the joint problem's line
+    explained.push_back(ExplainedTracks(burst.tracks, burst.use, burst.state));
+    noise.push_back(ResidualNoisePx(burst.tracks, burst.use, burst.state, held.bundle_adjustment));
+    solved.push_back(std::move(burst));
+  }
   double sum = 0.0;
   for (int r = 0; r < kReplicasAtTruth; ++r) {
-    std::vector<JointBurst> replica;
-    for (size_t k = 0; k < pinned.size(); ++k) {
-      if (joint.bursts[k].outcome != JointOutcome::kJoined) continue;
-      JointBurst copy = pinned[k];
-      copy.state.camera = joint.fitted_camera;
-      copy.state.poses = joint.bursts[k].poses;
-      copy.state.readout = joint.readout;
-      copy.state.angular_velocities.clear();  // the joint problem's line
-      const double noise =
-          ResidualNoisePx(copy.tracks, copy.use, copy.state, held.bundle_adjustment);
-      copy.tracks = ReplicaTracks(ExplainedTracks(copy.tracks, copy.use, copy.state), copy.use,
-                                  noise, held.bootstrap.seed + 104729 * k, r);
-      replica.push_back(std::move(copy));
-    }
+    std::vector<JointBurst> replica = solved;
+    for (size_t b = 0; b < replica.size(); ++b)
+      replica[b].tracks = ReplicaTracks(explained[b], replica[b].use, noise[b],
+                                        held.bootstrap.seed + 104729 * b, r);
     sum += AdjustJointly(replica, held).fitted_camera.f;
   }
   const double f = joint.fitted_camera.f;

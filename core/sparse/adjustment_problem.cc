@@ -181,6 +181,13 @@ int FixBurstGauge(const FeatureTracks& tracks, const std::vector<bool>& use,
   return anchor;
 }
 
+void HoldInverseDepths(const std::vector<bool>& use, const AdjustmentParameters& parameters,
+                       ceres::Problem* problem) {
+  std::vector<double>& inverse_depths = *parameters.inverse_depths;
+  for (size_t j = 0; j < inverse_depths.size(); ++j)
+    if (use[j]) problem->SetParameterBlockConstant(&inverse_depths[j]);
+}
+
 StepAcross StepAcrossFrame(int frame, int frames, const std::vector<double>& times) {
   const int after = std::min(frame + 1, frames - 1), before = std::max(frame - 1, 0);
   const double span = times.empty() ? after - before : times[after] - times[before];

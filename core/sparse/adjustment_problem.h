@@ -105,6 +105,11 @@ void AddIntrinsicsPriors(const CameraModel& camera, const BundleAdjustmentOption
                          double* intrinsics, ceres::Problem* problem,
                          std::vector<ceres::ResidualBlockId>* prior);
 
+// Holds every used track's inverse depth (BundleAdjustmentOptions::
+// hold_inverse_depths: depths given from elsewhere, the gauge with them).
+void HoldInverseDepths(const std::vector<bool>& use, const AdjustmentParameters& parameters,
+                       ceres::Problem* problem);
+
 // The burst's gauge: its poses join the ordering's group 1, the reference's
 // pose is held where it is a block (a rolling shutter's neighbour), and the
 // scale anchor's inverse depth is held. Returns the anchor.

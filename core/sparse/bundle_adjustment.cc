@@ -121,9 +121,7 @@ BundleAdjustmentSummary RunBundleAdjustment(const FeatureTracks& tracks,
                            &problem, ordering, &blocks);
   AddIntrinsicsPriors(state->camera, options, intrinsics, &problem, &blocks.prior);
   const int anchor = FixBurstGauge(tracks, use, parameters, &problem, ordering);
-  if (options.hold_inverse_depths)
-    for (size_t j = 0; j < inverse_depths.size(); ++j)
-      if (use[j]) problem.SetParameterBlockConstant(&inverse_depths[j]);
+  if (options.hold_inverse_depths) HoldInverseDepths(use, parameters, &problem);
   ConstrainCamera(options, reprojection.rolling(), intrinsics, &readout, &problem, ordering);
   if (reprojection.HasAngularVelocities())
     AddAngularVelocityPriors(tracks, state->camera, state->frame_times,

@@ -194,9 +194,7 @@ class JointProblem {
       AddReprojectionResiduals(burst.tracks, burst.use, *reprojections_[b], parameters, &huber_,
                                &weighted_losses_, &problem_, ordering_, &blocks_[b]);
       anchors_.push_back(FixBurstGauge(burst.tracks, burst.use, parameters, &problem_, ordering_));
-      if (options_.hold_inverse_depths)
-        for (size_t j = 0; j < state.inverse_depths.size(); ++j)
-          if (burst.use[j]) problem_.SetParameterBlockConstant(&state.inverse_depths[j]);
+      if (options_.hold_inverse_depths) HoldInverseDepths(burst.use, parameters, &problem_);
     }
     AddIntrinsicsPriors(round->camera, options_, intrinsics_, &problem_, &prior_);
     ConstrainCamera(options_, rolling, intrinsics_, &readout_, &problem_, ordering_);
